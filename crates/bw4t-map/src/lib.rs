@@ -1,0 +1,19 @@
+//! BW4T maps: the zone model, the native TOML format, and the seeded random content.
+//!
+//! Pure: everything here parses and produces values; no files, clocks or OS randomness.
+
+mod colour;
+mod content;
+mod geometry;
+mod model;
+mod native;
+mod rng;
+
+pub use colour::{Colour, UnknownColour};
+pub use content::{
+    BLOCK_SPACING, Content, ContentError, MAX_BLOCKS_PER_ROOM, PlacedBlock, block_area, spot_is_clear,
+};
+pub use geometry::{Door, Orientation, Rect, Vec2};
+pub use model::{DROP_ZONE, Map, MapError, MapParts, Spawn, Zone, ZoneIdx, ZoneKind};
+pub use native::NativeError;
+pub use rng::SeededRng;

@@ -1,0 +1,296 @@
+//! The map model: zones, doors, spawn points, blocks and the goal sequence, validated.
+
+use std::collections::BTreeMap;
+use std::fmt;
+
+use crate::colour::Colour;
+use crate::content::MAX_BLOCKS_PER_ROOM;
+use crate::geometry::{Door, Orientation, Rect, Vec2};
+
+/// Index of a zone in [`Map::zones`].
+pub type ZoneIdx = usize;
+
+/// The name of the one room that is the drop zone.
+pub const DROP_ZONE: &str = "DropZone";
+
+/// What a zone is; it decides walls, occupancy and navigation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ZoneKind {
+    /// Walls with doors, holds blocks, at most one robot at a time.
+    Room,
+    /// Free space (a hall).
+    Corridor,
+    /// Free space where robots would recharge in the original; behaves as a corridor.
+    Charging,
+    /// A walled-off zone nobody can enter or pass through.
+    Blockade,
+}
+
+impl ZoneKind {
+    /// The lower-case name used in map files.
+    pub fn name(self) -> &'static str {
+        match self {
+            ZoneKind::Room => "room",
+            ZoneKind::Corridor => "corridor",
+            ZoneKind::Charging => "charging",
+            ZoneKind::Blockade => "blockade",
+        }
+    }
+
+    /// Whether robots may stand in or travel through the zone.
+    pub fn is_walkable(self) -> bool {
+        self != ZoneKind::Blockade
+    }
+
+    /// Whether the zone has walls around it (doors are openings in them).
+    pub fn is_walled(self) -> bool {
+        matches!(self, ZoneKind::Room | ZoneKind::Blockade)
+    }
+}
+
+/// One named zone of the map.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Zone {
+    /// Unique name, used as the `PlaceID` in percepts and actions.
+    pub name: String,
+    /// Room, corridor, charging zone or blockade.
+    pub kind: ZoneKind,
+    /// Its box.
+    pub rect: Rect,
+    /// Openings in its walls (rooms only).
+    pub doors: Vec<Door>,
+    /// Names of the zones a robot may travel to directly from this one.
+    pub neighbours: Vec<String>,
+    /// Colours of the fixed blocks in it (rooms only).
+    pub blocks: Vec<Colour>,
+}
+
+/// A named place where a robot can enter the match.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Spawn {
+    /// Name from the map file (informational; players choose their own names).
+    pub name: String,
+    /// Where the robot's centre starts.
+    pub pos: Vec2,
+}
+
+/// Everything a map file says, before validation.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct MapParts {
+    /// A short name for reports.
+    pub name: String,
+    /// Width and height of the world.
+    pub area: Vec2,
+    /// The zones, in file order.
+    pub zones: Vec<Zone>,
+    /// Spawn points, in the order robots take them.
+    pub spawns: Vec<Spawn>,
+    /// Fixed goal colours, before any random ones.
+    pub sequence: Vec<Colour>,
+    /// How many random colours to append to the sequence (each also gets a block).
+    pub random_sequence: u32,
+    /// How many extra random blocks to place.
+    pub random_blocks: u32,
+    /// A fixed seed for the random content; `None` uses the match seed.
+    pub seed: Option<u64>,
+}
+
+/// A validated map: names resolve, exactly one drop zone, doors on their room's edges.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Map {
+    parts: MapParts,
+    adjacency: Vec<Vec<ZoneIdx>>,
+    drop_zone: ZoneIdx,
+}
+
+impl Map {
+    /// Validates `parts`, reporting every problem found, not only the first.
+    pub fn new(parts: MapParts) -> Result<Map, MapError> {
+        let problems = problems(&parts);
+        if !problems.is_empty() {
+            return Err(MapError { problems });
+        }
+        let index: BTreeMap<&str, ZoneIdx> =
+            parts.zones.iter().enumerate().map(|(i, z)| (z.name.as_str(), i)).collect();
+        let mut adjacency = vec![Vec::new(); parts.zones.len()];
+        for (i, zone) in parts.zones.iter().enumerate() {
+            for n in &zone.neighbours {
+                let j = index[n.as_str()];
+                // Neighbour lists are undirected edges, whichever side names them.
+                for (a, b) in [(i, j), (j, i)] {
+                    if a != b && !adjacency[a].contains(&b) {
+                        adjacency[a].push(b);
+                    }
+                }
+            }
+        }
+        adjacency.iter_mut().for_each(|list| list.sort_unstable());
+        let drop_zone = index[DROP_ZONE];
+        Ok(Map { parts, adjacency, drop_zone })
+    }
+
+    /// The map's short name.
+    pub fn name(&self) -> &str {
+        &self.parts.name
+    }
+
+    /// Width and height of the world.
+    pub fn area(&self) -> Vec2 {
+        self.parts.area
+    }
+
+    /// All zones, in file order; a [`ZoneIdx`] indexes this slice.
+    pub fn zones(&self) -> &[Zone] {
+        &self.parts.zones
+    }
+
+    /// The zones reachable in one step from `zone`, in index order.
+    pub fn neighbours(&self, zone: ZoneIdx) -> &[ZoneIdx] {
+        &self.adjacency[zone]
+    }
+
+    /// The drop zone's index.
+    pub fn drop_zone(&self) -> ZoneIdx {
+        self.drop_zone
+    }
+
+    /// The zone with this exact name.
+    pub fn zone_named(&self, name: &str) -> Option<ZoneIdx> {
+        self.parts.zones.iter().position(|z| z.name == name)
+    }
+
+    /// The first zone (in file order) whose box contains `p`.
+    pub fn zone_at(&self, p: Vec2) -> Option<ZoneIdx> {
+        self.parts.zones.iter().position(|z| z.rect.contains(p))
+    }
+
+    /// Spawn points in the order robots take them.
+    pub fn spawns(&self) -> &[Spawn] {
+        &self.parts.spawns
+    }
+
+    /// The fixed part of the goal sequence.
+    pub fn sequence(&self) -> &[Colour] {
+        &self.parts.sequence
+    }
+
+    /// How many random colours are appended to the sequence.
+    pub fn random_sequence(&self) -> u32 {
+        self.parts.random_sequence
+    }
+
+    /// How many extra random blocks are placed.
+    pub fn random_blocks(&self) -> u32 {
+        self.parts.random_blocks
+    }
+
+    /// The map's own seed for random content, if it fixes one.
+    pub fn seed(&self) -> Option<u64> {
+        self.parts.seed
+    }
+
+    /// Everything the map says, as given to [`Map::new`].
+    pub fn parts(&self) -> &MapParts {
+        &self.parts
+    }
+}
+
+/// A map that failed validation, with every problem found.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub struct MapError {
+    /// One line per problem, each naming the zone, door or field concerned.
+    pub problems: Vec<String>,
+}
+
+impl fmt::Display for MapError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "invalid map: {}", self.problems.join("; "))
+    }
+}
+
+const EDGE_TOLERANCE: f32 = 1e-3;
+
+fn problems(parts: &MapParts) -> Vec<String> {
+    let mut out = Vec::new();
+    if !(parts.area.x > 0.0 && parts.area.y > 0.0) {
+        out.push(format!("area {} x {} is not positive", parts.area.x, parts.area.y));
+    }
+    if parts.spawns.is_empty() {
+        out.push("no spawn points".to_string());
+    }
+    let mut seen = BTreeMap::new();
+    for zone in &parts.zones {
+        if seen.insert(zone.name.as_str(), ()).is_some() {
+            out.push(format!("zone '{}' is defined twice", zone.name));
+        }
+    }
+    for zone in &parts.zones {
+        zone_problems(zone, &seen, &mut out);
+    }
+    let drop_zones: Vec<&Zone> = parts.zones.iter().filter(|z| z.name == DROP_ZONE).collect();
+    match drop_zones.as_slice() {
+        [] => out.push(format!("no zone named '{DROP_ZONE}'")),
+        [dz] if dz.kind != ZoneKind::Room => {
+            out.push(format!("zone '{DROP_ZONE}' must be a room, not a {}", dz.kind.name()))
+        }
+        _ => {}
+    }
+    out
+}
+
+fn zone_problems(zone: &Zone, names: &BTreeMap<&str, ()>, out: &mut Vec<String>) {
+    let name = &zone.name;
+    if name.is_empty() {
+        out.push("a zone has an empty name".to_string());
+    }
+    if !(zone.rect.size.x > 0.0 && zone.rect.size.y > 0.0) {
+        out.push(format!("zone '{name}': size {} x {} is not positive", zone.rect.size.x, zone.rect.size.y));
+    }
+    for n in &zone.neighbours {
+        if !names.contains_key(n.as_str()) {
+            out.push(format!("zone '{name}': neighbour '{n}' is not a zone"));
+        }
+    }
+    if zone.kind != ZoneKind::Room {
+        if !zone.doors.is_empty() {
+            out.push(format!("zone '{name}': only rooms have doors, this is a {}", zone.kind.name()));
+        }
+        if !zone.blocks.is_empty() {
+            out.push(format!("zone '{name}': only rooms hold blocks, this is a {}", zone.kind.name()));
+        }
+    }
+    if zone.blocks.len() > MAX_BLOCKS_PER_ROOM {
+        out.push(format!(
+            "zone '{name}': {} blocks, at most {MAX_BLOCKS_PER_ROOM} fit in a room",
+            zone.blocks.len()
+        ));
+    }
+    for door in &zone.doors {
+        if !door_on_edge(door, &zone.rect) {
+            out.push(format!(
+                "zone '{name}': {:?} door at ({}, {}) is not on the room's edge",
+                door.orientation, door.centre.x, door.centre.y
+            ));
+        }
+    }
+}
+
+/// Whether the door's centre lies on an edge of `room` that its orientation allows.
+pub(crate) fn door_on_edge(door: &Door, room: &Rect) -> bool {
+    let (min, max, c) = (room.min(), room.max(), door.centre);
+    let near = |a: f32, b: f32| (a - b).abs() <= EDGE_TOLERANCE;
+    match door.orientation {
+        Orientation::Horizontal => (near(c.y, min.y) || near(c.y, max.y)) && min.x <= c.x && c.x <= max.x,
+        Orientation::Vertical => (near(c.x, min.x) || near(c.x, max.x)) && min.y <= c.y && c.y <= max.y,
+    }
+}
+
+/// The orientation a door at `centre` must have on `room`, when only one edge fits.
+pub(crate) fn infer_orientation(centre: Vec2, room: &Rect) -> Option<Orientation> {
+    let fits = |orientation| door_on_edge(&Door { centre, orientation }, room);
+    match (fits(Orientation::Horizontal), fits(Orientation::Vertical)) {
+        (true, false) => Some(Orientation::Horizontal),
+        (false, true) => Some(Orientation::Vertical),
+        _ => None,
+    }
+}

@@ -1,0 +1,744 @@
+//! The match: robots, blocks, doors and rules, advanced one fixed tick at a time.
+//!
+//! Sans-IO: inputs are [`Match::join`], [`Match::leave`] and [`Match::handle_action`]
+//! (applied at once, so drivers apply a tick's actions in robot-id order); time advances
+//! only by [`Match::step`]; outputs are polled with [`Match::poll_percepts`].
+
+use std::sync::Arc;
+
+use bw4t_map::{Colour, ContentError, Map, Vec2, ZoneIdx, ZoneKind, block_area};
+
+use crate::action::{Accepted, Action, OrderEnd, OrderId, OrderOutcome, Receiver, Rejection, RobotId};
+use crate::config::{ConfigError, MatchConfig};
+use crate::digest::Digest;
+use crate::nav::Navigator;
+use crate::percept::{BlockId, Fact, MoveState, Percept, PerceptDelta, diff};
+use crate::physics::{Physics, RobotBody};
+use crate::stats::{MatchStats, RobotStats};
+
+/// How close (centre to centre) a robot must be to a block to pick it up.
+pub const REACH: f32 = 1.0;
+/// Within this distance a waypoint counts as reached.
+const ARRIVE_EPS: f32 = 1e-3;
+/// A move that achieves less than this share of its step is stuck against a wall.
+const STALL_FRACTION: f32 = 0.05;
+/// Longest accepted player name, in bytes.
+pub const MAX_NAME_LEN: usize = 64;
+
+/// Why a match could not be created.
+#[derive(Debug, thiserror::Error)]
+pub enum MatchError {
+    /// The configuration is out of range.
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    /// The map's random content does not fit.
+    #[error(transparent)]
+    Content(#[from] ContentError),
+}
+
+/// Why a robot could not join.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum JoinError {
+    /// Names are alphanumeric and start with a letter.
+    #[error(
+        "invalid player name '{0}': use letters and digits, starting with a letter (at most {MAX_NAME_LEN})"
+    )]
+    InvalidName(String),
+    /// Another robot in the match has this name.
+    #[error("the name '{0}' is taken")]
+    NameTaken(String),
+    /// Every spawn point is in use.
+    #[error("the match is full ({0} spawn points)")]
+    Full(usize),
+}
+
+/// What one tick did, for the driver to report.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct StepReport {
+    /// The tick just simulated.
+    pub tick: u64,
+    /// Durative orders that ended since the previous step, in the order they ended.
+    pub ended: Vec<OrderEnd>,
+}
+
+/// A robot as a spectator sees it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RobotView {
+    /// Its id.
+    pub id: RobotId,
+    /// Its player's name.
+    pub name: Arc<str>,
+    /// Its centre.
+    pub pos: Vec2,
+    /// Its state.
+    pub state: MoveState,
+    /// The block it holds.
+    pub holding: Option<BlockId>,
+    /// The room it is in.
+    pub room: Option<ZoneIdx>,
+}
+
+/// Where a block is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum BlockPlace {
+    /// Lying in a room.
+    Room {
+        /// The room.
+        zone: ZoneIdx,
+        /// Its centre.
+        pos: Vec2,
+    },
+    /// Carried by a robot.
+    Held(RobotId),
+    /// Delivered or dropped in a hall: no longer in the world.
+    Gone,
+}
+
+#[derive(Clone, Debug)]
+struct Block {
+    colour: Colour,
+    place: BlockPlace,
+}
+
+struct Robot {
+    id: RobotId,
+    name: Arc<str>,
+    body: RobotBody,
+    spawn: usize,
+    pos: Vec2,
+    at: ZoneIdx,
+    room: Option<ZoneIdx>,
+    state: MoveState,
+    /// Remaining waypoints, the next one last.
+    plan: Vec<Vec2>,
+    order: Option<OrderId>,
+    holding: Option<BlockId>,
+    stats: RobotStats,
+    inbox: Vec<Percept>,
+    /// The changeable facts this robot's player was last told, sorted.
+    told: Vec<Fact>,
+    introduced: bool,
+}
+
+/// One BW4T match.
+pub struct Match {
+    map: Map,
+    config: MatchConfig,
+    seed: u64,
+    tick: u64,
+    physics: Physics,
+    nav: Navigator,
+    zone_names: Vec<Arc<str>>,
+    sequence: Arc<[Colour]>,
+    sequence_index: u32,
+    blocks: Vec<Block>,
+    /// Per zone, the ids of the blocks lying in it, ascending.
+    room_blocks: Vec<Vec<BlockId>>,
+    /// Per zone, the robot occupying it (rooms only).
+    occupant: Vec<Option<RobotId>>,
+    /// By robot id; `None` once a robot has left.
+    robots: Vec<Option<Robot>>,
+    /// By robot id, kept after a robot leaves so its departure can still be named.
+    player_names: Vec<Arc<str>>,
+    next_order: u64,
+    stats: MatchStats,
+    ended: Vec<OrderEnd>,
+    facts_scratch: Vec<Fact>,
+    waypoint_scratch: Vec<Vec2>,
+}
+
+impl Match {
+    /// A match on `map` whose random content comes from `seed`.
+    pub fn new(map: &Map, config: &MatchConfig, seed: u64) -> Result<Match, MatchError> {
+        config.validate()?;
+        let content = map.content(seed)?;
+        let mut room_blocks = vec![Vec::new(); map.zones().len()];
+        let blocks = content
+            .blocks
+            .iter()
+            .enumerate()
+            .map(|(i, b)| {
+                room_blocks[b.zone].push(i as BlockId + 1);
+                Block { colour: b.colour, place: BlockPlace::Room { zone: b.zone, pos: b.pos } }
+            })
+            .collect();
+        Ok(Match {
+            physics: Physics::new(map, config.robot_collisions),
+            nav: Navigator::new(map),
+            zone_names: map.zones().iter().map(|z| Arc::from(z.name.as_str())).collect(),
+            sequence: content.sequence.into(),
+            sequence_index: 0,
+            blocks,
+            room_blocks,
+            occupant: vec![None; map.zones().len()],
+            robots: Vec::new(),
+            player_names: Vec::new(),
+            next_order: 0,
+            stats: MatchStats::default(),
+            ended: Vec::new(),
+            facts_scratch: Vec::new(),
+            waypoint_scratch: Vec::new(),
+            map: map.clone(),
+            config: config.clone(),
+            seed,
+            tick: 0,
+        })
+    }
+
+    /// Adds a robot for player `name` at the first spawn point no robot holds.
+    pub fn join(&mut self, name: &str) -> Result<RobotId, JoinError> {
+        let valid = name.len() <= MAX_NAME_LEN
+            && name.starts_with(|c: char| c.is_ascii_alphabetic())
+            && name.chars().all(|c| c.is_ascii_alphanumeric());
+        if !valid {
+            return Err(JoinError::InvalidName(name.to_string()));
+        }
+        if self.live_robots().any(|r| &*r.name == name) {
+            return Err(JoinError::NameTaken(name.to_string()));
+        }
+        let spawns = self.map.spawns();
+        let spawn = (0..spawns.len())
+            .find(|&s| self.live_robots().all(|r| r.spawn != s))
+            .ok_or(JoinError::Full(spawns.len()))?;
+        let id = RobotId(self.robots.len() as u32);
+        let pos = spawns[spawn].pos;
+        let body = self.physics.add_robot(id.0, pos);
+        let mut robot = Robot {
+            id,
+            name: Arc::from(name),
+            body,
+            spawn,
+            pos,
+            at: 0,
+            room: None,
+            state: MoveState::Arrived,
+            plan: Vec::new(),
+            order: None,
+            holding: None,
+            stats: RobotStats::default(),
+            inbox: Vec::new(),
+            told: Vec::new(),
+            introduced: false,
+        };
+        self.update_place(&mut robot);
+        self.player_names.push(robot.name.clone());
+        self.robots.push(Some(robot));
+        Ok(id)
+    }
+
+    /// Removes a robot. A block it holds is put down where it stands, as by `putDown`
+    /// (lost if there is no room for it).
+    pub fn leave(&mut self, id: RobotId) -> Result<(), Rejection> {
+        if self.robot(id).is_none() {
+            return Err(Rejection::UnknownRobot(id));
+        }
+        if self.robot(id).is_some_and(|r| r.holding.is_some()) && self.put_down(id).is_err() {
+            self.drop_held_block(id);
+        }
+        if let Some(robot) = self.robots[id.0 as usize].take() {
+            if let Some(room) = robot.room {
+                self.vacate(room, id);
+            }
+            self.physics.remove_robot(robot.body);
+        }
+        Ok(())
+    }
+
+    /// Applies one action now. Durative actions are answered later by a [`StepReport`].
+    pub fn handle_action(&mut self, id: RobotId, action: Action) -> Result<Accepted, Rejection> {
+        let robot = self.robot(id).ok_or(Rejection::UnknownRobot(id))?;
+        let (from, room) = (robot.at, robot.room);
+        match action {
+            Action::GoTo(place) => {
+                let zone =
+                    self.map.zone_named(&place).ok_or_else(|| Rejection::UnknownPlace(place.clone()))?;
+                let target = self.nav.centre(zone);
+                self.start_order(id, from, zone, target).ok_or(Rejection::Unreachable(place))
+            }
+            Action::GoToBlock(block) => {
+                let (zone, pos) = self.visible_block(block, room)?;
+                let target = self.nav.standable(zone, pos);
+                self.start_order(id, from, zone, target)
+                    .ok_or_else(|| Rejection::Unreachable(block.to_string()))
+            }
+            Action::PickUp(block) => self.pick_up(id, block),
+            Action::PutDown => self.put_down(id),
+            Action::SendMessage { to, text } => self.send_message(id, to, text),
+        }
+    }
+
+    /// Simulates one tick: every robot with a plan moves, in robot-id order.
+    pub fn step(&mut self) -> StepReport {
+        self.tick += 1;
+        for idx in 0..self.robots.len() {
+            if let Some(mut robot) = self.robots[idx].take() {
+                self.advance(&mut robot);
+                self.robots[idx] = Some(robot);
+            }
+        }
+        self.physics.step();
+        self.stats.ticks = self.tick;
+        StepReport { tick: self.tick, ended: std::mem::take(&mut self.ended) }
+    }
+
+    /// What robot `id` has not been told yet: the first call also carries the once-only
+    /// percepts. `None` for a robot not in the match.
+    pub fn poll_percepts(&mut self, id: RobotId) -> Option<PerceptDelta> {
+        self.percepts(id, false)
+    }
+
+    /// Everything robot `id` perceives now, as a full delta; later deltas build on it.
+    pub fn snapshot(&mut self, id: RobotId) -> Option<PerceptDelta> {
+        self.percepts(id, true)
+    }
+
+    /// A digest of the whole state: equal digests mean equal matches, bit for bit.
+    pub fn digest(&self) -> u64 {
+        let mut d = Digest::default();
+        d.u64(self.tick);
+        d.u64(self.seed);
+        d.u64(u64::from(self.sequence_index));
+        self.sequence.iter().for_each(|c| d.u64(*c as u64));
+        for (i, b) in self.blocks.iter().enumerate() {
+            d.u64(i as u64);
+            d.u64(b.colour as u64);
+            match b.place {
+                BlockPlace::Room { zone, pos } => {
+                    d.u64(zone as u64);
+                    d.f32(pos.x);
+                    d.f32(pos.y);
+                }
+                BlockPlace::Held(r) => d.u64(1 << 32 | u64::from(r.0)),
+                BlockPlace::Gone => d.u64(u64::MAX),
+            }
+        }
+        for robot in self.live_robots() {
+            d.u64(u64::from(robot.id.0));
+            d.str(&robot.name);
+            let body = self.physics.body_position(robot.body);
+            [robot.pos.x, robot.pos.y, body.x, body.y].into_iter().for_each(|v| d.f32(v));
+            d.u64(robot.state as u64);
+            d.u64(robot.holding.map_or(0, u64::from));
+            d.u64(robot.order.map_or(u64::MAX, |o| o.0));
+            robot.plan.iter().for_each(|p| {
+                d.f32(p.x);
+                d.f32(p.y);
+            });
+            let s = &robot.stats;
+            [s.good_drops, s.wrong_drops, s.messages_sent, s.rooms_entered]
+                .into_iter()
+                .for_each(|v| d.u64(v.into()));
+            d.u64(s.idle_ticks);
+            d.u64(s.distance.to_bits());
+        }
+        self.occupant.iter().for_each(|o| d.u64(o.map_or(u64::MAX, |r| r.0.into())));
+        d.finish()
+    }
+
+    /// The map being played.
+    pub fn map(&self) -> &Map {
+        &self.map
+    }
+
+    /// The configuration in force.
+    pub fn config(&self) -> &MatchConfig {
+        &self.config
+    }
+
+    /// The seed the match was created with.
+    pub fn seed(&self) -> u64 {
+        self.seed
+    }
+
+    /// Ticks simulated so far.
+    pub fn tick(&self) -> u64 {
+        self.tick
+    }
+
+    /// The goal colours in order.
+    pub fn sequence(&self) -> &[Colour] {
+        &self.sequence
+    }
+
+    /// The index of the next colour needed (the sequence's length once complete).
+    pub fn sequence_index(&self) -> u32 {
+        self.sequence_index
+    }
+
+    /// Whether every colour of the sequence has been delivered.
+    pub fn is_complete(&self) -> bool {
+        self.sequence_index as usize >= self.sequence.len()
+    }
+
+    /// Match-wide statistics.
+    pub fn stats(&self) -> &MatchStats {
+        &self.stats
+    }
+
+    /// One robot's statistics.
+    pub fn robot_stats(&self, id: RobotId) -> Option<&RobotStats> {
+        self.robot(id).map(|r| &r.stats)
+    }
+
+    /// Every robot in the match, by id.
+    pub fn robots(&self) -> impl Iterator<Item = RobotView> + '_ {
+        self.live_robots().map(|r| RobotView {
+            id: r.id,
+            name: r.name.clone(),
+            pos: r.pos,
+            state: r.state,
+            holding: r.holding,
+            room: r.room,
+        })
+    }
+
+    /// The robot whose player has this name.
+    pub fn robot_named(&self, name: &str) -> Option<RobotId> {
+        self.live_robots().find(|r| &*r.name == name).map(|r| r.id)
+    }
+
+    /// Every block ever placed, by id, with its colour and where it is now.
+    pub fn blocks(&self) -> impl Iterator<Item = (BlockId, Colour, BlockPlace)> + '_ {
+        self.blocks.iter().enumerate().map(|(i, b)| (i as BlockId + 1, b.colour, b.place))
+    }
+
+    /// The robot occupying a room, if any.
+    pub fn occupant(&self, zone: ZoneIdx) -> Option<RobotId> {
+        self.occupant.get(zone).copied().flatten()
+    }
+
+    fn live_robots(&self) -> impl Iterator<Item = &Robot> + '_ {
+        self.robots.iter().flatten()
+    }
+
+    fn robot(&self, id: RobotId) -> Option<&Robot> {
+        self.robots.get(id.0 as usize).and_then(Option::as_ref)
+    }
+
+    fn robot_mut(&mut self, id: RobotId) -> Option<&mut Robot> {
+        self.robots.get_mut(id.0 as usize).and_then(Option::as_mut)
+    }
+
+    fn start_order(&mut self, id: RobotId, from: ZoneIdx, to: ZoneIdx, target: Vec2) -> Option<Accepted> {
+        let mut waypoints = std::mem::take(&mut self.waypoint_scratch);
+        let found = self.nav.waypoints(from, to, target, &mut waypoints);
+        let order = OrderId(self.next_order);
+        let robot = self.robots.get_mut(id.0 as usize).and_then(Option::as_mut);
+        let result = match robot {
+            Some(robot) if found => {
+                if let Some(old) = robot.order.replace(order) {
+                    self.ended.push(OrderEnd { robot: id, order: old, outcome: OrderOutcome::Superseded });
+                }
+                robot.plan.clear();
+                robot.plan.extend(waypoints.iter().rev());
+                robot.state = MoveState::Traveling;
+                self.next_order += 1;
+                Some(Accepted { order: Some(order) })
+            }
+            _ => None,
+        };
+        self.waypoint_scratch = waypoints;
+        result
+    }
+
+    /// The block's room and position, if the robot in `room` can see it.
+    fn visible_block(&self, block: BlockId, room: Option<ZoneIdx>) -> Result<(ZoneIdx, Vec2), Rejection> {
+        let place = self.block(block).ok_or(Rejection::UnknownBlock(block))?.place;
+        match place {
+            BlockPlace::Room { zone, pos } if Some(zone) == room => Ok((zone, pos)),
+            BlockPlace::Gone => Err(Rejection::UnknownBlock(block)),
+            _ => Err(Rejection::BlockNotVisible(block)),
+        }
+    }
+
+    fn block(&self, id: BlockId) -> Option<&Block> {
+        id.checked_sub(1).and_then(|i| self.blocks.get(i as usize))
+    }
+
+    /// The block robot `robot` is at: the nearest within reach in its room (lowest id on ties).
+    fn block_at(&self, robot: &Robot) -> Option<BlockId> {
+        let room = robot.room?;
+        let mut best: Option<(f32, BlockId)> = None;
+        for &b in &self.room_blocks[room] {
+            if let Some(Block { place: BlockPlace::Room { pos, .. }, .. }) = self.block(b) {
+                let d = pos.distance(robot.pos);
+                if d <= REACH && best.is_none_or(|(bd, _)| d < bd) {
+                    best = Some((d, b));
+                }
+            }
+        }
+        best.map(|(_, b)| b)
+    }
+
+    fn pick_up(&mut self, id: RobotId, wanted: Option<BlockId>) -> Result<Accepted, Rejection> {
+        let robot = self.robot(id).ok_or(Rejection::UnknownRobot(id))?;
+        if let Some(held) = robot.holding {
+            return Err(Rejection::AlreadyHolding(held));
+        }
+        let block = match wanted {
+            Some(b) => {
+                let (_, pos) = self.visible_block(b, robot.room)?;
+                if pos.distance(robot.pos) > REACH {
+                    return Err(Rejection::NotAtBlock);
+                }
+                b
+            }
+            None => self.block_at(robot).ok_or(Rejection::NotAtBlock)?,
+        };
+        if let Some(BlockPlace::Room { zone, .. }) = self.block(block).map(|b| b.place) {
+            self.room_blocks[zone].retain(|&b| b != block);
+        }
+        self.blocks[block as usize - 1].place = BlockPlace::Held(id);
+        if let Some(robot) = self.robot_mut(id) {
+            robot.holding = Some(block);
+        }
+        Ok(Accepted { order: None })
+    }
+
+    fn put_down(&mut self, id: RobotId) -> Result<Accepted, Rejection> {
+        let robot = self.robot(id).ok_or(Rejection::UnknownRobot(id))?;
+        let block = robot.holding.ok_or(Rejection::NotHolding)?;
+        let (room, pos) = (robot.room, robot.pos);
+        let colour = self.blocks[block as usize - 1].colour;
+        let place = match room {
+            Some(zone) if zone == self.map.drop_zone() => {
+                let needed = self.sequence.get(self.sequence_index as usize);
+                let good = needed == Some(&colour);
+                if good {
+                    self.sequence_index += 1;
+                    self.stats.sequence_index = self.sequence_index;
+                    self.stats.good_drops += 1;
+                    if self.is_complete() {
+                        self.stats.completed_at = Some(self.tick);
+                    }
+                } else {
+                    self.stats.wrong_drops += 1;
+                }
+                if let Some(robot) = self.robot_mut(id) {
+                    if good { robot.stats.good_drops += 1 } else { robot.stats.wrong_drops += 1 }
+                }
+                BlockPlace::Gone
+            }
+            Some(zone) => {
+                let spot = self.free_spot(zone, pos).ok_or(Rejection::NoSpace)?;
+                let list = &mut self.room_blocks[zone];
+                let at = list.partition_point(|&b| b < block);
+                list.insert(at, block);
+                BlockPlace::Room { zone, pos: spot }
+            }
+            // In a hall (or free space) the block leaves the world.
+            None => BlockPlace::Gone,
+        };
+        self.blocks[block as usize - 1].place = place;
+        if let Some(robot) = self.robot_mut(id) {
+            robot.holding = None;
+        }
+        Ok(Accepted { order: None })
+    }
+
+    /// Loses a held block when nothing else can be done with it.
+    fn drop_held_block(&mut self, id: RobotId) {
+        if let Some(block) = self.robot_mut(id).and_then(|r| r.holding.take()) {
+            self.blocks[block as usize - 1].place = BlockPlace::Gone;
+        }
+    }
+
+    /// The spot nearest to `near` inside `zone` where a block overlaps no other block.
+    fn free_spot(&self, zone: ZoneIdx, near: Vec2) -> Option<Vec2> {
+        let area = block_area(&self.map.zones()[zone].rect);
+        let others: Vec<Vec2> = self.room_blocks[zone]
+            .iter()
+            .filter_map(|&b| match self.block(b)?.place {
+                BlockPlace::Room { pos, .. } => Some(pos),
+                _ => None,
+            })
+            .collect();
+        let clear = |p: Vec2| area.contains(p) && others.iter().all(|o| (p - *o).abs().max_element() >= 1.0);
+        // Rings of growing radius on a half-unit grid, nearest first, in a fixed order.
+        let start = area.clamp(near);
+        (0..=40i32).find_map(|ring| {
+            let mut best: Option<(f32, Vec2)> = None;
+            for j in -ring..=ring {
+                for i in -ring..=ring {
+                    if i.abs().max(j.abs()) != ring {
+                        continue;
+                    }
+                    let p = start + Vec2::new(i as f32, j as f32) * 0.5;
+                    let d = p.distance(near);
+                    if clear(p) && best.is_none_or(|(bd, _)| d < bd) {
+                        best = Some((d, p));
+                    }
+                }
+            }
+            best.map(|(_, p)| p)
+        })
+    }
+
+    fn send_message(&mut self, id: RobotId, to: Receiver, text: String) -> Result<Accepted, Rejection> {
+        let from = self.robot(id).ok_or(Rejection::UnknownRobot(id))?.name.clone();
+        let receivers: Vec<usize> = match &to {
+            Receiver::All => self.live_robots().filter(|r| r.id != id).map(|r| r.id.0 as usize).collect(),
+            Receiver::Player(name) => {
+                let target = self.live_robots().find(|r| &*r.name == name.as_str() && r.id != id);
+                vec![target.ok_or_else(|| Rejection::UnknownReceiver(name.clone()))?.id.0 as usize]
+            }
+        };
+        let message = Percept::Message { from, text: Arc::from(text) };
+        for idx in receivers {
+            if let Some(robot) = self.robots[idx].as_mut() {
+                robot.inbox.push(message.clone());
+            }
+        }
+        self.stats.messages += 1;
+        if let Some(robot) = self.robot_mut(id) {
+            robot.stats.messages_sent += 1;
+        }
+        Ok(Accepted { order: None })
+    }
+
+    /// Moves one robot along its plan for one tick.
+    fn advance(&mut self, robot: &mut Robot) {
+        if robot.plan.is_empty() {
+            robot.stats.idle_ticks += 1;
+            return;
+        }
+        let start = robot.pos;
+        let occupant = &self.occupant;
+        let me = robot.id;
+        let guard_closed = |room: usize| occupant[room].is_some_and(|o| o != me);
+        let mut budget = self.config.speed;
+        let mut outcome = None;
+        while budget > 0.0 {
+            let Some(&waypoint) = robot.plan.last() else { break };
+            let to = waypoint - robot.pos;
+            let dist = to.length();
+            if dist <= ARRIVE_EPS {
+                robot.plan.pop();
+                continue;
+            }
+            let step = budget.min(dist);
+            let moved = self.physics.move_robot(me.0, robot.pos, to * (step / dist), &guard_closed);
+            robot.pos += moved.translation;
+            budget -= step;
+            if moved.blocked_by.is_some() || moved.translation.length() < step * STALL_FRACTION {
+                outcome = Some(OrderOutcome::Collided);
+                break;
+            }
+            if robot.pos.distance(waypoint) <= ARRIVE_EPS {
+                robot.pos = waypoint;
+                robot.plan.pop();
+            }
+        }
+        if outcome.is_none() && robot.plan.is_empty() {
+            outcome = Some(OrderOutcome::Arrived);
+        }
+        if let Some(outcome) = outcome {
+            robot.plan.clear();
+            robot.state =
+                if outcome == OrderOutcome::Arrived { MoveState::Arrived } else { MoveState::Collided };
+            if let Some(order) = robot.order.take() {
+                self.ended.push(OrderEnd { robot: me, order, outcome });
+            }
+        }
+        robot.stats.distance += f64::from(start.distance(robot.pos));
+        self.physics.place_robot(robot.body, robot.pos);
+        self.update_place(robot);
+    }
+
+    /// Recomputes where a robot is and updates room occupancy.
+    fn update_place(&mut self, robot: &mut Robot) {
+        let zones = self.map.zones();
+        let room = zones.iter().position(|z| z.kind == ZoneKind::Room && z.rect.contains(robot.pos));
+        robot.at = room.or_else(|| self.map.zone_at(robot.pos)).unwrap_or_else(|| {
+            // Free space: the nearest zone, lowest index on ties.
+            let dist = |i: &usize| zones[*i].rect.distance(robot.pos);
+            (0..zones.len()).min_by(|a, b| dist(a).total_cmp(&dist(b))).unwrap_or(0)
+        });
+        if room == robot.room {
+            return;
+        }
+        if let Some(old) = robot.room {
+            self.vacate(old, robot.id);
+        }
+        if let Some(new) = room {
+            robot.stats.rooms_entered += 1;
+            self.occupant[new].get_or_insert(robot.id);
+        }
+        robot.room = room;
+    }
+
+    /// Clears `zone`'s occupant if it was `leaving`, handing the room to any robot still inside.
+    fn vacate(&mut self, zone: ZoneIdx, leaving: RobotId) {
+        if self.occupant[zone] == Some(leaving) {
+            let heir = self.live_robots().find(|r| r.id != leaving && r.room == Some(zone)).map(|r| r.id);
+            self.occupant[zone] = heir;
+        }
+    }
+
+    fn percepts(&mut self, id: RobotId, full: bool) -> Option<PerceptDelta> {
+        let mut now = std::mem::take(&mut self.facts_scratch);
+        now.clear();
+        self.current_facts(self.robot(id)?, &mut now);
+        let mut robot = self.robots[id.0 as usize].take()?;
+        let mut delta = PerceptDelta { tick: self.tick, full, ..PerceptDelta::default() };
+        if full || !robot.introduced {
+            delta.add.extend(self.zone_names.iter().map(|n| Percept::Place(n.clone())));
+            delta.add.push(Percept::OwnName(robot.name.clone()));
+            delta.add.push(Percept::Bot(id.0));
+            delta.add.push(Percept::Sequence(self.sequence.clone()));
+            robot.introduced = true;
+        }
+        if full {
+            delta.add.extend(now.iter().map(|&f| self.resolve(f)));
+        } else {
+            let (mut added, mut removed) = (Vec::new(), Vec::new());
+            diff(&robot.told, &now, |f| added.push(self.resolve(f)), |f| removed.push(self.resolve(f)));
+            delta.add.append(&mut added);
+            delta.not = removed;
+        }
+        delta.add.append(&mut robot.inbox);
+        std::mem::swap(&mut robot.told, &mut now);
+        self.robots[id.0 as usize] = Some(robot);
+        self.facts_scratch = now;
+        Some(delta)
+    }
+
+    /// The changeable facts that hold for `robot` now, sorted.
+    fn current_facts(&self, robot: &Robot, out: &mut Vec<Fact>) {
+        out.extend(self.live_robots().filter(|r| r.id != robot.id).map(|r| Fact::Player(r.id.0)));
+        out.push(Fact::At(robot.at as u32));
+        out.push(Fact::SequenceIndex(self.sequence_index));
+        out.push(Fact::State(robot.state));
+        if let Some(room) = robot.room {
+            out.push(Fact::In(room as u32));
+        }
+        if let Some(block) = self.block_at(robot) {
+            out.push(Fact::AtBlock(block));
+        }
+        let occupied = self.occupant.iter().enumerate().filter(|(_, o)| o.is_some());
+        out.extend(occupied.map(|(zone, _)| Fact::Occupied(zone as u32)));
+        let visible: &[BlockId] = robot.room.map_or(&[], |room| &self.room_blocks[room]);
+        out.extend(visible.iter().map(|&b| Fact::Color(b)));
+        if let Some(block) = robot.holding {
+            out.push(Fact::Holding(block));
+        }
+        out.extend(visible.iter().map(|&b| Fact::Block(b)));
+        debug_assert!(out.is_sorted(), "facts must be generated in order");
+    }
+
+    fn resolve(&self, fact: Fact) -> Percept {
+        let name = |zone: u32| self.zone_names[zone as usize].clone();
+        match fact {
+            Fact::Player(r) => Percept::Player(self.player_names[r as usize].clone()),
+            Fact::At(zone) => Percept::At(name(zone)),
+            Fact::SequenceIndex(i) => Percept::SequenceIndex(i),
+            Fact::State(s) => Percept::State(s),
+            Fact::In(zone) => Percept::In(name(zone)),
+            Fact::AtBlock(b) => Percept::AtBlock(b),
+            Fact::Occupied(zone) => Percept::Occupied(name(zone)),
+            Fact::Color(b) => Percept::Color(b, self.blocks[b as usize - 1].colour),
+            Fact::Holding(b) => Percept::Holding(b),
+            Fact::Block(b) => Percept::Block(b),
+        }
+    }
+}

@@ -1,0 +1,250 @@
+//! The rapier2d world: room walls, door guards and the robots' kinematic bodies.
+//!
+//! Walls and guards are static colliders built once from the map. A guard fills a door
+//! opening and blocks every robot except its room's occupant while the room is occupied;
+//! whether it blocks is decided per query (a filter predicate), so no collider is ever
+//! switched on or off and the broad phase stays untouched by door changes.
+
+use bw4t_map::{Map, Vec2, ZoneKind};
+use rapier2d::control::{CharacterLength, KinematicCharacterController};
+use rapier2d::prelude::*;
+
+/// Half the side of a robot's 2 x 2 square.
+pub const ROBOT_HALF: f32 = 1.0;
+/// Half the thickness of a wall (walls are centred on their room's edge).
+pub const WALL_HALF: f32 = 0.05;
+/// The gap the character controller keeps to obstacles.
+pub const SKIN: f32 = 0.01;
+
+/// What a collider stands for, stored in its `user_data`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Tag {
+    /// A piece of a room's wall.
+    Wall,
+    /// The guard of a door of the room with this zone index.
+    Guard(usize),
+    /// The robot with this id.
+    Robot(u32),
+}
+
+impl Tag {
+    fn encode(self) -> u128 {
+        match self {
+            Tag::Wall => 0,
+            Tag::Guard(zone) => (1 << 64) | zone as u128,
+            Tag::Robot(id) => (2 << 64) | id as u128,
+        }
+    }
+
+    fn decode(data: u128) -> Tag {
+        let index = data as u64;
+        match data >> 64 {
+            1 => Tag::Guard(index as usize),
+            2 => Tag::Robot(index as u32),
+            _ => Tag::Wall,
+        }
+    }
+}
+
+/// Handles of one robot's body and collider.
+#[derive(Clone, Copy, Debug)]
+pub struct RobotBody {
+    body: RigidBodyHandle,
+}
+
+/// What a single move of a robot did.
+#[derive(Clone, Copy, Debug)]
+pub struct Moved {
+    /// The translation actually applied.
+    pub translation: Vec2,
+    /// The first guard or robot that stopped the move, if any.
+    pub blocked_by: Option<Tag>,
+}
+
+/// The physical world of a match.
+pub struct Physics {
+    world: PhysicsWorld,
+    controller: KinematicCharacterController,
+    robot_shape: SharedShape,
+    robots_collide: bool,
+}
+
+impl Physics {
+    /// Builds walls (with openings at doors) and door guards for every walled zone.
+    pub fn new(map: &Map, robots_collide: bool) -> Self {
+        let mut world = PhysicsWorld::new();
+        world.gravity = Vector::ZERO;
+        for (idx, zone) in map.zones().iter().enumerate() {
+            if !zone.kind.is_walled() {
+                continue;
+            }
+            let doors = if zone.kind == ZoneKind::Room { zone.doors.as_slice() } else { &[] };
+            for (centre, half) in wall_pieces(zone.rect.min(), zone.rect.max(), doors) {
+                let wall =
+                    ColliderBuilder::cuboid(half.x, half.y).translation(centre).user_data(Tag::Wall.encode());
+                world.insert_collider(wall, None);
+            }
+            for door in doors {
+                let half = door.rect().size / 2.0;
+                let guard = ColliderBuilder::cuboid(half.x, half.y)
+                    .translation(door.centre)
+                    .user_data(Tag::Guard(idx).encode());
+                world.insert_collider(guard, None);
+            }
+        }
+        world.detect_collisions(&(), &());
+        let controller = KinematicCharacterController {
+            offset: CharacterLength::Absolute(SKIN),
+            slide: true,
+            autostep: None,
+            // Top-down: there is no ground, so nothing is a slope to climb or slide down.
+            max_slope_climb_angle: Real::MAX,
+            min_slope_slide_angle: 0.0,
+            snap_to_ground: None,
+            ..KinematicCharacterController::default()
+        };
+        Physics {
+            world,
+            controller,
+            robot_shape: SharedShape::cuboid(ROBOT_HALF, ROBOT_HALF),
+            robots_collide,
+        }
+    }
+
+    /// Adds a robot's kinematic body at `pos`.
+    pub fn add_robot(&mut self, id: u32, pos: Vec2) -> RobotBody {
+        let body = self.world.insert_body(RigidBodyBuilder::kinematic_position_based().translation(pos));
+        let collider = ColliderBuilder::new(self.robot_shape.clone()).user_data(Tag::Robot(id).encode());
+        self.world.insert_collider(collider, Some(body));
+        self.world.detect_collisions(&(), &());
+        RobotBody { body }
+    }
+
+    /// Removes a robot's body.
+    pub fn remove_robot(&mut self, robot: RobotBody) {
+        self.world.remove_body_with_colliders(robot.body, true);
+        self.world.detect_collisions(&(), &());
+    }
+
+    /// Moves a robot from `pos` by up to `desired`, stopped by walls, by the guards for
+    /// which `guard_closed(room)` holds, and (when enabled) by other robots.
+    pub fn move_robot(
+        &self,
+        id: u32,
+        pos: Vec2,
+        desired: Vec2,
+        guard_closed: &dyn Fn(usize) -> bool,
+    ) -> Moved {
+        let robots_collide = self.robots_collide;
+        let passable = |_: ColliderHandle, c: &Collider| match Tag::decode(c.user_data) {
+            Tag::Wall => true,
+            Tag::Guard(room) => guard_closed(room),
+            Tag::Robot(other) => robots_collide && other != id,
+        };
+        let filter = QueryFilter::default().predicate(&passable);
+        let queries = self.world.broad_phase.as_query_pipeline(
+            self.world.narrow_phase.query_dispatcher(),
+            &self.world.bodies,
+            &self.world.colliders,
+            filter,
+        );
+        let mut blocked_by = None;
+        let dt = self.world.integration_parameters.dt;
+        let result = self.controller.move_shape(
+            dt,
+            &queries,
+            &*self.robot_shape,
+            &Pose::from_translation(pos),
+            desired,
+            |hit| {
+                let tag = self.world.colliders.get(hit.handle).map(|c| Tag::decode(c.user_data));
+                if blocked_by.is_none() && matches!(tag, Some(Tag::Guard(_) | Tag::Robot(_))) {
+                    blocked_by = tag;
+                }
+            },
+        );
+        Moved { translation: result.translation, blocked_by }
+    }
+
+    /// Places a robot's body at its new position for the next step.
+    pub fn place_robot(&mut self, robot: RobotBody, pos: Vec2) {
+        if let Some(body) = self.world.bodies.get_mut(robot.body) {
+            body.set_next_kinematic_translation(pos);
+        }
+    }
+
+    /// Advances rapier by one fixed step, bringing colliders and the broad phase up to date.
+    pub fn step(&mut self) {
+        self.world.step();
+    }
+
+    /// The position of a robot's body as rapier holds it.
+    pub fn body_position(&self, robot: RobotBody) -> Vec2 {
+        self.world.bodies.get(robot.body).map_or(Vec2::ZERO, |b| b.translation())
+    }
+}
+
+/// The wall pieces of a box's four edges, leaving openings at `doors`, as (centre, half extents).
+fn wall_pieces(min: Vec2, max: Vec2, doors: &[bw4t_map::Door]) -> Vec<(Vec2, Vec2)> {
+    let mut pieces = Vec::new();
+    let half_door = bw4t_map::Door::WIDTH / 2.0;
+    // Horizontal edges run along x at a fixed y; vertical ones along y at a fixed x.
+    let edges = [
+        (true, min.y, min.x, max.x),
+        (true, max.y, min.x, max.x),
+        (false, min.x, min.y, max.y),
+        (false, max.x, min.y, max.y),
+    ];
+    for (horizontal, fixed, from, to) in edges {
+        let mut openings: Vec<(f32, f32)> = doors
+            .iter()
+            .filter(|d| {
+                let (along, across) =
+                    if horizontal { (d.centre.x, d.centre.y) } else { (d.centre.y, d.centre.x) };
+                let fits = if horizontal {
+                    d.orientation == bw4t_map::Orientation::Horizontal
+                } else {
+                    d.orientation == bw4t_map::Orientation::Vertical
+                };
+                fits && (across - fixed).abs() < 1e-3 && (from..=to).contains(&along)
+            })
+            .map(|d| {
+                let along = if horizontal { d.centre.x } else { d.centre.y };
+                (along - half_door, along + half_door)
+            })
+            .collect();
+        openings.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut start = from - WALL_HALF;
+        for (open_from, open_to) in openings.into_iter().chain([(to + WALL_HALF, to + WALL_HALF)]) {
+            if open_from > start {
+                let (mid, half_len) = ((start + open_from) / 2.0, (open_from - start) / 2.0);
+                let (centre, half) = if horizontal {
+                    (Vec2::new(mid, fixed), Vec2::new(half_len, WALL_HALF))
+                } else {
+                    (Vec2::new(fixed, mid), Vec2::new(WALL_HALF, half_len))
+                };
+                pieces.push((centre, half));
+            }
+            start = start.max(open_to);
+        }
+    }
+    pieces
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use bw4t_map::{Door, Orientation};
+
+    #[test]
+    fn walls_leave_an_opening_at_each_door() {
+        let door = Door { centre: Vec2::new(15.0, 10.0), orientation: Orientation::Horizontal };
+        let pieces = wall_pieces(Vec2::new(10.0, 10.0), Vec2::new(20.0, 20.0), &[door]);
+        // The top edge splits in two around x = 13..17; the other three edges are whole.
+        assert_eq!(pieces.len(), 5);
+        let top: Vec<_> = pieces.iter().filter(|(c, h)| c.y == 10.0 && h.y == WALL_HALF).collect();
+        assert_eq!(top.len(), 2);
+        assert!((top[0].0.x + top[0].1.x - 13.0).abs() < 1e-5);
+        assert!((top[1].0.x - top[1].1.x - 17.0).abs() < 1e-5);
+    }
+}
