@@ -675,6 +675,24 @@ impl Match {
         }
     }
 
+    /// Every fact robot `id` perceives now (no messages), without changing what it was told.
+    pub fn perceived(&self, id: RobotId) -> Option<Vec<Percept>> {
+        let robot = self.robot(id)?;
+        let mut facts = Vec::new();
+        self.current_facts(robot, &mut facts);
+        let mut out = self.once_percepts(robot);
+        out.extend(facts.into_iter().map(|f| self.resolve(f)));
+        Some(out)
+    }
+
+    fn once_percepts(&self, robot: &Robot) -> Vec<Percept> {
+        let mut out: Vec<Percept> = self.zone_names.iter().map(|n| Percept::Place(n.clone())).collect();
+        out.push(Percept::OwnName(robot.name.clone()));
+        out.push(Percept::Bot(robot.id.0));
+        out.push(Percept::Sequence(self.sequence.clone()));
+        out
+    }
+
     fn percepts(&mut self, id: RobotId, full: bool) -> Option<PerceptDelta> {
         let mut now = std::mem::take(&mut self.facts_scratch);
         now.clear();
@@ -682,10 +700,7 @@ impl Match {
         let mut robot = self.robots[id.0 as usize].take()?;
         let mut delta = PerceptDelta { tick: self.tick, full, ..PerceptDelta::default() };
         if full || !robot.introduced {
-            delta.add.extend(self.zone_names.iter().map(|n| Percept::Place(n.clone())));
-            delta.add.push(Percept::OwnName(robot.name.clone()));
-            delta.add.push(Percept::Bot(id.0));
-            delta.add.push(Percept::Sequence(self.sequence.clone()));
+            delta.add = self.once_percepts(&robot);
             robot.introduced = true;
         }
         if full {

@@ -11,6 +11,7 @@ mod game;
 mod nav;
 mod percept;
 mod physics;
+mod random_play;
 mod stats;
 
 pub use action::{Accepted, Action, OrderEnd, OrderId, OrderOutcome, Receiver, Rejection, RobotId};
@@ -19,3 +20,4 @@ pub use digest::Digest;
 pub use game::{BlockPlace, JoinError, MAX_NAME_LEN, Match, MatchError, REACH, RobotView, StepReport};
 pub use percept::{Beliefs, BlockId, MoveState, Percept, PerceptDelta, SendType};
 pub use physics::ROBOT_HALF;
+pub use random_play::RandomPlay;

@@ -1,0 +1,16 @@
+//! The integration tests, in one binary.
+
+/// Shared helpers: loading maps, and the scenario runner the rule tests are written in.
+mod util;
+
+/// Every rule of the simulation, as scenario scripts on the fixed-content map.
+mod sim_rules;
+
+/// Properties over random play: deltas rebuild snapshots, determinism, a pinned digest.
+mod sim_properties;
+
+/// Maps and their seeded random content.
+mod maps;
+
+/// The `bw4t` binary, run as a child process.
+mod cli;

@@ -1,0 +1,378 @@
+use bw4t_map::Map;
+use bw4t_sim::{JoinError, Match, MatchConfig};
+
+use crate::util::{check, check_fixed};
+
+#[test]
+fn first_percepts_follow_the_spec() {
+    check_fixed(
+        &["Bot1", "Bot2"],
+        "
+        Bot1 sees at(FrontDropZone) state(arrived) sequenceIndex(0) ownName(Bot1) bot(0)
+        Bot1 sees place(RoomA1) place(FrontA1) place(DropZone) place(FrontDropZone)
+        Bot1 sees sequence([Yellow,Red,Blue,Green,White,Orange]) player(Bot2)
+        Bot1 lacks player(Bot1) in(FrontDropZone)
+        Bot2 sees player(Bot1) ownName(Bot2)
+        ",
+    );
+}
+
+/// BW4T-FACTS section 6, scenario 1: movement and a closed door.
+#[test]
+fn a_second_robot_collides_at_an_occupied_room() {
+    check_fixed(
+        &["Bot1", "Bot2"],
+        "
+        Bot1 goTo RoomC1
+        Bot1 ok
+        run 1
+        Bot1 sees state(traveling)
+        run until Bot1 in(RoomC1)
+        Bot2 sees occupied(RoomC1)
+        Bot2 lacks in(RoomC1)
+        Bot2 goTo RoomC1
+        run until Bot2 state(collided)
+        Bot2 sees at(FrontC1)
+        Bot2 lacks in(RoomC1)
+        Bot2 ended collided
+        run until Bot1 state(arrived)
+        Bot1 ended arrived
+        Bot1 sees at(RoomC1) in(RoomC1) occupied(RoomC1)
+        # Leaving is always possible, and frees the room for the robot that waited.
+        Bot1 goTo FrontC2
+        run until Bot1 at(FrontC2)
+        Bot2 lacks occupied(RoomC1)
+        Bot2 goTo RoomC1
+        run until Bot2 state(arrived)
+        Bot2 sees in(RoomC1)
+        Bot2 ended arrived
+        ",
+    );
+}
+
+/// BW4T-FACTS section 6, scenario 2: fetch a yellow block and deliver it.
+#[test]
+fn a_delivered_block_of_the_needed_colour_advances_the_sequence() {
+    let s = check_fixed(
+        &["Bot1"],
+        "
+        Bot1 lacks color(1,Red)
+        Bot1 goTo RoomC1
+        run until Bot1 state(arrived)
+        Bot1 sees in(RoomC1)
+        Bot1 goToBlock Yellow
+        Bot1 ok
+        run until Bot1 state(arrived)
+        Bot1 pickUp
+        Bot1 ok
+        run 1
+        Bot1 goTo DropZone
+        run until Bot1 in(DropZone)
+        Bot1 putDown
+        Bot1 ok
+        run 1
+        Bot1 sees sequenceIndex(1)
+        match sequenceIndex 1
+        match drops 1 0
+        match blocks 16
+        ",
+    );
+    assert_eq!(s.game.stats().sequence_index, 1);
+}
+
+#[test]
+fn blocks_are_seen_only_from_inside_their_room() {
+    let s = check_fixed(
+        &["Bot1"],
+        "
+        Bot1 goTo RoomC1
+        run until Bot1 in(RoomC1)
+        run 1
+        ",
+    );
+    let colours: Vec<String> = s.facts("Bot1").into_iter().filter(|f| f.starts_with("color(")).collect();
+    assert_eq!(colours.len(), 3, "{colours:?}");
+    assert!(["Yellow", "Blue", "Red"].iter().all(|c| colours.iter().any(|f| f.ends_with(&format!(",{c})")))));
+    let mut s = s;
+    s.line("Bot1 goTo FrontC1");
+    s.line("run until Bot1 at(FrontC1)");
+    assert!(s.facts("Bot1").iter().all(|f| !f.starts_with("color(") && !f.starts_with("block(")));
+}
+
+#[test]
+fn holding_and_atblock_come_and_go_with_negation() {
+    check_fixed(
+        &["Bot1"],
+        "
+        Bot1 goTo RoomC1
+        run until Bot1 in(RoomC1)
+        Bot1 goToBlock Red
+        run until Bot1 state(arrived)
+        Bot1 pickUp
+        Bot1 ok
+        run 1
+        Bot1 lacks color(13,Red) block(13)
+        Bot1 pickUp
+        Bot1 rejected already_holding
+        # Put back in a room, the block lies near the robot, visible and within reach.
+        Bot1 putDown
+        Bot1 ok
+        run 1
+        Bot1 lacks holding(13)
+        Bot1 sees color(13,Red) atBlock(13) block(13)
+        Bot1 pickUp 13
+        Bot1 ok
+        run 1
+        Bot1 sees holding(13)
+        Bot1 lacks atBlock(13)
+        ",
+    );
+}
+
+#[test]
+fn a_block_put_down_in_a_hall_leaves_the_world() {
+    check_fixed(
+        &["Bot1"],
+        "
+        Bot1 goTo RoomA2
+        run until Bot1 in(RoomA2)
+        Bot1 goToBlock Green
+        run until Bot1 state(arrived)
+        Bot1 pickUp
+        Bot1 goTo FrontA2
+        run until Bot1 state(arrived)
+        Bot1 putDown
+        Bot1 ok
+        match blocks 16
+        Bot1 goTo RoomA2
+        run until Bot1 state(arrived)
+        Bot1 lacks color(3,Green)
+        ",
+    );
+}
+
+#[test]
+fn a_wrong_colour_in_the_drop_zone_is_consumed_and_counted() {
+    check_fixed(
+        &["Bot1"],
+        "
+        Bot1 goTo RoomA2
+        run until Bot1 in(RoomA2)
+        Bot1 goToBlock Green
+        run until Bot1 state(arrived)
+        Bot1 pickUp
+        Bot1 goTo DropZone
+        run until Bot1 state(arrived)
+        Bot1 putDown
+        Bot1 ok
+        run 1
+        match sequenceIndex 0
+        match drops 0 1
+        match blocks 16
+        Bot1 sees sequenceIndex(0)
+        ",
+    );
+}
+
+/// BW4T-FACTS section 6, scenario 3: messages to one player and to all.
+#[test]
+fn messages_arrive_once_and_all_skips_the_sender() {
+    check_fixed(
+        &["Bot1", "Bot2", "Bot3"],
+        "
+        Bot1 say Bot2 hello
+        Bot1 ok
+        Bot1 say all hi
+        Bot3 say Bot1 yes
+        run 1
+        Bot2 heard message(Bot1,hello) message(Bot1,hi)
+        Bot3 heard message(Bot1,hi)
+        Bot1 heard message(Bot3,yes)
+        run 3
+        Bot2 heard message(Bot1,hello) message(Bot1,hi)
+        Bot1 say Nobody hi
+        Bot1 rejected unknown_receiver
+        Bot1 say Bot1 myself
+        Bot1 rejected unknown_receiver
+        ",
+    );
+}
+
+#[test]
+fn bad_actions_are_rejected_with_a_reason() {
+    check_fixed(
+        &["Bot1"],
+        "
+        Bot1 goTo Nowhere
+        Bot1 rejected unknown_place
+        Bot1 goToBlock 999
+        Bot1 rejected unknown_block
+        Bot1 goToBlock 0
+        Bot1 rejected unknown_block
+        Bot1 goToBlock 1
+        Bot1 rejected block_not_visible
+        Bot1 pickUp
+        Bot1 rejected not_at_block
+        Bot1 pickUp 1
+        Bot1 rejected block_not_visible
+        Bot1 putDown
+        Bot1 rejected not_holding
+        Bot1 sees state(arrived) at(FrontDropZone)
+        ",
+    );
+}
+
+#[test]
+fn a_new_order_supersedes_the_old_one() {
+    check_fixed(
+        &["Bot1"],
+        "
+        Bot1 goTo RoomA1
+        run 5
+        Bot1 goTo RoomC3
+        run 1
+        Bot1 ended superseded
+        run until Bot1 state(arrived)
+        Bot1 ended arrived
+        Bot1 sees in(RoomC3)
+        ",
+    );
+}
+
+#[test]
+fn players_leave_and_others_are_told() {
+    check_fixed(
+        &["Bot1", "Bot2"],
+        "
+        Bot2 goTo RoomB2
+        run until Bot2 in(RoomB2)
+        Bot1 sees occupied(RoomB2) player(Bot2)
+        Bot2 leaves
+        run 1
+        Bot1 lacks occupied(RoomB2) player(Bot2)
+        ",
+    );
+}
+
+/// A room with its door on top and two spawn points symmetric about it, so two robots
+/// reach the door in the same tick.
+const TWIN_MAP: &str = r#"
+    name = "twin"
+    area = [30, 30]
+    [[spawn]]
+    name = "Left"
+    at = [11, 5]
+    [[spawn]]
+    name = "Right"
+    at = [19, 5]
+    [[zone]]
+    name = "Hall"
+    type = "corridor"
+    centre = [15, 5]
+    size = [30, 10]
+    neighbours = ["DropZone", "RoomA"]
+    [[zone]]
+    name = "DropZone"
+    type = "room"
+    centre = [25, 15]
+    size = [10, 10]
+    doors = [[25, 10]]
+    [[zone]]
+    name = "RoomA"
+    type = "room"
+    centre = [15, 15]
+    size = [10, 10]
+    doors = [[15, 10]]
+"#;
+
+#[test]
+fn when_two_robots_reach_a_free_room_in_one_tick_the_lower_id_wins() {
+    let map = Map::from_native(TWIN_MAP).expect("twin map");
+    let s = check(
+        &map,
+        &MatchConfig::default(),
+        1,
+        &["Ann", "Bob"],
+        "
+        Ann goTo RoomA
+        Bob goTo RoomA
+        run until Bob state(collided)
+        run until Ann state(arrived)
+        Ann sees in(RoomA)
+        Bob lacks in(RoomA)
+        Bob sees occupied(RoomA) at(Hall)
+        ",
+    );
+    // Both walked the same path; only the door decided between them.
+    assert_eq!(s.game.robot_stats(bw4t_sim::RobotId(1)).map(|r| r.rooms_entered), Some(0));
+}
+
+#[test]
+fn robots_pass_through_each_other_unless_collisions_are_on() {
+    let map = Map::from_native(&TWIN_MAP.replace("[11, 5]", "[3, 5]").replace("[19, 5]", "[27, 5]"))
+        .expect("twin map");
+    let script = "
+        Ann goTo Hall
+        Bob goTo Hall
+        run 2
+        Ann sees state(traveling)
+        Bob sees state(traveling)
+    ";
+    // Both head for the hall's centre from opposite ends.
+    let apart = check(&map, &MatchConfig::default(), 1, &["Ann", "Bob"], script);
+    let mut apart = apart;
+    apart.line("run until Bob state(arrived)");
+    apart.line("Ann sees state(arrived)");
+    let config = MatchConfig { robot_collisions: true, ..MatchConfig::default() };
+    let mut blocked = check(&map, &config, 1, &["Ann", "Bob"], script);
+    blocked.line("run until Bob state(collided)");
+    blocked.line("Bob ended collided");
+    let xs: Vec<f32> = blocked.game.robots().map(|r| r.pos.x).collect();
+    assert!(xs[1] - xs[0] >= 2.0 - 1e-3, "robots overlap: {xs:?}");
+}
+
+#[test]
+fn joining_checks_names_and_spawn_points() {
+    let map = Map::from_native(TWIN_MAP).expect("twin map");
+    let mut game = Match::new(&map, &MatchConfig::default(), 1).expect("match");
+    for bad in ["", "1abc", "a b", "ünï", "x-y"] {
+        assert_eq!(game.join(bad), Err(JoinError::InvalidName(bad.to_string())));
+    }
+    let ann = game.join("Ann").expect("first");
+    assert_eq!(game.join("Ann"), Err(JoinError::NameTaken("Ann".into())));
+    game.join("Bob2").expect("second");
+    assert_eq!(game.join("Cat"), Err(JoinError::Full(2)));
+    // A robot that leaves frees its spawn point and its name.
+    game.leave(ann).expect("leave");
+    let again = game.join("Ann").expect("rejoin");
+    assert_ne!(again, ann, "ids are never reused");
+    assert_eq!(game.robots().find(|r| r.id == again).map(|r| r.pos.x), Some(11.0));
+}
+
+#[test]
+fn statistics_count_what_robots_do() {
+    let s = check_fixed(
+        &["Bot1", "Bot2"],
+        "
+        Bot1 goTo RoomC1
+        Bot2 say Bot1 hi
+        run until Bot1 state(arrived)
+        Bot1 goToBlock Yellow
+        run until Bot1 state(arrived)
+        Bot1 pickUp
+        Bot1 goTo DropZone
+        run until Bot1 state(arrived)
+        Bot1 putDown
+        run 1
+        ",
+    );
+    let ticks = s.game.tick();
+    let one = s.game.robot_stats(bw4t_sim::RobotId(0)).expect("Bot1").clone();
+    let two = s.game.robot_stats(bw4t_sim::RobotId(1)).expect("Bot2").clone();
+    assert_eq!((one.good_drops, one.rooms_entered, one.messages_sent), (1, 2, 0));
+    assert_eq!((two.messages_sent, two.idle_ticks), (1, ticks));
+    assert!(one.idle_ticks < 10, "{one:?}");
+    // FrontDropZone to RoomC1 goes round by LeftHallD and LeftHallC: about 60 units each way.
+    assert!(one.distance > 110.0 && one.distance < 150.0, "{one:?}");
+    assert_eq!(s.game.stats().messages, 1);
+}
