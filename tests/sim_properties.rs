@@ -91,9 +91,9 @@ fn each_message_is_delivered_exactly_once() {
             None => Receiver::All,
         };
         game.handle_action(ids[sender], Action::SendMessage { to: receiver, text: text.clone() }).ok();
-        for r in 0..ids.len() {
+        for (r, list) in expected.iter_mut().enumerate() {
             if r != sender && to.is_none_or(|t| t == r) {
-                expected[r].push(format!("P{sender}:{text}"));
+                list.push(format!("P{sender}:{text}"));
             }
         }
         game.step();

@@ -15,18 +15,18 @@ const FORMAT_VERSION: u32 = 1;
 #[derive(Debug, thiserror::Error)]
 pub enum NativeError {
     /// Not TOML, or a field is missing, misspelt or of the wrong type (with line and column).
-    #[error("{0}")]
+    #[error(transparent)]
     Syntax(#[from] toml::de::Error),
     /// A newer format than this program reads.
     #[error("map format version {0} is not supported (this program reads version {FORMAT_VERSION})")]
     Version(u32),
     /// A colour name that is not one of the nine.
-    #[error("{place}: {source}")]
+    #[error("{place}: {colour}")]
     Colour {
         /// Where the colour was found.
         place: String,
         /// The bad name.
-        source: UnknownColour,
+        colour: UnknownColour,
     },
     /// A door given without orientation whose centre does not pick one edge.
     #[error("zone '{zone}': door at ({x}, {y}) needs an explicit orientation (horizontal or vertical)")]
@@ -203,7 +203,7 @@ fn zone_from_file(z: ZoneFile) -> Result<Zone, NativeError> {
 fn colours(names: &[String], place: &str) -> Result<Vec<Colour>, NativeError> {
     names
         .iter()
-        .map(|n| n.parse().map_err(|source| NativeError::Colour { place: place.to_string(), source }))
+        .map(|n| n.parse().map_err(|colour| NativeError::Colour { place: place.to_string(), colour }))
         .collect()
 }
 

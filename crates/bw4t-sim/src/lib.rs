@@ -20,4 +20,4 @@ pub use digest::Digest;
 pub use game::{BlockPlace, JoinError, MAX_NAME_LEN, Match, MatchError, REACH, RobotView, StepReport};
 pub use percept::{Beliefs, BlockId, MoveState, Percept, PerceptDelta, SendType};
 pub use physics::ROBOT_HALF;
-pub use random_play::RandomPlay;
+pub use random_play::{PlayCounts, RandomPlay};

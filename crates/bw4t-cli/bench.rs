@@ -1,0 +1,103 @@
+//! `bw4t bench`: performance figures, one JSON object per line per case.
+
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use bw4t_sim::{Match, MatchConfig, PlayCounts, RandomPlay, RobotId};
+use clap::{Args, ValueEnum};
+use serde_json::json;
+
+/// Options of `bw4t bench`.
+#[derive(Args)]
+pub struct BenchArgs {
+    /// Cases to run (all when none is given).
+    #[arg(value_enum)]
+    cases: Vec<Case>,
+    /// Simulated ticks per `sim` measurement.
+    #[arg(long, default_value_t = 200_000)]
+    ticks: u64,
+    /// Map to play on: a shipped map's name or a file path.
+    #[arg(long, default_value = "default")]
+    map: String,
+    /// Seed for the map's content and the random players.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+}
+
+/// A benchmark case.
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum Case {
+    /// Simulated ticks per second with 3 and with 10 robots kept moving by random orders,
+    /// pick-ups and put-downs, every robot's percepts polled every tick. One thread.
+    Sim,
+}
+
+/// Runs the chosen cases and prints their figures.
+pub fn run(args: &BenchArgs) -> Result<()> {
+    let cases = if args.cases.is_empty() { Case::value_variants().to_vec() } else { args.cases.clone() };
+    for case in cases {
+        match case {
+            Case::Sim => {
+                for robots in [3, 10] {
+                    println!("{}", sim(args, robots)?);
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Ticks per match in the `sim` case: long enough to matter, short enough that the blocks
+/// (which deliveries and drops in halls use up) never run out.
+const SIM_EPISODE: u64 = 5_000;
+
+fn sim(args: &BenchArgs, n_robots: usize) -> Result<serde_json::Value> {
+    let map = crate::maps::load(&args.map)?;
+    let mut totals = PlayCounts::default();
+    let (mut facts, mut good, mut wrong, mut done, mut episode) = (0usize, 0, 0, 0u64, 0u64);
+    let started = Instant::now();
+    while done < args.ticks {
+        let seed = args.seed.wrapping_add(episode);
+        let mut game = Match::new(&map, &MatchConfig::default(), seed).context("cannot create the match")?;
+        let robots: Vec<RobotId> = (0..n_robots)
+            .map(|i| game.join(&format!("Bot{}", i + 1)))
+            .collect::<Result<_, _>>()
+            .context("the map has too few spawn points")?;
+        let mut play = RandomPlay::new(seed);
+        let ticks = SIM_EPISODE.min(args.ticks - done);
+        for _ in 0..ticks {
+            play.act(&mut game);
+            game.step();
+            for &r in &robots {
+                if let Some(delta) = game.poll_percepts(r) {
+                    facts += delta.add.len() + delta.not.len();
+                }
+            }
+        }
+        let counts = play.accepted();
+        totals.moves += counts.moves;
+        totals.pick_ups += counts.pick_ups;
+        totals.put_downs += counts.put_downs;
+        totals.messages += counts.messages;
+        good += game.stats().good_drops;
+        wrong += game.stats().wrong_drops;
+        done += ticks;
+        episode += 1;
+    }
+    let seconds = started.elapsed().as_secs_f64();
+    Ok(json!({
+        "case": "sim",
+        "map": map.name(),
+        "robots": n_robots,
+        "ticks": args.ticks,
+        "ticks_per_s": (args.ticks as f64 / seconds).round(),
+        "matches": episode,
+        "moves": totals.moves,
+        "pick_ups": totals.pick_ups,
+        "put_downs": totals.put_downs,
+        "messages": totals.messages,
+        "percepts": facts,
+        "good_drops": good,
+        "wrong_drops": wrong,
+    }))
+}

@@ -1,0 +1,23 @@
+//! Finding maps: a name of a map shipped in `maps/` (built into the binary) or a file path.
+
+use anyhow::{Context, Result, bail};
+use bw4t_map::Map;
+
+/// The maps shipped in `maps/`, by name, as built into the binary.
+pub const BUILTIN: &[(&str, &str)] =
+    &[("default", include_str!("../../maps/default.toml")), ("fixed", include_str!("../../maps/fixed.toml"))];
+
+/// Loads `spec`: a path to a map file if one exists there, else the name of a shipped map.
+pub fn load(spec: &str) -> Result<Map> {
+    let path = std::path::Path::new(spec);
+    let (text, origin) = if path.is_file() {
+        let text = std::fs::read_to_string(path).with_context(|| format!("cannot read map file '{spec}'"))?;
+        (text, spec.to_string())
+    } else if let Some((_, text)) = BUILTIN.iter().find(|(name, _)| *name == spec) {
+        (text.to_string(), format!("built-in map '{spec}'"))
+    } else {
+        let names: Vec<&str> = BUILTIN.iter().map(|(n, _)| *n).collect();
+        bail!("no map file '{spec}' and no built-in map of that name (built-in: {})", names.join(", "));
+    };
+    Map::from_native(&text).with_context(|| format!("{origin} is not a valid map"))
+}
