@@ -115,15 +115,14 @@ impl Physics {
     pub fn add_robot(&mut self, id: u32, pos: Vec2) -> RobotBody {
         let body = self.world.insert_body(RigidBodyBuilder::kinematic_position_based().translation(pos));
         let collider = ColliderBuilder::new(self.robot_shape.clone()).user_data(Tag::Robot(id).encode());
+        // The broad phase learns of it at the next step, as of any other change.
         self.world.insert_collider(collider, Some(body));
-        self.world.detect_collisions(&(), &());
         RobotBody { body }
     }
 
     /// Removes a robot's body.
     pub fn remove_robot(&mut self, robot: RobotBody) {
         self.world.remove_body_with_colliders(robot.body, true);
-        self.world.detect_collisions(&(), &());
     }
 
     /// Moves a robot from `pos` by up to `desired`, stopped by walls, by the guards for
