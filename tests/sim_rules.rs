@@ -376,3 +376,81 @@ fn statistics_count_what_robots_do() {
     assert!(one.distance > 110.0 && one.distance < 150.0, "{one:?}");
     assert_eq!(s.game.stats().messages, 1);
 }
+
+#[test]
+fn a_block_put_down_in_a_room_lands_near_the_robot_and_on_no_other_block() {
+    let s = check_fixed(
+        &["Bot1"],
+        "
+        Bot1 goTo RoomC1
+        run until Bot1 in(RoomC1)
+        Bot1 goToBlock 11
+        run until Bot1 state(arrived)
+        Bot1 pickUp
+        Bot1 ok
+        Bot1 goToBlock 12
+        run until Bot1 state(arrived)
+        Bot1 putDown
+        Bot1 ok
+        ",
+    );
+    let pos = |id: u32| match s.game.blocks().find(|b| b.0 == id).map(|b| b.2) {
+        Some(bw4t_sim::BlockPlace::Room { pos, .. }) => pos,
+        other => panic!("block {id} is {other:?}"),
+    };
+    let robot = s.game.robots().next().expect("robot").pos;
+    let (put, other) = (pos(11), pos(12));
+    assert!((put - other).abs().max_element() >= 1.0, "{put} overlaps {other}");
+    assert!(put.distance(robot) <= 1.5, "{put} is not near the robot at {robot}");
+    let room = &s.game.map().zones()[s.game.map().zone_named("RoomC1").expect("room")].rect;
+    assert!(room.shrunk(0.5).contains(put));
+}
+
+#[test]
+fn speed_and_tick_rate_are_configurable() {
+    let ticks_to_room = |speed: f32| {
+        let config = MatchConfig { speed, ticks_per_second: 10, ..MatchConfig::default() };
+        let s = check(
+            &crate::util::shipped_map("fixed"),
+            &config,
+            1,
+            &["Bot1"],
+            "
+            Bot1 goTo RoomC1
+            run until Bot1 state(arrived)
+        ",
+        );
+        s.game.tick()
+    };
+    let (slow, fast) = (ticks_to_room(0.5), ticks_to_room(1.0));
+    assert!(fast * 2 >= slow - 2 && fast * 2 <= slow + 2, "0.5/tick took {slow} ticks, 1.0/tick {fast}");
+    let config = MatchConfig { ticks_per_second: 10, ..MatchConfig::default() };
+    assert_eq!(config.seconds(25), 2.5);
+    for bad in
+        [MatchConfig { speed: 0.0, ..config.clone() }, MatchConfig { ticks_per_second: 0, ..config.clone() }]
+    {
+        let map = crate::util::shipped_map("fixed");
+        assert!(Match::new(&map, &bad, 1).is_err());
+    }
+}
+
+#[test]
+fn places_no_robot_can_reach_are_rejected() {
+    let text = TWIN_MAP.replace(
+        "neighbours = [\"DropZone\", \"RoomA\"]",
+        "neighbours = [\"DropZone\", \"RoomA\", \"Wall\"]\n[[zone]]\nname = \"Wall\"\ntype = \"blockade\"\ncentre = [5, 15]\nsize = [10, 10]",
+    );
+    let map = Map::from_native(&text).expect("map with a blockade");
+    check(
+        &map,
+        &MatchConfig::default(),
+        1,
+        &["Ann"],
+        "
+        Ann goTo Wall
+        Ann rejected unreachable
+        Ann goTo RoomA
+        Ann ok
+    ",
+    );
+}
