@@ -241,7 +241,7 @@ fn a_new_order_supersedes_the_old_one() {
 
 #[test]
 fn players_leave_and_others_are_told() {
-    check_fixed(
+    let s = check_fixed(
         &["Bot1", "Bot2"],
         "
         Bot2 goTo RoomB2
@@ -252,6 +252,13 @@ fn players_leave_and_others_are_told() {
         Bot1 lacks occupied(RoomB2) player(Bot2)
         ",
     );
+    // Statistics of a robot that left stay in the match's record.
+    let all: Vec<_> = s
+        .game
+        .all_robot_stats()
+        .map(|(_, name, stats, present)| (name.to_string(), stats.rooms_entered, present))
+        .collect();
+    assert_eq!(all, [("Bot1".to_string(), 0, true), ("Bot2".to_string(), 1, false)]);
 }
 
 /// A room with its door on top and two spawn points symmetric about it, so two robots

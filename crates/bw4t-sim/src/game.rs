@@ -140,6 +140,8 @@ pub struct Match {
     robots: Vec<Option<Robot>>,
     /// By robot id, kept after a robot leaves so its departure can still be named.
     player_names: Vec<Arc<str>>,
+    /// Statistics of robots that have left, by robot id.
+    departed: Vec<(RobotId, RobotStats)>,
     next_order: u64,
     stats: MatchStats,
     ended: Vec<OrderEnd>,
@@ -173,6 +175,7 @@ impl Match {
             occupant: vec![None; map.zones().len()],
             robots: Vec::new(),
             player_names: Vec::new(),
+            departed: Vec::new(),
             next_order: 0,
             stats: MatchStats::default(),
             ended: Vec::new(),
@@ -240,6 +243,7 @@ impl Match {
                 self.vacate(room, id);
             }
             self.physics.remove_robot(robot.body);
+            self.departed.push((id, robot.stats));
         }
         Ok(())
     }
@@ -375,9 +379,23 @@ impl Match {
         &self.stats
     }
 
-    /// One robot's statistics.
+    /// One robot's statistics (also after it has left).
     pub fn robot_stats(&self, id: RobotId) -> Option<&RobotStats> {
-        self.robot(id).map(|r| &r.stats)
+        self.robot(id).map(|r| &r.stats).or_else(|| self.departed.iter().find(|d| d.0 == id).map(|d| &d.1))
+    }
+
+    /// Every robot that ever joined, by id: its name, statistics and whether it is still in.
+    pub fn all_robot_stats(&self) -> impl Iterator<Item = (RobotId, &str, &RobotStats, bool)> + '_ {
+        self.player_names.iter().enumerate().filter_map(|(i, name)| {
+            let id = RobotId(i as u32);
+            let present = self.robot(id).is_some();
+            self.robot_stats(id).map(|stats| (id, &**name, stats, present))
+        })
+    }
+
+    /// Simulated seconds until the sequence was completed, if it was.
+    pub fn completion_seconds(&self) -> Option<f64> {
+        self.stats.completed_at.map(|t| self.config.seconds(t))
     }
 
     /// Every robot in the match, by id.
