@@ -1,0 +1,162 @@
+//! Between simulation types and wire shapes: percepts as JSON facts, `act` as an action.
+
+use std::sync::Arc;
+
+use bw4t_map::Colour;
+use bw4t_sim::{Action, MoveState, Percept, Receiver};
+use serde_json::{Value, json};
+
+use crate::codec::DecodeError;
+use crate::messages::Fact;
+
+/// A percept as a fact array, e.g. `["color",12,"Red"]`.
+pub fn percept_to_fact(p: &Percept) -> Fact {
+    let name = Value::from(p.name());
+    let args: Vec<Value> = match p {
+        Percept::Place(s) | Percept::Player(s) | Percept::OwnName(s) | Percept::At(s) => vec![json!(&**s)],
+        Percept::In(s) | Percept::Occupied(s) => vec![json!(&**s)],
+        Percept::Bot(n) | Percept::SequenceIndex(n) => vec![json!(n)],
+        Percept::AtBlock(b) | Percept::Holding(b) | Percept::Block(b) => vec![json!(b)],
+        Percept::Sequence(colours) => vec![Value::from(colours.iter().map(|c| c.name()).collect::<Vec<_>>())],
+        Percept::State(s) => vec![json!(s.name())],
+        Percept::Color(b, c) => vec![json!(b), json!(c.name())],
+        Percept::Message { from, text } => vec![json!(&**from), json!(&**text)],
+    };
+    std::iter::once(name).chain(args).collect()
+}
+
+/// A fact that is not a percept of this protocol version.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("not a percept: {0}")]
+pub struct FactError(pub String);
+
+/// Reads a fact array back into a percept.
+pub fn fact_to_percept(fact: &[Value]) -> Result<Percept, FactError> {
+    let bad = || FactError(Value::from(fact.to_vec()).to_string());
+    let text = |i: usize| fact.get(i).and_then(Value::as_str).map(Arc::<str>::from).ok_or_else(bad);
+    let number =
+        |i: usize| fact.get(i).and_then(Value::as_u64).and_then(|n| u32::try_from(n).ok()).ok_or_else(bad);
+    let colour = |v: &Value| v.as_str().and_then(|s| s.parse::<Colour>().ok()).ok_or_else(bad);
+    let name = fact.first().and_then(Value::as_str).ok_or_else(bad)?;
+    let arity = match name {
+        "color" | "message" => 3,
+        _ => 2,
+    };
+    if fact.len() != arity {
+        return Err(bad());
+    }
+    Ok(match name {
+        "place" => Percept::Place(text(1)?),
+        "player" => Percept::Player(text(1)?),
+        "ownName" => Percept::OwnName(text(1)?),
+        "bot" => Percept::Bot(number(1)?),
+        "sequence" => {
+            let list = fact[1].as_array().ok_or_else(bad)?;
+            Percept::Sequence(list.iter().map(colour).collect::<Result<Vec<_>, _>>()?.into())
+        }
+        "at" => Percept::At(text(1)?),
+        "sequenceIndex" => Percept::SequenceIndex(number(1)?),
+        "state" => Percept::State(match fact[1].as_str() {
+            Some("arrived") => MoveState::Arrived,
+            Some("traveling") => MoveState::Traveling,
+            Some("collided") => MoveState::Collided,
+            _ => return Err(bad()),
+        }),
+        "in" => Percept::In(text(1)?),
+        "atBlock" => Percept::AtBlock(number(1)?),
+        "occupied" => Percept::Occupied(text(1)?),
+        "color" => Percept::Color(number(1)?, colour(&fact[2])?),
+        "holding" => Percept::Holding(number(1)?),
+        "block" => Percept::Block(number(1)?),
+        "message" => Percept::Message { from: text(1)?, text: text(2)? },
+        _ => return Err(bad()),
+    })
+}
+
+/// The action an `act` asks for; errors carry `unknown_action` or `bad_args`.
+pub fn action_from_act(action: &str, args: &[Value]) -> Result<Action, DecodeError> {
+    let usage = |shape: &str| DecodeError {
+        code: "bad_args",
+        message: format!("{action} takes {shape}, got {}", Value::from(args.to_vec())),
+    };
+    let block = |v: &Value| v.as_u64().and_then(|n| u32::try_from(n).ok());
+    match (action, args) {
+        ("goTo", [Value::String(place)]) => Ok(Action::GoTo(place.clone())),
+        ("goTo", _) => Err(usage("[place name]")),
+        ("goToBlock", [id]) => block(id).map(Action::GoToBlock).ok_or_else(|| usage("[block id]")),
+        ("goToBlock", _) => Err(usage("[block id]")),
+        ("pickUp", []) => Ok(Action::PickUp(None)),
+        ("pickUp", [id]) => {
+            block(id).map(|b| Action::PickUp(Some(b))).ok_or_else(|| usage("[] or [block id]"))
+        }
+        ("pickUp", _) => Err(usage("[] or [block id]")),
+        ("putDown", []) => Ok(Action::PutDown),
+        ("putDown", _) => Err(usage("no arguments")),
+        ("sendMessage", [Value::String(to), Value::String(text)]) => {
+            Ok(Action::SendMessage { to: receiver(to), text: text.clone() })
+        }
+        ("sendMessage", _) => Err(usage("[receiver, text]")),
+        _ => Err(DecodeError {
+            code: "unknown_action",
+            message: format!("unknown action '{action}' (goTo, goToBlock, pickUp, putDown, sendMessage)"),
+        }),
+    }
+}
+
+/// `all` or a player's name.
+pub fn receiver(to: &str) -> Receiver {
+    if to == "all" { Receiver::All } else { Receiver::Player(to.to_string()) }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_percept_round_trips_through_its_fact() {
+        let name = |s: &str| Arc::<str>::from(s);
+        let all = [
+            Percept::Place(name("RoomA1")),
+            Percept::Player(name("Bob")),
+            Percept::OwnName(name("Ann")),
+            Percept::Bot(3),
+            Percept::Sequence(vec![Colour::Red, Colour::Blue].into()),
+            Percept::At(name("FrontA1")),
+            Percept::SequenceIndex(2),
+            Percept::State(MoveState::Collided),
+            Percept::In(name("RoomC1")),
+            Percept::AtBlock(4),
+            Percept::Occupied(name("DropZone")),
+            Percept::Color(12, Colour::Red),
+            Percept::Holding(4),
+            Percept::Block(12),
+            Percept::Message { from: name("Bob"), text: name("hi there") },
+        ];
+        for p in all {
+            let fact = percept_to_fact(&p);
+            assert_eq!(fact_to_percept(&fact), Ok(p));
+        }
+        assert_eq!(
+            percept_to_fact(&Percept::Color(12, Colour::Red)),
+            vec![json!("color"), json!(12), json!("Red")]
+        );
+        assert!(fact_to_percept(&[json!("color"), json!(1)]).is_err());
+        assert!(fact_to_percept(&[json!("fly")]).is_err());
+    }
+
+    #[test]
+    fn acts_become_actions_or_say_what_is_wrong() {
+        let code = |a: &str, args: Value| {
+            action_from_act(a, args.as_array().expect("array")).map(|_| ()).map_err(|e| e.code)
+        };
+        assert_eq!(action_from_act("goTo", &[json!("RoomA1")]), Ok(Action::GoTo("RoomA1".into())));
+        assert_eq!(action_from_act("pickUp", &[json!(3)]), Ok(Action::PickUp(Some(3))));
+        assert_eq!(code("goTo", json!([])), Err("bad_args"));
+        assert_eq!(code("goToBlock", json!(["x"])), Err("bad_args"));
+        assert_eq!(code("goToBlock", json!([-1])), Err("bad_args"));
+        assert_eq!(code("putDown", json!([1])), Err("bad_args"));
+        assert_eq!(code("sendMessage", json!(["all"])), Err("bad_args"));
+        assert_eq!(code("fly", json!([])), Err("unknown_action"));
+        assert_eq!(code("sendMessage", json!(["all", "hi"])), Ok(()));
+    }
+}

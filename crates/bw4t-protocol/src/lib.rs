@@ -1,0 +1,19 @@
+//! The BW4T wire protocol, version 1: one JSON object per line, named by its `type` field.
+//!
+//! The only crate that knows the JSON shapes. `protocol/PROTOCOL.md` is the specification;
+//! `protocol/schema/` holds a JSON Schema per message, generated from these types.
+
+mod codec;
+mod convert;
+mod messages;
+mod result;
+
+pub use codec::{DecodeError, LineBuffer, MAX_LINE, decode_client, decode_server, encode};
+pub use convert::{FactError, action_from_act, fact_to_percept, percept_to_fact};
+pub use messages::*;
+pub use result::{MatchResult, RobotResult};
+
+/// The protocol's name, as sent in `hello`.
+pub const PROTOCOL: &str = "bw4t";
+/// The protocol version this build speaks.
+pub const VERSION: u32 = 1;

@@ -1,0 +1,357 @@
+//! Every message of the protocol, as Rust types that serialise to the wire shapes.
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+
+use crate::result::MatchResult;
+
+/// An id chosen by the client for an `act`, echoed in its `ack` and `result`.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(untagged)]
+pub enum ActId {
+    /// A number.
+    Number(u64),
+    /// A string.
+    Text(String),
+}
+
+/// A fact: a JSON array `[name, arg, ...]`, e.g. `["in","RoomC1"]` or `["color",12,"Red"]`.
+pub type Fact = Vec<Value>;
+
+/// A message from a client.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum ClientMessage {
+    /// The first message: who the client is and what it speaks.
+    Hello(Hello),
+    /// An action for the client's robot.
+    Act(Act),
+    /// A message to another player or to all.
+    Say(Say),
+    /// Lockstep: the client is done with this tick.
+    Ready(Ready),
+    /// Asks for a full snapshot of the client's percepts.
+    Resync(Resync),
+    /// Asks for a `pong`.
+    Ping(Ping),
+    /// The client leaves.
+    Bye(ClientBye),
+}
+
+/// Whether a client plays or watches.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Role {
+    /// Drives a robot.
+    #[default]
+    Agent,
+    /// Watches the whole match; cannot act.
+    Spectator,
+}
+
+/// `hello`: the client's introduction.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct Hello {
+    /// Must be `bw4t`.
+    pub protocol: String,
+    /// Protocol versions the client speaks; the server picks the highest it shares.
+    pub versions: Vec<u32>,
+    /// `agent` (default) or `spectator`.
+    #[serde(default)]
+    pub role: Role,
+    /// The player name wanted (agents): letters and digits, starting with a letter.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+    /// The match's shared secret, when the server requires one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub token: Option<String>,
+    /// A session token from an earlier `welcome`, to take the robot back after a drop.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub session: Option<String>,
+    /// Send a `percepts` message every tick, even an empty one (lockstep waits for each).
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub every_tick: bool,
+}
+
+/// `act`: one action.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct Act {
+    /// Echoed in the `ack` and the `result`.
+    pub id: ActId,
+    /// `goTo`, `goToBlock`, `pickUp`, `putDown` or `sendMessage`.
+    pub action: String,
+    /// The action's arguments, in the spec's order.
+    #[serde(default)]
+    pub args: Vec<Value>,
+}
+
+/// `say`: a message, delivered to the receiver as `["message", sender, text]`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct Say {
+    /// Optional id, echoed in the `ack`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub id: Option<ActId>,
+    /// A player's name, or `all` for every other player.
+    pub to: String,
+    /// The text.
+    pub text: String,
+}
+
+/// `ready`: the client has sent everything it wants applied after `tick`.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+pub struct Ready {
+    /// The tick of the `percepts` being answered.
+    pub tick: u64,
+}
+
+/// `resync`: no fields.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+pub struct Resync {}
+
+/// `ping`.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+pub struct Ping {
+    /// Optional id, echoed in the `pong`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub id: Option<ActId>,
+}
+
+/// `bye` from a client.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+pub struct ClientBye {}
+
+/// A message from the server.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum ServerMessage {
+    /// The answer to a successful `hello`.
+    Welcome(Welcome),
+    /// What the robot perceives: a delta, or a full snapshot.
+    Percepts(Percepts),
+    /// An action accepted or rejected.
+    Ack(Ack),
+    /// How a durative action (`goTo`, `goToBlock`) ended.
+    Result(ActResult),
+    /// Something was wrong with what the client sent.
+    Error(ErrorMessage),
+    /// The answer to `ping`.
+    Pong(Pong),
+    /// The match is over.
+    MatchEnd(MatchEnd),
+    /// The server closes the connection.
+    Bye(ServerBye),
+    /// Spectators: the whole state of the match.
+    Frame(Frame),
+}
+
+/// `welcome`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct Welcome {
+    /// The protocol version chosen.
+    pub version: u32,
+    /// The player's name (agents).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+    /// The robot's id (agents).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub robot: Option<u32>,
+    /// Present this in a later `hello` to take the robot back after a dropped connection.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub session: Option<String>,
+    /// About the match.
+    #[serde(rename = "match")]
+    pub match_info: MatchInfo,
+}
+
+/// How a match is paced.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Mode {
+    /// Ticks follow the wall clock.
+    Realtime,
+    /// Each tick waits for the players (or a deadline).
+    Lockstep,
+}
+
+impl Mode {
+    /// The wire name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Mode::Realtime => "realtime",
+            Mode::Lockstep => "lockstep",
+        }
+    }
+}
+
+/// The match a client joined.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct MatchInfo {
+    /// The map's name.
+    pub map: String,
+    /// The match seed.
+    pub seed: u64,
+    /// `realtime` or `lockstep`.
+    pub mode: Mode,
+    /// Simulated ticks per simulated second.
+    pub tick_hz: u32,
+    /// Lockstep: how long the server waits for `ready` (0: forever).
+    pub deadline_ms: u64,
+    /// How many players the match waits for before the first tick.
+    pub robots: usize,
+    /// The last tick, if the match has a limit.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_ticks: Option<u64>,
+    /// Whether this client gets `percepts` every tick.
+    pub every_tick: bool,
+}
+
+/// `percepts`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct Percepts {
+    /// The tick the facts hold at.
+    pub tick: u64,
+    /// Facts that started to hold or changed value, and messages.
+    #[serde(default)]
+    pub add: Vec<Fact>,
+    /// Facts that stopped holding.
+    #[serde(default)]
+    pub not: Vec<Fact>,
+    /// A full snapshot: forget everything held before.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub full: bool,
+}
+
+/// `ack`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct Ack {
+    /// The `act` (or `say`) id.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub id: Option<ActId>,
+    /// Whether the action was accepted.
+    pub ok: bool,
+    /// The tick the action was applied after.
+    pub tick: u64,
+    /// Why not (a stable code), when rejected.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub code: Option<String>,
+    /// Why not, in words, when rejected.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reason: Option<String>,
+}
+
+/// `result`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct ActResult {
+    /// The `act` id.
+    pub id: ActId,
+    /// `arrived`, `collided` or `superseded`.
+    pub outcome: String,
+    /// The tick it ended at.
+    pub tick: u64,
+}
+
+/// `error`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct ErrorMessage {
+    /// A stable code (see PROTOCOL.md).
+    pub code: String,
+    /// What was wrong, in words.
+    pub message: String,
+    /// Whether the server closes the connection after it.
+    pub fatal: bool,
+}
+
+/// `pong`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct Pong {
+    /// The `ping` id.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub id: Option<ActId>,
+}
+
+/// `match_end`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct MatchEnd {
+    /// `completed`, `max_ticks` or `interrupted`.
+    pub reason: String,
+    /// The results.
+    pub result: MatchResult,
+}
+
+/// `bye` from the server.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct ServerBye {
+    /// Why the connection closes.
+    pub reason: String,
+}
+
+/// `frame`: the god view, for spectators.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct Frame {
+    /// The tick.
+    pub tick: u64,
+    /// Simulated seconds.
+    pub sim_seconds: f64,
+    /// The goal colours.
+    pub sequence: Vec<String>,
+    /// The next colour needed.
+    pub sequence_index: u32,
+    /// Every robot.
+    pub robots: Vec<FrameRobot>,
+    /// Every block still in the world.
+    pub blocks: Vec<FrameBlock>,
+    /// Rooms that are occupied.
+    pub occupied: Vec<String>,
+    /// Messages sent since the previous frame.
+    pub messages: Vec<FrameMessage>,
+}
+
+/// A robot in a frame.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct FrameRobot {
+    /// Robot id.
+    pub id: u32,
+    /// Player name.
+    pub name: String,
+    /// Centre x.
+    pub x: f32,
+    /// Centre y.
+    pub y: f32,
+    /// `arrived`, `traveling` or `collided`.
+    pub state: String,
+    /// The block held.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub holding: Option<u32>,
+}
+
+/// A block in a frame.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct FrameBlock {
+    /// Block id.
+    pub id: u32,
+    /// Colour name.
+    pub color: String,
+    /// Centre x (the holder's, when held).
+    pub x: f32,
+    /// Centre y.
+    pub y: f32,
+    /// The robot holding it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub held_by: Option<u32>,
+}
+
+/// A message in a frame.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct FrameMessage {
+    /// Sender's name.
+    pub from: String,
+    /// Receiver's name, or `all`.
+    pub to: String,
+    /// The text.
+    pub text: String,
+}
+
+fn is_false(b: &bool) -> bool {
+    !*b
+}

@@ -1,0 +1,120 @@
+//! The result of a match: sent in `match_end`, written to result files.
+
+use bw4t_sim::{Match, RobotId};
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+use crate::messages::Mode;
+
+/// The result of a match.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct MatchResult {
+    /// The map's name.
+    pub map: String,
+    /// The match seed.
+    pub seed: u64,
+    /// `realtime` or `lockstep` (absent for headless matches).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mode: Option<Mode>,
+    /// How many robots played.
+    pub robots: usize,
+    /// Whether the whole sequence was delivered.
+    pub completed: bool,
+    /// `completed`, `max_ticks` or `interrupted`.
+    pub end_reason: String,
+    /// Ticks simulated.
+    pub ticks: u64,
+    /// The tick the sequence was completed at.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub completed_tick: Option<u64>,
+    /// Simulated seconds.
+    pub sim_seconds: f64,
+    /// Wall-clock milliseconds the match took.
+    pub wall_ms: u64,
+    /// The goal colours.
+    pub sequence: Vec<String>,
+    /// How far the sequence got.
+    pub sequence_index: u32,
+    /// Blocks delivered in order.
+    pub good_drops: u32,
+    /// Blocks delivered that were not needed.
+    pub wrong_drops: u32,
+    /// Messages sent.
+    pub messages: u32,
+    /// The state digest at the end, as 16 hex digits.
+    pub digest: String,
+    /// Per robot, by id.
+    pub per_robot: Vec<RobotResult>,
+}
+
+/// One robot's part of a result.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct RobotResult {
+    /// Robot id.
+    pub id: u32,
+    /// Player name.
+    pub name: String,
+    /// Blocks delivered in order.
+    pub good_drops: u32,
+    /// Blocks delivered that were not needed.
+    pub wrong_drops: u32,
+    /// Messages sent.
+    pub messages_sent: u32,
+    /// Ticks not travelling.
+    pub idle_ticks: u64,
+    /// Rooms entered.
+    pub rooms_entered: u32,
+    /// Map units travelled.
+    pub distance: f64,
+    /// Lockstep ticks the player answered after the deadline (or not at all).
+    pub late_ticks: u64,
+    /// Whether the robot was still in the match at the end.
+    pub present: bool,
+}
+
+impl MatchResult {
+    /// The result of `game` as it stands; `late_ticks` gives each robot's late count.
+    pub fn of(
+        game: &Match,
+        mode: Option<Mode>,
+        end_reason: &str,
+        wall_ms: u64,
+        late_ticks: impl Fn(RobotId) -> u64,
+    ) -> Self {
+        let stats = game.stats();
+        let per_robot: Vec<RobotResult> = game
+            .all_robot_stats()
+            .map(|(id, name, s, present)| RobotResult {
+                id: id.0,
+                name: name.to_string(),
+                good_drops: s.good_drops,
+                wrong_drops: s.wrong_drops,
+                messages_sent: s.messages_sent,
+                idle_ticks: s.idle_ticks,
+                rooms_entered: s.rooms_entered,
+                distance: (s.distance * 1000.0).round() / 1000.0,
+                late_ticks: late_ticks(id),
+                present,
+            })
+            .collect();
+        MatchResult {
+            map: game.map().name().to_string(),
+            seed: game.seed(),
+            mode,
+            robots: per_robot.len(),
+            completed: game.is_complete(),
+            end_reason: end_reason.to_string(),
+            ticks: game.tick(),
+            completed_tick: stats.completed_at,
+            sim_seconds: game.config().seconds(game.tick()),
+            wall_ms,
+            sequence: game.sequence().iter().map(|c| c.name().to_string()).collect(),
+            sequence_index: game.sequence_index(),
+            good_drops: stats.good_drops,
+            wrong_drops: stats.wrong_drops,
+            messages: stats.messages,
+            digest: format!("{:016x}", game.digest()),
+            per_robot,
+        }
+    }
+}
