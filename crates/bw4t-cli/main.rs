@@ -2,6 +2,7 @@
 
 mod bench;
 mod maps;
+mod serve;
 
 use std::process::ExitCode;
 
@@ -17,13 +18,27 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Serve one match over TCP (JSON lines; see protocol/PROTOCOL.md).
+    Serve(serve::ServeArgs),
     /// Measure performance; prints one JSON object per line per case.
     Bench(bench::BenchArgs),
+}
+
+/// A seed for when the user gives none, printed so the match can be replayed.
+pub fn random_seed() -> u64 {
+    use std::hash::{BuildHasher, Hasher};
+    let mut h = std::collections::hash_map::RandomState::new().build_hasher();
+    h.write_u128(
+        std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos()),
+    );
+    // Small enough to type back in.
+    h.finish() % 1_000_000_000
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
+        Command::Serve(args) => serve::run(&args),
         Command::Bench(args) => bench::run(&args),
     };
     match result {

@@ -9,7 +9,7 @@ mod messages;
 mod result;
 
 pub use codec::{DecodeError, LineBuffer, MAX_LINE, decode_client, decode_server, encode};
-pub use convert::{FactError, action_from_act, fact_to_percept, percept_to_fact};
+pub use convert::{FactError, action_from_act, fact_to_percept, percept_to_fact, receiver};
 pub use messages::*;
 pub use result::{MatchResult, RobotResult};
 

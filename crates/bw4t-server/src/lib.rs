@@ -1,1 +1,102 @@
-//! x
+//! The BW4T match server: every TCP client gets a robot, sends JSON-lines actions and
+//! receives percept deltas each tick.
+//!
+//! One task owns the match ([`host`]); each connection has a reader and a writer task
+//! that talk to it through bounded channels ([`connection`]). The caller binds the
+//! listener and supplies the shutdown signal, so tests bind `127.0.0.1:0`.
+
+mod connection;
+mod host;
+
+use std::future::Future;
+use std::time::Duration;
+
+use bw4t_map::Map;
+use bw4t_protocol::{MatchResult, Mode};
+use bw4t_sim::MatchConfig;
+use tokio::net::TcpListener;
+use tokio::sync::mpsc;
+
+/// How a served match runs.
+#[derive(Clone, Debug)]
+pub struct ServerConfig {
+    /// The map.
+    pub map: Map,
+    /// The match seed.
+    pub seed: u64,
+    /// Simulation settings; `ticks_per_second` is also the realtime tick rate.
+    pub game: MatchConfig,
+    /// Realtime or lockstep pacing.
+    pub mode: Mode,
+    /// How many players the match waits for before its first tick.
+    pub robots: usize,
+    /// End the match after this many ticks.
+    pub max_ticks: Option<u64>,
+    /// Lockstep: how long to wait for `ready` (`None`: forever).
+    pub deadline: Option<Duration>,
+    /// A shared secret players must present.
+    pub token: Option<String>,
+    /// Send every player `percepts` every tick, even empty ones.
+    pub every_tick: bool,
+    /// How long a dropped player's robot waits for its session to come back.
+    pub grace: Duration,
+    /// Connections that have not said `hello` by then are closed.
+    pub hello_timeout: Duration,
+    /// Connections beyond this are refused.
+    pub max_connections: usize,
+    /// Actions and messages a player may send per tick; more are rejected.
+    pub max_actions_per_tick: u32,
+    /// Messages queued for one client before it counts as not reading.
+    pub queue: usize,
+    /// A client whose queue stays full this long is disconnected.
+    pub slow_limit: Duration,
+    /// Spectator frames per wall-clock second, at most.
+    pub spectator_hz: u32,
+}
+
+impl ServerConfig {
+    /// Defaults for everything but the map.
+    pub fn new(map: Map) -> Self {
+        ServerConfig {
+            map,
+            seed: 0,
+            game: MatchConfig::default(),
+            mode: Mode::Realtime,
+            robots: 1,
+            max_ticks: None,
+            deadline: Some(Duration::from_millis(1000)),
+            token: None,
+            every_tick: false,
+            grace: Duration::from_secs(30),
+            hello_timeout: Duration::from_secs(10),
+            max_connections: 256,
+            max_actions_per_tick: 16,
+            queue: 1024,
+            slow_limit: Duration::from_secs(5),
+            spectator_hz: 20,
+        }
+    }
+}
+
+/// Why a match could not be served.
+#[derive(Debug, thiserror::Error)]
+pub enum ServerError {
+    /// The match could not be created (bad configuration or content).
+    #[error(transparent)]
+    Match(#[from] bw4t_sim::MatchError),
+}
+
+/// Serves one match on `listener` until it ends (sequence complete, `max_ticks`, or
+/// `shutdown` resolving) and returns its result. Every client gets `match_end` and `bye`.
+pub async fn serve(
+    listener: TcpListener,
+    config: ServerConfig,
+    shutdown: impl Future<Output = ()>,
+) -> Result<MatchResult, ServerError> {
+    let (events_tx, events_rx) = mpsc::channel(host::EVENT_QUEUE);
+    let host = host::Host::new(config.clone(), events_rx)?;
+    let acceptor = tokio::spawn(connection::accept_loop(listener, config, events_tx));
+    let result = host.run(shutdown).await;
+    acceptor.abort();
+    Ok(result)
+}

@@ -1,0 +1,644 @@
+//! The match task: the one owner of the match. It admits players and spectators, buffers
+//! actions until the next tick boundary, paces ticks (realtime or lockstep) and sends
+//! every client what concerns it, never waiting on any client.
+
+use std::collections::BTreeMap;
+use std::future::Future;
+use std::sync::Arc;
+
+use bw4t_protocol::{
+    Ack, ActId, ActResult, ClientMessage, Frame, FrameBlock, FrameMessage, FrameRobot, Hello, MatchEnd,
+    MatchInfo, MatchResult, Mode, Percepts, Role, ServerMessage, VERSION, Welcome, action_from_act, encode,
+    percept_to_fact,
+};
+use bw4t_sim::{Action, BlockPlace, Match, OrderId, Receiver, RobotId};
+use tokio::sync::{Notify, mpsc, watch};
+use tokio::time::{Duration, Instant};
+
+use crate::ServerConfig;
+use crate::connection::{ConnId, Event, Opened, Outbound, bye_line, error_line};
+
+/// Capacity of the channel from connections to the match task.
+pub const EVENT_QUEUE: usize = 4096;
+
+/// Room kept in a client's queue for acks, results and errors: percepts are held back
+/// (and later replaced by a snapshot) when less than this is free.
+const RESERVE: usize = 64;
+
+/// How many messages a spectator frame carries at most.
+const FRAME_MESSAGES: usize = 100;
+
+/// How long the end of a match waits for clients' queues to drain.
+const FLUSH_LIMIT: Duration = Duration::from_secs(2);
+
+/// Ticks simulated back to back (lockstep, nobody awaited) before letting other tasks run.
+const YIELD_EVERY: u64 = 64;
+
+struct Conn {
+    tx: mpsc::Sender<Outbound>,
+    kill: Arc<Notify>,
+    done: watch::Receiver<bool>,
+    role: ConnRole,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum ConnRole {
+    New,
+    Agent(RobotId),
+    Spectator,
+}
+
+struct Player {
+    name: String,
+    session: String,
+    conn: Option<ConnId>,
+    dropped_at: Option<Instant>,
+    every_tick: bool,
+    pending: Vec<(Option<ActId>, Action)>,
+    actions_this_tick: u32,
+    orders: BTreeMap<OrderId, ActId>,
+    awaiting: bool,
+    needs_snapshot: bool,
+    full_since: Option<Instant>,
+}
+
+/// The match and everyone connected to it.
+pub struct Host {
+    config: ServerConfig,
+    game: Match,
+    events: mpsc::Receiver<Event>,
+    conns: BTreeMap<ConnId, Conn>,
+    players: BTreeMap<RobotId, Player>,
+    late: BTreeMap<RobotId, u64>,
+    tick_sent_at: Instant,
+    last_frame: Option<Instant>,
+    frame_messages: Vec<FrameMessage>,
+    end: Option<&'static str>,
+    sessions: u64,
+}
+
+impl Host {
+    /// A host for a new match; nothing runs until [`Host::run`].
+    pub fn new(config: ServerConfig, events: mpsc::Receiver<Event>) -> Result<Host, bw4t_sim::MatchError> {
+        let game = Match::new(&config.map, &config.game, config.seed)?;
+        Ok(Host {
+            config,
+            game,
+            events,
+            conns: BTreeMap::new(),
+            players: BTreeMap::new(),
+            late: BTreeMap::new(),
+            tick_sent_at: Instant::now(),
+            last_frame: None,
+            frame_messages: Vec::new(),
+            end: None,
+            sessions: 0,
+        })
+    }
+
+    /// Runs the match to its end and returns the result.
+    pub async fn run(mut self, shutdown: impl Future<Output = ()>) -> MatchResult {
+        let started = Instant::now();
+        tokio::pin!(shutdown);
+        // Before the first tick: admit players until enough have joined.
+        while self.end.is_none() && self.players.len() < self.config.robots {
+            tokio::select! {
+                () = &mut shutdown => self.end = Some("interrupted"),
+                event = self.events.recv() => self.on_event(event),
+                () = tokio::time::sleep(Duration::from_millis(250)) => self.expire_dropped(),
+            }
+        }
+        if self.end.is_none() {
+            self.tick_sent_at = Instant::now();
+            match self.config.mode {
+                Mode::Realtime => self.run_realtime(&mut shutdown).await,
+                Mode::Lockstep => self.run_lockstep(&mut shutdown).await,
+            }
+        }
+        self.finish(started).await
+    }
+
+    async fn run_realtime(&mut self, shutdown: &mut std::pin::Pin<&mut impl Future<Output = ()>>) {
+        let period = Duration::from_secs_f64(1.0 / f64::from(self.config.game.ticks_per_second));
+        let mut ticks = tokio::time::interval_at(Instant::now() + period, period);
+        ticks.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+        while self.end.is_none() {
+            tokio::select! {
+                biased;
+                () = &mut *shutdown => self.end = Some("interrupted"),
+                _ = ticks.tick() => self.advance(),
+                event = self.events.recv() => self.on_event(event),
+            }
+        }
+    }
+
+    async fn run_lockstep(&mut self, shutdown: &mut std::pin::Pin<&mut impl Future<Output = ()>>) {
+        let mut back_to_back = 0u64;
+        while self.end.is_none() {
+            let deadline = self.config.deadline.map(|d| self.tick_sent_at + d);
+            while self.end.is_none() && self.players.values().any(|p| p.awaiting) {
+                back_to_back = 0;
+                tokio::select! {
+                    biased;
+                    () = &mut *shutdown => self.end = Some("interrupted"),
+                    event = self.events.recv() => self.on_event(event),
+                    () = sleep_until_opt(deadline) => self.mark_late(),
+                }
+            }
+            // Take in what has arrived, without waiting for anyone.
+            while let Ok(event) = self.events.try_recv() {
+                self.on_event(Some(event));
+            }
+            tokio::select! {
+                biased;
+                () = &mut *shutdown => self.end = Some("interrupted"),
+                () = std::future::ready(()) => {}
+            }
+            if self.end.is_some() {
+                break;
+            }
+            self.advance();
+            back_to_back += 1;
+            if back_to_back % YIELD_EVERY == 0 {
+                tokio::task::yield_now().await;
+            }
+        }
+    }
+
+    /// Players that did not answer by the deadline are counted late and no longer awaited.
+    fn mark_late(&mut self) {
+        for (id, player) in self.players.iter_mut().filter(|(_, p)| p.awaiting) {
+            player.awaiting = false;
+            *self.late.entry(*id).or_default() += 1;
+        }
+    }
+
+    /// One tick boundary: apply buffered actions in robot-id order, step, tell everyone.
+    fn advance(&mut self) {
+        let ids: Vec<RobotId> = self.players.keys().copied().collect();
+        for &id in &ids {
+            let pending =
+                self.players.get_mut(&id).map(|p| std::mem::take(&mut p.pending)).unwrap_or_default();
+            for (act_id, action) in pending {
+                self.apply(id, act_id, action);
+            }
+            if let Some(p) = self.players.get_mut(&id) {
+                p.actions_this_tick = 0;
+            }
+        }
+        let report = self.game.step();
+        let tick = report.tick;
+        for end in report.ended {
+            let Some(player) = self.players.get_mut(&end.robot) else { continue };
+            let Some(id) = player.orders.remove(&end.order) else { continue };
+            let result = ServerMessage::Result(ActResult { id, outcome: end.outcome.name().into(), tick });
+            player.awaiting = true;
+            if let Some(conn) = player.conn {
+                self.send(conn, &result);
+            }
+        }
+        self.tick_sent_at = Instant::now();
+        for id in ids {
+            self.send_percepts(id, false);
+        }
+        self.send_frames(false);
+        self.expire_dropped();
+        if self.game.is_complete() {
+            self.end = Some("completed");
+        } else if self.config.max_ticks.is_some_and(|max| tick >= max) {
+            self.end = Some("max_ticks");
+        }
+    }
+
+    fn apply(&mut self, robot: RobotId, act_id: Option<ActId>, action: Action) {
+        let message = match &action {
+            Action::SendMessage { to, text } => Some(FrameMessage {
+                from: self.players.get(&robot).map(|p| p.name.clone()).unwrap_or_default(),
+                to: match to {
+                    Receiver::All => "all".into(),
+                    Receiver::Player(name) => name.clone(),
+                },
+                text: text.clone(),
+            }),
+            _ => None,
+        };
+        let outcome = self.game.handle_action(robot, action);
+        let tick = self.game.tick();
+        let ack = match &outcome {
+            Ok(_) => Ack { id: act_id.clone(), ok: true, tick, code: None, reason: None },
+            Err(r) => Ack {
+                id: act_id.clone(),
+                ok: false,
+                tick,
+                code: Some(r.code().into()),
+                reason: Some(r.to_string()),
+            },
+        };
+        if let (Ok(_), Some(message)) = (&outcome, message) {
+            if self.frame_messages.len() == FRAME_MESSAGES {
+                self.frame_messages.remove(0);
+            }
+            self.frame_messages.push(message);
+        }
+        let Some(player) = self.players.get_mut(&robot) else { return };
+        if let (Ok(accepted), Some(id)) = (&outcome, act_id) {
+            if let Some(order) = accepted.order {
+                player.orders.insert(order, id);
+            }
+        }
+        if let Some(conn) = player.conn {
+            self.send(conn, &ServerMessage::Ack(ack));
+        }
+    }
+
+    /// Sends a player what it has not been told. Returns whether anything was sent.
+    fn send_percepts(&mut self, id: RobotId, full: bool) -> bool {
+        let Some(player) = self.players.get_mut(&id) else { return false };
+        let Some(conn_id) = player.conn else { return false };
+        let Some(conn) = self.conns.get(&conn_id) else { return false };
+        if conn.tx.capacity() < RESERVE {
+            // Not reading: hold percepts back; the next ones sent will be a full snapshot.
+            player.needs_snapshot = true;
+            let since = *player.full_since.get_or_insert_with(Instant::now);
+            if since.elapsed() > self.config.slow_limit {
+                self.disconnect(conn_id, "too_slow", "the client did not read its messages");
+            }
+            return false;
+        }
+        player.full_since = None;
+        let full = full || std::mem::take(&mut player.needs_snapshot);
+        let delta = if full { self.game.snapshot(id) } else { self.game.poll_percepts(id) };
+        let Some(delta) = delta else { return false };
+        if delta.is_empty() && !player.every_tick {
+            return false;
+        }
+        player.awaiting = true;
+        let message = ServerMessage::Percepts(Percepts {
+            tick: delta.tick,
+            add: delta.add.iter().map(percept_to_fact).collect(),
+            not: delta.not.iter().map(percept_to_fact).collect(),
+            full: delta.full,
+        });
+        self.send(conn_id, &message);
+        true
+    }
+
+    fn send_frames(&mut self, force: bool) {
+        let spectators: Vec<ConnId> =
+            self.conns.iter().filter(|(_, c)| c.role == ConnRole::Spectator).map(|(id, _)| *id).collect();
+        if spectators.is_empty() {
+            self.frame_messages.clear();
+            return;
+        }
+        let interval = Duration::from_secs_f64(1.0 / f64::from(self.config.spectator_hz.max(1)));
+        if !force && self.last_frame.is_some_and(|t| t.elapsed() < interval) {
+            return;
+        }
+        self.last_frame = Some(Instant::now());
+        let line: Arc<str> = encode(&ServerMessage::Frame(self.frame())).into();
+        self.frame_messages.clear();
+        for conn in spectators {
+            // Frames are whole states: one a spectator misses is replaced by the next.
+            if let Some(c) = self.conns.get(&conn) {
+                if c.tx.capacity() > RESERVE {
+                    let _ = c.tx.try_send(Outbound::Line(line.clone()));
+                }
+            }
+        }
+    }
+
+    fn frame(&self) -> Frame {
+        let zones = self.game.map().zones();
+        let robots: Vec<FrameRobot> = self
+            .game
+            .robots()
+            .map(|r| FrameRobot {
+                id: r.id.0,
+                name: r.name.to_string(),
+                x: r.pos.x,
+                y: r.pos.y,
+                state: r.state.name().into(),
+                holding: r.holding,
+            })
+            .collect();
+        let blocks = self
+            .game
+            .blocks()
+            .filter_map(|(id, colour, place)| {
+                let (x, y, held_by) = match place {
+                    BlockPlace::Room { pos, .. } => (pos.x, pos.y, None),
+                    BlockPlace::Held(r) => {
+                        let holder = robots.iter().find(|fr| fr.id == r.0)?;
+                        (holder.x, holder.y, Some(r.0))
+                    }
+                    BlockPlace::Gone => return None,
+                };
+                Some(FrameBlock { id, color: colour.name().into(), x, y, held_by })
+            })
+            .collect();
+        let occupied = (0..zones.len())
+            .filter(|&z| self.game.occupant(z).is_some())
+            .map(|z| zones[z].name.clone())
+            .collect();
+        Frame {
+            tick: self.game.tick(),
+            sim_seconds: self.game.config().seconds(self.game.tick()),
+            sequence: self.game.sequence().iter().map(|c| c.name().to_string()).collect(),
+            sequence_index: self.game.sequence_index(),
+            robots,
+            blocks,
+            occupied,
+            messages: self.frame_messages.clone(),
+        }
+    }
+
+    fn on_event(&mut self, event: Option<Event>) {
+        match event {
+            // Every sender is gone only when the acceptor has stopped; end the match.
+            None => self.end = Some("interrupted"),
+            Some(Event::Opened(Opened { conn, tx, kill, done })) => {
+                self.conns.insert(conn, Conn { tx, kill, done, role: ConnRole::New });
+            }
+            Some(Event::Closed { conn }) => self.on_closed(conn),
+            Some(Event::Message { conn, message }) => self.on_message(conn, message),
+        }
+    }
+
+    fn on_closed(&mut self, conn: ConnId) {
+        if let Some(Conn { role: ConnRole::Agent(id), .. }) = self.conns.remove(&conn) {
+            if let Some(player) = self.players.get_mut(&id) {
+                if player.conn == Some(conn) {
+                    player.conn = None;
+                    player.dropped_at = Some(Instant::now());
+                    player.awaiting = false;
+                }
+            }
+        }
+    }
+
+    fn on_message(&mut self, conn: ConnId, message: ClientMessage) {
+        let Some(role) = self.conns.get(&conn).map(|c| c.role) else { return };
+        let robot = match (role, &message) {
+            (_, ClientMessage::Hello(hello)) => return self.on_hello(conn, role, hello),
+            (ConnRole::Agent(id), _) => id,
+            (ConnRole::Spectator, ClientMessage::Bye(_)) | (ConnRole::New, ClientMessage::Bye(_)) => {
+                return self.disconnect(conn, "goodbye", "");
+            }
+            (ConnRole::Spectator, _) => {
+                return self.error(conn, "not_a_player", "spectators cannot act", false);
+            }
+            (ConnRole::New, _) => return self.error(conn, "no_hello", "say hello first", false),
+        };
+        match message {
+            ClientMessage::Act(act) => match action_from_act(&act.action, &act.args) {
+                Ok(action) => self.queue_action(conn, robot, Some(act.id), action),
+                Err(e) => self.reject(conn, Some(act.id), e.code, &e.message),
+            },
+            ClientMessage::Say(say) => {
+                let action = Action::SendMessage { to: bw4t_protocol::receiver(&say.to), text: say.text };
+                self.queue_action(conn, robot, say.id, action);
+            }
+            ClientMessage::Ready(ready) => {
+                if let Some(player) = self.players.get_mut(&robot) {
+                    if ready.tick == self.game.tick() {
+                        player.awaiting = false;
+                    }
+                }
+            }
+            ClientMessage::Resync(_) => {
+                self.send_percepts(robot, true);
+            }
+            ClientMessage::Bye(_) => {
+                self.players.remove(&robot);
+                let _ = self.game.leave(robot);
+                self.disconnect(conn, "goodbye", "");
+            }
+            ClientMessage::Hello(_) | ClientMessage::Ping(_) => {}
+        }
+    }
+
+    fn queue_action(&mut self, conn: ConnId, robot: RobotId, id: Option<ActId>, action: Action) {
+        let limit = self.config.max_actions_per_tick;
+        let Some(player) = self.players.get_mut(&robot) else { return };
+        if player.actions_this_tick >= limit {
+            let reason = format!("at most {limit} actions and messages per tick");
+            return self.reject(conn, id, "rate_limited", &reason);
+        }
+        player.actions_this_tick += 1;
+        player.pending.push((id, action));
+    }
+
+    fn reject(&mut self, conn: ConnId, id: Option<ActId>, code: &str, reason: &str) {
+        let tick = self.game.tick();
+        let ack = Ack { id, ok: false, tick, code: Some(code.into()), reason: Some(reason.into()) };
+        self.send(conn, &ServerMessage::Ack(ack));
+    }
+
+    fn on_hello(&mut self, conn: ConnId, role: ConnRole, hello: &Hello) {
+        if role != ConnRole::New {
+            return self.error(conn, "already_joined", "this connection has already said hello", false);
+        }
+        if hello.protocol != bw4t_protocol::PROTOCOL {
+            let message = format!("unknown protocol '{}' (this server speaks 'bw4t')", hello.protocol);
+            return self.error(conn, "bad_protocol", &message, true);
+        }
+        if !hello.versions.contains(&VERSION) {
+            let message = format!("no common protocol version (this server speaks {VERSION})");
+            return self.error(conn, "unsupported_version", &message, true);
+        }
+        if self.config.token.is_some() && hello.token != self.config.token {
+            return self.error(conn, "bad_token", "wrong or missing token", true);
+        }
+        if self.end.is_some() {
+            return self.error(conn, "match_over", "the match has ended", true);
+        }
+        if hello.role == Role::Spectator {
+            if let Some(c) = self.conns.get_mut(&conn) {
+                c.role = ConnRole::Spectator;
+            }
+            self.welcome(conn, None, false);
+            return self.send_frames(true);
+        }
+        let every_tick = self.config.every_tick || hello.every_tick;
+        let robot = match &hello.session {
+            Some(session) => {
+                let found = self.players.iter().find(|(_, p)| &p.session == session).map(|(id, _)| *id);
+                let Some(id) = found else {
+                    return self.error(conn, "bad_session", "unknown or expired session", true);
+                };
+                if let Some(old) = self.players.get(&id).and_then(|p| p.conn) {
+                    self.disconnect(old, "replaced", "the session was taken up by a new connection");
+                }
+                id
+            }
+            None => match self.join(hello.name.as_deref()) {
+                Ok(id) => id,
+                Err((code, message)) => return self.error(conn, code, &message, true),
+            },
+        };
+        if let Some(player) = self.players.get_mut(&robot) {
+            player.conn = Some(conn);
+            player.dropped_at = None;
+            player.every_tick = every_tick;
+            player.full_since = None;
+        }
+        if let Some(c) = self.conns.get_mut(&conn) {
+            c.role = ConnRole::Agent(robot);
+        }
+        self.welcome(conn, Some(robot), every_tick);
+        self.send_percepts(robot, true);
+    }
+
+    fn join(&mut self, name: Option<&str>) -> Result<RobotId, (&'static str, String)> {
+        let name = match name {
+            Some(n) => n.to_string(),
+            None => (1..)
+                .map(|i| format!("Player{i}"))
+                .find(|n| self.players.values().all(|p| &p.name != n))
+                .unwrap_or_default(),
+        };
+        if self.players.values().any(|p| p.name == name) {
+            return Err(("name_taken", format!("the name '{name}' is taken")));
+        }
+        let id = self.game.join(&name).map_err(|e| {
+            let code = match e {
+                bw4t_sim::JoinError::InvalidName(_) => "invalid_name",
+                bw4t_sim::JoinError::NameTaken(_) => "name_taken",
+                bw4t_sim::JoinError::Full(_) => "match_full",
+            };
+            (code, e.to_string())
+        })?;
+        self.sessions += 1;
+        let session = format!("{:016x}{:08x}", session_entropy(), self.sessions);
+        self.players.insert(
+            id,
+            Player {
+                name,
+                session,
+                conn: None,
+                dropped_at: None,
+                every_tick: false,
+                pending: Vec::new(),
+                actions_this_tick: 0,
+                orders: BTreeMap::new(),
+                awaiting: false,
+                needs_snapshot: false,
+                full_since: None,
+            },
+        );
+        Ok(id)
+    }
+
+    fn welcome(&mut self, conn: ConnId, robot: Option<RobotId>, every_tick: bool) {
+        let player = robot.and_then(|r| self.players.get(&r));
+        let welcome = Welcome {
+            version: VERSION,
+            name: player.map(|p| p.name.clone()),
+            robot: robot.map(|r| r.0),
+            session: player.map(|p| p.session.clone()),
+            match_info: MatchInfo {
+                map: self.game.map().name().to_string(),
+                seed: self.config.seed,
+                mode: self.config.mode,
+                tick_hz: self.config.game.ticks_per_second,
+                deadline_ms: self.config.deadline.map_or(0, |d| d.as_millis() as u64),
+                robots: self.config.robots,
+                max_ticks: self.config.max_ticks,
+                every_tick,
+            },
+        };
+        self.send(conn, &ServerMessage::Welcome(welcome));
+    }
+
+    /// Robots whose players stayed away longer than the grace period leave the match.
+    fn expire_dropped(&mut self) {
+        let grace = self.config.grace;
+        let expired: Vec<RobotId> = self
+            .players
+            .iter()
+            .filter(|(_, p)| p.conn.is_none() && p.dropped_at.is_some_and(|t| t.elapsed() >= grace))
+            .map(|(id, _)| *id)
+            .collect();
+        for id in expired {
+            self.players.remove(&id);
+            let _ = self.game.leave(id);
+        }
+    }
+
+    fn send(&mut self, conn: ConnId, message: &ServerMessage) {
+        self.send_line(conn, encode(message).into());
+    }
+
+    fn send_line(&mut self, conn: ConnId, line: Arc<str>) {
+        let Some(c) = self.conns.get(&conn) else { return };
+        if c.tx.try_send(Outbound::Line(line)).is_err() {
+            // Even the room kept for replies is used up: the client cannot keep up.
+            c.kill.notify_one();
+            self.on_closed(conn);
+        }
+    }
+
+    fn error(&mut self, conn: ConnId, code: &str, message: &str, fatal: bool) {
+        self.send_line(conn, error_line(code, message, fatal));
+        if fatal {
+            self.disconnect(conn, code, "");
+        }
+    }
+
+    /// Says `bye` (after an error, when `message` is given) and closes the connection.
+    fn disconnect(&mut self, conn: ConnId, reason: &str, message: &str) {
+        if !message.is_empty() {
+            self.send_line(conn, error_line(reason, message, true));
+        }
+        self.send_line(conn, bye_line(reason));
+        if let Some(c) = self.conns.get(&conn) {
+            if c.tx.try_send(Outbound::Close).is_err() {
+                c.kill.notify_one();
+            }
+        }
+        self.on_closed(conn);
+    }
+
+    async fn finish(mut self, started: Instant) -> MatchResult {
+        let reason = self.end.unwrap_or("interrupted");
+        let wall_ms = started.elapsed().as_millis() as u64;
+        let late = self.late.clone();
+        let result = MatchResult::of(&self.game, Some(self.config.mode), reason, wall_ms, |id| {
+            late.get(&id).copied().unwrap_or(0)
+        });
+        let end =
+            encode(&ServerMessage::MatchEnd(MatchEnd { reason: reason.into(), result: result.clone() }));
+        let end: Arc<str> = end.into();
+        let conns: Vec<ConnId> = self.conns.keys().copied().collect();
+        let mut done: Vec<watch::Receiver<bool>> = self.conns.values().map(|c| c.done.clone()).collect();
+        for conn in conns {
+            if matches!(self.conns.get(&conn).map(|c| c.role), Some(ConnRole::Agent(_) | ConnRole::Spectator))
+            {
+                self.send_line(conn, end.clone());
+            }
+            self.disconnect(conn, "match_over", "");
+        }
+        let flushed = async {
+            for d in &mut done {
+                let _ = d.wait_for(|d| *d).await;
+            }
+        };
+        let _ = tokio::time::timeout(FLUSH_LIMIT, flushed).await;
+        result
+    }
+}
+
+async fn sleep_until_opt(deadline: Option<Instant>) {
+    match deadline {
+        Some(t) => tokio::time::sleep_until(t).await,
+        None => std::future::pending().await,
+    }
+}
+
+/// Unpredictable bits for session tokens, from the standard library's per-process keys.
+fn session_entropy() -> u64 {
+    use std::hash::{BuildHasher, Hasher};
+    let mut h = std::collections::hash_map::RandomState::new().build_hasher();
+    h.write_u64(0);
+    h.finish()
+}
