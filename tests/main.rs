@@ -12,5 +12,8 @@ mod sim_properties;
 /// Maps and their seeded random content.
 mod maps;
 
+/// The match server over real loopback TCP.
+mod server;
+
 /// The `bw4t` binary, run as a child process.
 mod cli;

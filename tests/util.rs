@@ -200,3 +200,302 @@ pub fn check(map: &Map, config: &MatchConfig, seed: u64, players: &[&str], scrip
 pub fn check_fixed(players: &[&str], script: &str) -> Scenario {
     check(&shipped_map("fixed"), &MatchConfig::default(), 1, players, script)
 }
+
+// ---------------------------------------------------------------------------------------
+// Network helpers: a server on 127.0.0.1:0 and line clients, every wait bounded.
+
+use std::net::SocketAddr;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use bw4t_protocol::{ActId, MatchResult, ServerMessage, decode_server, fact_to_percept};
+use bw4t_server::ServerConfig;
+use bw4t_sim::PerceptDelta;
+use serde_json::{Value, json};
+use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader};
+use tokio::net::TcpStream;
+use tokio::net::tcp::{OwnedReadHalf, OwnedWriteHalf};
+use tokio::sync::{oneshot, watch};
+use tokio::task::JoinHandle;
+
+/// How long any single wait in a network test may take before the test fails.
+pub const WAIT: Duration = Duration::from_secs(20);
+
+/// A server serving one match in the test's runtime.
+pub struct TestServer {
+    pub addr: SocketAddr,
+    stop: Option<oneshot::Sender<()>>,
+    task: JoinHandle<MatchResult>,
+}
+
+impl TestServer {
+    pub async fn start(config: ServerConfig) -> TestServer {
+        let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.expect("bind");
+        let addr = listener.local_addr().expect("addr");
+        let (stop, stopped) = oneshot::channel::<()>();
+        let task = tokio::spawn(async move {
+            let shutdown = async {
+                let _ = stopped.await;
+            };
+            bw4t_server::serve(listener, config, shutdown).await.expect("serve")
+        });
+        TestServer { addr, stop: Some(stop), task }
+    }
+
+    /// Stops the match (as Ctrl-C would) and returns its result.
+    pub async fn stop(mut self) -> MatchResult {
+        if let Some(stop) = self.stop.take() {
+            let _ = stop.send(());
+        }
+        self.finish().await
+    }
+
+    /// Waits for the match to end by itself.
+    pub async fn finish(self) -> MatchResult {
+        let _keep_running = self.stop;
+        tokio::time::timeout(WAIT, self.task).await.expect("match ends in time").expect("server task")
+    }
+}
+
+/// A server config on a shipped map, lockstep, waiting for `robots` players.
+pub fn lockstep(map: &str, seed: u64, robots: usize) -> ServerConfig {
+    let mut config = ServerConfig::new(shipped_map(map));
+    config.seed = seed;
+    config.mode = bw4t_protocol::Mode::Lockstep;
+    config.robots = robots;
+    config.deadline = Some(Duration::from_secs(10));
+    config
+}
+
+/// A raw line client.
+pub struct Client {
+    lines: tokio::io::Lines<BufReader<OwnedReadHalf>>,
+    writer: OwnedWriteHalf,
+}
+
+impl Client {
+    pub async fn connect(addr: SocketAddr) -> Client {
+        let stream = TcpStream::connect(addr).await.expect("connect");
+        let (reader, writer) = stream.into_split();
+        Client { lines: BufReader::new(reader).lines(), writer }
+    }
+
+    pub async fn send_raw(&mut self, line: &str) {
+        self.writer.write_all(line.as_bytes()).await.expect("write");
+        self.writer.write_all(b"\n").await.expect("write");
+    }
+
+    pub async fn send(&mut self, message: Value) {
+        self.send_raw(&message.to_string()).await;
+    }
+
+    /// The next message, or `None` when the server closed the connection.
+    pub async fn recv(&mut self) -> Option<ServerMessage> {
+        let line = tokio::time::timeout(WAIT, self.lines.next_line()).await.expect("a message in time");
+        line.ok()
+            .flatten()
+            .map(|l| decode_server(&l).unwrap_or_else(|e| panic!("bad line from server {l}: {e}")))
+    }
+
+    /// Reads until `pick` returns something; panics if the connection ends first.
+    pub async fn until<T>(&mut self, mut pick: impl FnMut(&ServerMessage) -> Option<T>) -> T {
+        loop {
+            let message = self.recv().await.expect("connection open");
+            if let Some(found) = pick(&message) {
+                return found;
+            }
+        }
+    }
+
+    /// Reads to the end of the connection, returning everything received.
+    pub async fn drain(&mut self) -> Vec<ServerMessage> {
+        let mut all = Vec::new();
+        while let Some(m) = self.recv().await {
+            all.push(m);
+        }
+        all
+    }
+
+    pub async fn hello(&mut self, name: &str) -> bw4t_protocol::Welcome {
+        self.send(json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": name})).await;
+        self.until(|m| match m {
+            ServerMessage::Welcome(w) => Some(w.clone()),
+            ServerMessage::Error(e) => panic!("hello refused: {e:?}"),
+            _ => None,
+        })
+        .await
+    }
+
+    /// The `error` code the next error message carries.
+    pub async fn error_code(&mut self) -> String {
+        self.until(|m| match m {
+            ServerMessage::Error(e) => Some(e.code.clone()),
+            _ => None,
+        })
+        .await
+    }
+
+    pub fn into_parts(self) -> (tokio::io::Lines<BufReader<OwnedReadHalf>>, OwnedWriteHalf) {
+        (self.lines, self.writer)
+    }
+}
+
+/// A percepts message as a simulation delta.
+pub fn delta_of(p: &bw4t_protocol::Percepts) -> PerceptDelta {
+    let facts = |list: &[Vec<Value>]| list.iter().map(|f| fact_to_percept(f).expect("a percept")).collect();
+    PerceptDelta { tick: p.tick, full: p.full, add: facts(&p.add), not: facts(&p.not) }
+}
+
+/// What an auto-playing client has seen so far.
+#[derive(Default)]
+pub struct Seen {
+    pub beliefs: Beliefs,
+    pub heard: Vec<String>,
+    pub acks: Vec<bw4t_protocol::Ack>,
+    pub results: Vec<bw4t_protocol::ActResult>,
+    pub errors: Vec<String>,
+    pub tick: u64,
+    pub ended: bool,
+}
+
+/// A player that answers every `percepts` and `result` with `ready`, so lockstep matches
+/// move on, while the test sends actions and waits on what the player has seen.
+pub struct AutoPlayer {
+    pub welcome: bw4t_protocol::Welcome,
+    pub seen: Arc<Mutex<Seen>>,
+    updates: watch::Receiver<u64>,
+    writer: Arc<tokio::sync::Mutex<OwnedWriteHalf>>,
+    reader: JoinHandle<()>,
+    next_id: u64,
+}
+
+impl AutoPlayer {
+    pub async fn join(addr: SocketAddr, name: &str) -> AutoPlayer {
+        let mut client = Client::connect(addr).await;
+        let welcome = client.hello(name).await;
+        let (mut lines, writer) = client.into_parts();
+        let writer = Arc::new(tokio::sync::Mutex::new(writer));
+        let seen = Arc::new(Mutex::new(Seen::default()));
+        let (notify, updates) = watch::channel(0u64);
+        let (task_seen, task_writer) = (seen.clone(), writer.clone());
+        let reader = tokio::spawn(async move {
+            while let Ok(Some(line)) = lines.next_line().await {
+                let message = decode_server(&line).expect("valid server line");
+                let ready_for = {
+                    let mut s = task_seen.lock().expect("lock");
+                    match message {
+                        ServerMessage::Percepts(p) => {
+                            s.beliefs.apply(&delta_of(&p));
+                            let heard: Vec<String> = s
+                                .beliefs
+                                .take_messages()
+                                .into_iter()
+                                .map(|(f, t)| format!("{f}:{t}"))
+                                .collect();
+                            s.heard.extend(heard);
+                            s.tick = p.tick;
+                            Some(p.tick)
+                        }
+                        ServerMessage::Result(r) => {
+                            let tick = r.tick;
+                            s.results.push(r);
+                            Some(tick)
+                        }
+                        ServerMessage::Ack(a) => {
+                            s.acks.push(a);
+                            None
+                        }
+                        ServerMessage::Error(e) => {
+                            s.errors.push(e.code);
+                            None
+                        }
+                        ServerMessage::MatchEnd(_) | ServerMessage::Bye(_) => {
+                            s.ended = true;
+                            None
+                        }
+                        _ => None,
+                    }
+                };
+                if let Some(tick) = ready_for {
+                    let line = format!("{}\n", json!({"type": "ready", "tick": tick}));
+                    let _ = task_writer.lock().await.write_all(line.as_bytes()).await;
+                }
+                notify.send_modify(|n| *n += 1);
+            }
+            task_seen.lock().expect("lock").ended = true;
+            notify.send_modify(|n| *n += 1);
+        });
+        AutoPlayer { welcome, seen, updates, writer, reader, next_id: 0 }
+    }
+
+    /// Drops the connection without a `bye`, as a crash or a network fault would.
+    pub async fn disconnect(self) {
+        self.reader.abort();
+        let _ = self.reader.await;
+        let _ = self.writer.lock().await.shutdown().await;
+    }
+
+    /// Sends an action; returns its id.
+    pub async fn act(&mut self, action: &str, args: Value) -> ActId {
+        self.next_id += 1;
+        let line =
+            format!("{}\n", json!({"type": "act", "id": self.next_id, "action": action, "args": args}));
+        self.writer.lock().await.write_all(line.as_bytes()).await.expect("write");
+        ActId::Number(self.next_id)
+    }
+
+    pub async fn say(&mut self, to: &str, text: &str) {
+        let line = format!("{}\n", json!({"type": "say", "to": to, "text": text}));
+        self.writer.lock().await.write_all(line.as_bytes()).await.expect("write");
+    }
+
+    /// Waits until `check` holds for what the player has seen.
+    pub async fn wait<T>(&mut self, what: &str, mut check: impl FnMut(&Seen) -> Option<T>) -> T {
+        let seen = self.seen.clone();
+        let found = tokio::time::timeout(WAIT, async {
+            loop {
+                if let Some(found) = check(&seen.lock().expect("lock")) {
+                    return found;
+                }
+                if self.updates.changed().await.is_err() {
+                    panic!("connection ended while waiting for {what}");
+                }
+            }
+        })
+        .await;
+        found.unwrap_or_else(|_| {
+            let facts: Vec<String> =
+                seen.lock().expect("lock").beliefs.facts().iter().map(|p| p.to_string()).collect();
+            panic!("timed out waiting for {what}; facts: {facts:?}")
+        })
+    }
+
+    /// Waits until the player perceives `fact` (in the spec's notation, e.g. `in(RoomC1)`).
+    pub async fn wait_fact(&mut self, fact: &str) {
+        self.wait(fact, |s| s.beliefs.facts().iter().any(|p| p.to_string() == fact).then_some(())).await
+    }
+
+    /// Waits for the `result` of an action.
+    pub async fn wait_result(&mut self, id: &ActId) -> String {
+        self.wait("a result", |s| s.results.iter().find(|r| &r.id == id).map(|r| r.outcome.clone())).await
+    }
+
+    /// Waits for the `ack` of an action: `Ok(())` or the rejection code.
+    pub async fn wait_ack(&mut self, id: &ActId) -> Result<(), String> {
+        self.wait("an ack", |s| {
+            s.acks
+                .iter()
+                .find(|a| a.id.as_ref() == Some(id))
+                .map(|a| if a.ok { Ok(()) } else { Err(a.code.clone().unwrap_or_default()) })
+        })
+        .await
+    }
+
+    /// The lowest-id block of `colour` the player sees.
+    pub fn block_of(&self, colour: &str) -> Option<u32> {
+        self.seen.lock().expect("lock").beliefs.facts().iter().find_map(|p| match p {
+            Percept::Color(b, c) if c.name() == colour => Some(*b),
+            _ => None,
+        })
+    }
+}

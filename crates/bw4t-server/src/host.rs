@@ -149,6 +149,14 @@ impl Host {
             while let Ok(event) = self.events.try_recv() {
                 self.on_event(Some(event));
             }
+            if self.end.is_some() {
+                break;
+            }
+            // A player that joined or resynced just now was sent this tick: wait for it too.
+            if self.players.values().any(|p| p.awaiting) {
+                continue;
+            }
+            // A stop request must be seen even while nobody is awaited and no event comes.
             tokio::select! {
                 biased;
                 () = &mut *shutdown => self.end = Some("interrupted"),
@@ -188,6 +196,8 @@ impl Host {
         }
         let report = self.game.step();
         let tick = report.tick;
+        // A new tick: players are awaited again only if they are sent something now.
+        self.players.values_mut().for_each(|p| p.awaiting = false);
         for end in report.ended {
             let Some(player) = self.players.get_mut(&end.robot) else { continue };
             let Some(id) = player.orders.remove(&end.order) else { continue };
