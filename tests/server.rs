@@ -333,3 +333,173 @@ async fn stopping_the_server_ends_the_match_for_everyone() {
     assert!(matches!(rest.last(), Some(ServerMessage::Bye(_))));
     let _ = RobotId(0);
 }
+
+/// Bob sends Ann `rounds` x 16 messages of 50 KB, waiting for each round's acks.
+async fn flood(bob: &mut AutoPlayer, rounds: usize, tag: &str) {
+    let text = "m".repeat(50_000);
+    for round in 0..rounds {
+        let mut ids = Vec::new();
+        for i in 0..16 {
+            ids.push(bob.act("sendMessage", json!(["Ann", format!("{tag}{round}-{i} {text}")])).await);
+        }
+        for id in &ids {
+            assert_eq!(bob.wait_ack(id).await, Ok(()));
+        }
+    }
+}
+
+/// Waits until Bob (an `every_tick` player) has seen `n` more ticks.
+async fn let_ticks_pass(bob: &mut AutoPlayer, n: u64) {
+    let now = bob.seen.lock().expect("lock").tick;
+    bob.wait("ticks to pass", |s| (s.tick >= now + n).then_some(())).await;
+}
+
+fn realtime_flood_config(slow_limit: Duration) -> bw4t_server::ServerConfig {
+    let mut config = lockstep("fixed", 6, 2);
+    config.mode = Mode::Realtime;
+    config.game.ticks_per_second = 200;
+    config.queue = 100;
+    config.slow_limit = slow_limit;
+    config
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_client_that_stops_reading_gets_a_snapshot_and_every_message_once() {
+    let server = TestServer::start(realtime_flood_config(Duration::from_secs(60))).await;
+    let mut ann = Client::connect_small(server.addr).await;
+    ann.send(
+        json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": "Ann", "every_tick": true}),
+    )
+    .await;
+    let mut bob = AutoPlayer::join_with(server.addr, json!({"name": "Bob", "every_tick": true})).await;
+    // Ann reads nothing while 16 MB of messages and a percepts line per tick pile up.
+    flood(&mut bob, 20, "a").await;
+    let_ticks_pass(&mut bob, 200).await;
+    for i in 0..5 {
+        bob.say("Ann", &format!("late{i}")).await;
+    }
+    let_ticks_pass(&mut bob, 20).await;
+    let (mut heard, mut snapshots) = (Vec::new(), 0);
+    while heard.len() < 325 {
+        let Some(message) = ann.recv().await else {
+            panic!("Ann was disconnected after {} messages", heard.len())
+        };
+        if let ServerMessage::Percepts(p) = message {
+            snapshots += usize::from(p.full);
+            for fact in &p.add {
+                if fact[0] == "message" {
+                    heard.push(fact[2].as_str().expect("text").split(' ').next().expect("tag").to_string());
+                }
+            }
+        }
+    }
+    let unique: std::collections::BTreeSet<&String> = heard.iter().collect();
+    assert_eq!(unique.len(), heard.len(), "a message arrived twice");
+    assert!(heard.iter().any(|m| m == "late4") && heard.iter().any(|m| m == "a19-15"));
+    assert!(snapshots >= 2, "held-back percepts are replaced by a full snapshot (got {snapshots} snapshots)");
+    server.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_client_that_never_reads_is_disconnected_and_others_play_on() {
+    let server = TestServer::start(realtime_flood_config(Duration::from_millis(300))).await;
+    let mut ann = Client::connect_small(server.addr).await;
+    ann.send(
+        json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": "Ann", "every_tick": true}),
+    )
+    .await;
+    let mut bob = AutoPlayer::join_with(server.addr, json!({"name": "Bob", "every_tick": true})).await;
+    flood(&mut bob, 20, "a").await;
+    let_ticks_pass(&mut bob, 400).await;
+    let rest = ann.drain().await;
+    let error = rest
+        .iter()
+        .rev()
+        .find_map(|m| if let ServerMessage::Error(e) = m { Some(e.code.clone()) } else { None });
+    assert_eq!(error.as_deref(), Some("too_slow"));
+    assert!(matches!(rest.last(), Some(ServerMessage::Bye(_))));
+    let_ticks_pass(&mut bob, 10).await;
+    server.stop().await;
+}
+
+/// Everything the well-behaved player receives in a fixed lockstep match, with the
+/// wall-clock and random fields blanked.
+async fn good_player_stream(adversaries: bool) -> Vec<String> {
+    let mut config = lockstep("fixed", 8, 1);
+    config.max_ticks = Some(400);
+    config.token = Some("sesame".into());
+    config.hello_timeout = Duration::from_millis(200);
+    let server = TestServer::start(config).await;
+    let addr = server.addr;
+    let mut hostile = Vec::new();
+    if adversaries {
+        hostile.push(tokio::spawn(async move {
+            let mut c = Client::connect(addr).await;
+            for i in 0..300 {
+                c.send_raw(&format!("garbage {i} {{")).await;
+            }
+            c.send_raw(&"y".repeat(1 << 20)).await;
+            c.drain().await;
+        }));
+        hostile.push(tokio::spawn(async move {
+            let mut c = Client::connect(addr).await;
+            c.send(json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": "Eve", "token": "guess"})).await;
+            c.drain().await;
+        }));
+        hostile.push(tokio::spawn(async move {
+            let mut c = Client::connect_small(addr).await;
+            c.send(json!({"type": "hello", "protocol": "bw4t", "versions": [1], "role": "spectator", "token": "sesame"})).await;
+            // A spectator that never reads.
+            std::future::pending::<()>().await;
+            c.drain().await;
+        }));
+        hostile.push(tokio::spawn(async move {
+            let mut silent = Client::connect(addr).await;
+            silent.drain().await;
+        }));
+    }
+    let mut good = Client::connect(addr).await;
+    good.send(
+        json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": "Ann", "token": "sesame"}),
+    )
+    .await;
+    let places = ["RoomA1", "RoomC2", "DropZone", "RoomB3"];
+    let (mut stream, mut next, mut busy) = (Vec::new(), 0, false);
+    while let Some(message) = good.recv().await {
+        let mut value = serde_json::to_value(&message).expect("json");
+        for field in ["/session", "/result/wall_ms"] {
+            if let Some(v) = value.pointer_mut(field) {
+                *v = json!(0);
+            }
+        }
+        stream.push(value.to_string());
+        let tick = match message {
+            ServerMessage::Percepts(p) => p.tick,
+            ServerMessage::Result(r) => {
+                busy = false;
+                r.tick
+            }
+            _ => continue,
+        };
+        if !busy {
+            busy = true;
+            next += 1;
+            good.send(
+                json!({"type": "act", "id": next, "action": "goTo", "args": [places[next % places.len()]]}),
+            )
+            .await;
+        }
+        good.send(json!({"type": "ready", "tick": tick})).await;
+    }
+    server.finish().await;
+    hostile.iter().for_each(|h| h.abort());
+    stream
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn hostile_clients_do_not_change_what_a_good_player_receives() {
+    let alone = good_player_stream(false).await;
+    let among = good_player_stream(true).await;
+    assert!(alone.len() > 20, "{alone:?}");
+    assert_eq!(alone, among);
+}

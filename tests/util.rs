@@ -275,7 +275,18 @@ pub struct Client {
 
 impl Client {
     pub async fn connect(addr: SocketAddr) -> Client {
-        let stream = TcpStream::connect(addr).await.expect("connect");
+        Client::from_stream(TcpStream::connect(addr).await.expect("connect"))
+    }
+
+    /// A client whose socket takes in little before the server's writes block, so a client
+    /// that does not read fills the server's queue quickly.
+    pub async fn connect_small(addr: SocketAddr) -> Client {
+        let socket = tokio::net::TcpSocket::new_v4().expect("socket");
+        socket.set_recv_buffer_size(4096).expect("buffer size");
+        Client::from_stream(socket.connect(addr).await.expect("connect"))
+    }
+
+    fn from_stream(stream: TcpStream) -> Client {
         let (reader, writer) = stream.into_split();
         Client { lines: BufReader::new(reader).lines(), writer }
     }
@@ -371,8 +382,22 @@ pub struct AutoPlayer {
 
 impl AutoPlayer {
     pub async fn join(addr: SocketAddr, name: &str) -> AutoPlayer {
+        AutoPlayer::join_with(addr, json!({"name": name})).await
+    }
+
+    /// Joins with extra `hello` fields (e.g. `{"name": "Bob", "every_tick": true}`).
+    pub async fn join_with(addr: SocketAddr, fields: Value) -> AutoPlayer {
         let mut client = Client::connect(addr).await;
-        let welcome = client.hello(name).await;
+        let mut hello = json!({"type": "hello", "protocol": "bw4t", "versions": [1]});
+        hello.as_object_mut().expect("object").extend(fields.as_object().expect("object").clone());
+        client.send(hello).await;
+        let welcome = client
+            .until(|m| match m {
+                ServerMessage::Welcome(w) => Some(w.clone()),
+                ServerMessage::Error(e) => panic!("hello refused: {e:?}"),
+                _ => None,
+            })
+            .await;
         let (mut lines, writer) = client.into_parts();
         let writer = Arc::new(tokio::sync::Mutex::new(writer));
         let seen = Arc::new(Mutex::new(Seen::default()));
