@@ -59,3 +59,94 @@ fn help_describes_the_commands() {
     assert!(out.status.success());
     assert!(String::from_utf8_lossy(&out.stdout).contains("bench"));
 }
+
+fn json_lines(out: &Output) -> Vec<serde_json::Value> {
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("a JSON object per line"))
+        .collect()
+}
+
+#[test]
+fn bench_lockstep_and_realtime_report_their_figures() {
+    let out = bw4t(&["bench", "lockstep", "--lockstep-ticks", "200"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let lines = json_lines(&out);
+    let players: Vec<u64> = lines.iter().map(|l| l["players"].as_u64().expect("players")).collect();
+    assert_eq!(players, [1, 3, 10]);
+    for line in &lines {
+        assert_eq!(line["ticks"], 200, "every tick is played: {line}");
+        assert!(
+            line["ticks_per_s"].as_f64().is_some_and(|t| t > 0.0) && line["rtt_us"].as_u64().is_some(),
+            "{line}"
+        );
+    }
+    let out = bw4t(&["bench", "realtime", "--realtime-seconds", "0.5"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let line = &json_lines(&out)[0];
+    assert_eq!((line["case"].as_str(), line["robots"].as_u64()), (Some("realtime"), Some(100)));
+    assert!(
+        line["cpu_percent"].as_f64().is_some() && line["percepts_received"].as_u64().is_some_and(|n| n > 0),
+        "{line}"
+    );
+}
+
+/// `bw4t serve` as a user runs it: prints its address, plays, stops on SIGTERM, exits 0
+/// and writes the result file.
+#[test]
+fn serve_runs_until_terminated_and_writes_its_result() {
+    use std::io::{BufRead, BufReader, Write};
+    let dir = std::env::temp_dir().join(format!("bw4t-serve-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let results = dir.join("result.json");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_bw4t"))
+        .args(["serve", "--port", "0", "--map", "fixed", "--seed", "9", "--mode", "lockstep", "--results"])
+        .arg(&results)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("start bw4t serve");
+    let mut stdout = BufReader::new(child.stdout.take().expect("stdout"));
+    let mut first = String::new();
+    stdout.read_line(&mut first).expect("address line");
+    let addr = first.trim().strip_prefix("listening on ").expect("listening on ADDR").to_string();
+    let stream = std::net::TcpStream::connect(&addr).expect("connect");
+    stream.set_read_timeout(Some(std::time::Duration::from_secs(20))).expect("timeout");
+    let mut writer = stream.try_clone().expect("clone");
+    writeln!(writer, r#"{{"type":"hello","protocol":"bw4t","versions":[1],"name":"Ann"}}"#).expect("hello");
+    let mut reader = BufReader::new(stream);
+    let mut line = String::new();
+    reader.read_line(&mut line).expect("welcome");
+    assert!(line.contains("\"welcome\""), "{line}");
+    let status = Command::new("kill").arg("-TERM").arg(child.id().to_string()).status().expect("kill");
+    assert!(status.success());
+    let mut rest = String::new();
+    while reader.read_line(&mut line).is_ok_and(|n| n > 0) {
+        rest.push_str(&line);
+        line.clear();
+    }
+    assert!(rest.contains("\"match_end\"") && rest.contains("\"bye\""), "{rest}");
+    let exit = child.wait().expect("exit");
+    assert!(exit.success(), "{exit:?}");
+    let result: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&results).expect("result file")).expect("json");
+    let _ = std::fs::remove_dir_all(&dir);
+    assert_eq!(
+        (result["end_reason"].as_str(), result["seed"].as_u64(), result["map"].as_str()),
+        (Some("interrupted"), Some(9), Some("fixed"))
+    );
+}
+
+#[test]
+fn serve_refuses_bad_options() {
+    let cases: [(&[&str], &str); 3] = [
+        (&["serve", "--mode", "warp"], "invalid value 'warp'"),
+        (&["serve", "--robots", "50", "--port", "0"], "map 'default' has 12 spawn points"),
+        (&["serve", "--tick-hz", "0", "--port", "0"], "bad --tick-hz"),
+    ];
+    for (args, expected) in cases {
+        let out = bw4t(args);
+        assert!(!out.status.success(), "{args:?} succeeded");
+        assert!(stderr(&out).contains(expected), "{args:?}: {}", stderr(&out));
+    }
+}

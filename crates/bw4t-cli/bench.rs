@@ -22,6 +22,12 @@ pub struct BenchArgs {
     /// Seed for the map's content and the random players.
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// Ticks per `lockstep` measurement.
+    #[arg(long, default_value_t = 5_000)]
+    lockstep_ticks: u64,
+    /// Wall-clock seconds the `realtime` case measures for.
+    #[arg(long, default_value_t = 5.0)]
+    realtime_seconds: f64,
 }
 
 /// A benchmark case.
@@ -30,6 +36,12 @@ enum Case {
     /// Simulated ticks per second with 3 and with 10 robots kept moving by random orders,
     /// pick-ups and put-downs, every robot's percepts polled every tick. One thread.
     Sim,
+    /// Lockstep ticks per second with 1, 3 and 10 players on real loopback sockets, each
+    /// answering `ready` at once with a message every tick (so no tick is skipped), and
+    /// the median time from one tick's percepts to the next tick's.
+    Lockstep,
+    /// CPU use of a `bw4t serve` process with 100 connected robots at 20 ticks/s.
+    Realtime,
 }
 
 /// Runs the chosen cases and prints their figures.
@@ -41,6 +53,17 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 for robots in [3, 10] {
                     println!("{}", sim(args, robots)?);
                 }
+            }
+            Case::Lockstep => {
+                for players in [1, 3, 10] {
+                    println!(
+                        "{}",
+                        crate::bench_net::lockstep(&args.map, args.seed, players, args.lockstep_ticks)?
+                    );
+                }
+            }
+            Case::Realtime => {
+                println!("{}", crate::bench_net::realtime(args.seed, 100, args.realtime_seconds)?)
             }
         }
     }

@@ -1,6 +1,7 @@
 //! `bw4t`: the command line of Blocks World for Teams.
 
 mod bench;
+mod bench_net;
 mod maps;
 mod serve;
 
