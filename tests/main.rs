@@ -15,5 +15,8 @@ mod maps;
 /// The match server over real loopback TCP.
 mod server;
 
+/// The protocol documents: schemas and examples checked against the Rust types.
+mod protocol_docs;
+
 /// The `bw4t` binary, run as a child process.
 mod cli;

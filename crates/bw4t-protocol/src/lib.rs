@@ -7,11 +7,13 @@ mod codec;
 mod convert;
 mod messages;
 mod result;
+mod schema;
 
 pub use codec::{DecodeError, LineBuffer, MAX_LINE, decode_client, decode_server, encode};
 pub use convert::{FactError, action_from_act, fact_to_percept, percept_to_fact, receiver};
 pub use messages::*;
 pub use result::{MatchResult, RobotResult};
+pub use schema::schemas;
 
 /// The protocol's name, as sent in `hello`.
 pub const PROTOCOL: &str = "bw4t";

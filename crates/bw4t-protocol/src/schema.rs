@@ -1,0 +1,72 @@
+//! JSON Schemas of every message, generated from the Rust types (`protocol/schema/`).
+
+use schemars::schema_for;
+use serde_json::{Value, json};
+
+use crate::messages::{ClientMessage, ServerMessage};
+
+/// Every message's schema as (relative path, schema): `client/hello.json`, `server/welcome.json`, ...
+pub fn schemas() -> Vec<(String, Value)> {
+    let mut out = Vec::new();
+    for (side, whole) in [
+        ("client", serde_json::to_value(schema_for!(ClientMessage))),
+        ("server", serde_json::to_value(schema_for!(ServerMessage))),
+    ] {
+        // Generating a schema from these types cannot fail.
+        let whole = whole.unwrap_or_default();
+        let defs = whole.get("$defs").cloned().unwrap_or_else(|| json!({}));
+        for branch in whole.get("oneOf").and_then(Value::as_array).into_iter().flatten() {
+            let Some(name) = branch.pointer("/properties/type/const").and_then(Value::as_str) else { continue };
+            let mut schema = json!({
+                "$schema": "https://json-schema.org/draft/2020-12/schema",
+                "$id": format!("https://bw4t.invalid/protocol/v1/{side}/{name}.json"),
+                "title": format!("{name} ({side} to {})", if side == "client" { "server" } else { "client" }),
+            });
+            let object = schema.as_object_mut().expect("a JSON object literal");
+            for (key, value) in branch.as_object().into_iter().flatten() {
+                object.insert(key.clone(), value.clone());
+            }
+            // Keep only the definitions this message refers to, so each file reads alone.
+            let used: serde_json::Map<String, Value> = defs
+                .as_object()
+                .into_iter()
+                .flatten()
+                .filter(|(key, _)| refers_to(branch, key, &defs))
+                .map(|(k, v)| (k.clone(), v.clone()))
+                .collect();
+            if !used.is_empty() {
+                object.insert("$defs".into(), Value::Object(used));
+            }
+            out.push((format!("{side}/{name}.json"), schema));
+        }
+    }
+    out
+}
+
+/// Whether `value` refers to definition `key`, directly or through other definitions.
+fn refers_to(value: &Value, key: &str, defs: &Value) -> bool {
+    let mut seen = Vec::new();
+    reaches(value, key, defs, &mut seen)
+}
+
+fn reaches(value: &Value, key: &str, defs: &Value, seen: &mut Vec<String>) -> bool {
+    match value {
+        Value::Object(map) => map.iter().any(|(k, v)| {
+            if k == "$ref" {
+                let Some(target) = v.as_str().and_then(|r| r.strip_prefix("#/$defs/")) else { return false };
+                if target == key {
+                    return true;
+                }
+                if seen.iter().any(|s| s == target) {
+                    return false;
+                }
+                seen.push(target.to_string());
+                defs.get(target).is_some_and(|d| reaches(d, key, defs, seen))
+            } else {
+                reaches(v, key, defs, seen)
+            }
+        }),
+        Value::Array(items) => items.iter().any(|v| reaches(v, key, defs, seen)),
+        _ => false,
+    }
+}

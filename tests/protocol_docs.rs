@@ -1,0 +1,102 @@
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use bw4t_protocol::{decode_client, decode_server, schemas};
+use serde_json::Value;
+
+fn protocol_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("protocol")
+}
+
+fn files_under(dir: &Path, out: &mut Vec<PathBuf>) {
+    for entry in std::fs::read_dir(dir).into_iter().flatten().flatten() {
+        let path = entry.path();
+        if path.is_dir() {
+            if path.file_name().is_some_and(|n| n == "node_modules") {
+                continue;
+            }
+            files_under(&path, out);
+        } else {
+            out.push(path);
+        }
+    }
+}
+
+/// The committed schemas are exactly what the Rust types generate. To update them after
+/// changing a message: `BW4T_BLESS=1 cargo test --test main schemas`.
+#[test]
+fn schemas_match_the_rust_types() {
+    let dir = protocol_dir().join("schema");
+    let expected: BTreeMap<String, String> = schemas()
+        .into_iter()
+        .map(|(path, schema)| (path, serde_json::to_string_pretty(&schema).expect("json") + "\n"))
+        .collect();
+    if std::env::var_os("BW4T_BLESS").is_some() {
+        let _ = std::fs::remove_dir_all(&dir);
+        for (path, text) in &expected {
+            let file = dir.join(path);
+            std::fs::create_dir_all(file.parent().expect("parent")).expect("mkdir");
+            std::fs::write(file, text).expect("write schema");
+        }
+    }
+    let mut files = Vec::new();
+    files_under(&dir, &mut files);
+    let found: BTreeMap<String, String> = files
+        .iter()
+        .map(|f| {
+            let rel = f.strip_prefix(&dir).expect("under schema").to_string_lossy().replace('\\', "/");
+            (rel, std::fs::read_to_string(f).expect("read"))
+        })
+        .collect();
+    assert_eq!(found.keys().collect::<Vec<_>>(), expected.keys().collect::<Vec<_>>(), "schema files");
+    for (path, text) in &expected {
+        assert_eq!(&found[path], text, "protocol/schema/{path} is out of date (BW4T_BLESS=1 regenerates it)");
+    }
+    for name in ["client/hello.json", "client/act.json", "server/percepts.json", "server/match_end.json"] {
+        assert!(expected.contains_key(name), "{name}");
+    }
+}
+
+/// Every JSON example in `protocol/` is a message of this protocol version: the fenced
+/// ```json blocks of the Markdown files, and the transcripts' `send`/`recv` lines.
+#[test]
+fn every_json_example_in_protocol_parses() {
+    let mut files = Vec::new();
+    files_under(&protocol_dir(), &mut files);
+    let mut checked = 0;
+    for file in files {
+        let text = std::fs::read_to_string(&file).unwrap_or_default();
+        let name = file.display().to_string();
+        match file.extension().and_then(|e| e.to_str()) {
+            Some("md") => {
+                for block in text.split("```json\n").skip(1) {
+                    let json = block.split("\n```").next().expect("fenced block");
+                    let value: Value = serde_json::from_str(json).unwrap_or_else(|e| panic!("{name}: {e}\n{json}"));
+                    let line = value.to_string();
+                    if decode_client(&line).is_err() {
+                        decode_server(&line).unwrap_or_else(|e| panic!("{name}: not a message: {e}\n{json}"));
+                    }
+                    checked += 1;
+                }
+            }
+            Some("jsonl") => {
+                for (i, line) in text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty()) {
+                    let value: Value = serde_json::from_str(line).unwrap_or_else(|e| panic!("{name}:{}: {e}", i + 1));
+                    if let Some(sent) = value.get("send") {
+                        decode_client(&sent.to_string()).unwrap_or_else(|e| panic!("{name}:{}: {e}", i + 1));
+                    } else if let Some(received) = value.get("recv") {
+                        decode_server(&received.to_string()).unwrap_or_else(|e| panic!("{name}:{}: {e}", i + 1));
+                    } else if value.get("raw").is_none() && value.get("server").is_none() {
+                        panic!("{name}:{}: a transcript line is {{\"send\": ..}} or {{\"recv\": ..}}", i + 1);
+                    }
+                    checked += 1;
+                }
+            }
+            Some("json") => {
+                serde_json::from_str::<Value>(&text).unwrap_or_else(|e| panic!("{name}: {e}"));
+            }
+            _ => {}
+        }
+    }
+    assert!(checked > 0, "no examples found in protocol/");
+}
