@@ -71,7 +71,8 @@ fn every_json_example_in_protocol_parses() {
             Some("md") => {
                 for block in text.split("```json\n").skip(1) {
                     let json = block.split("\n```").next().expect("fenced block");
-                    let value: Value = serde_json::from_str(json).unwrap_or_else(|e| panic!("{name}: {e}\n{json}"));
+                    let value: Value =
+                        serde_json::from_str(json).unwrap_or_else(|e| panic!("{name}: {e}\n{json}"));
                     let line = value.to_string();
                     if decode_client(&line).is_err() {
                         decode_server(&line).unwrap_or_else(|e| panic!("{name}: not a message: {e}\n{json}"));
@@ -81,11 +82,13 @@ fn every_json_example_in_protocol_parses() {
             }
             Some("jsonl") => {
                 for (i, line) in text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty()) {
-                    let value: Value = serde_json::from_str(line).unwrap_or_else(|e| panic!("{name}:{}: {e}", i + 1));
+                    let value: Value =
+                        serde_json::from_str(line).unwrap_or_else(|e| panic!("{name}:{}: {e}", i + 1));
                     if let Some(sent) = value.get("send") {
                         decode_client(&sent.to_string()).unwrap_or_else(|e| panic!("{name}:{}: {e}", i + 1));
                     } else if let Some(received) = value.get("recv") {
-                        decode_server(&received.to_string()).unwrap_or_else(|e| panic!("{name}:{}: {e}", i + 1));
+                        decode_server(&received.to_string())
+                            .unwrap_or_else(|e| panic!("{name}:{}: {e}", i + 1));
                     } else if value.get("raw").is_none() && value.get("server").is_none() {
                         panic!("{name}:{}: a transcript line is {{\"send\": ..}} or {{\"recv\": ..}}", i + 1);
                     }

@@ -503,3 +503,83 @@ async fn hostile_clients_do_not_change_what_a_good_player_receives() {
     assert!(alone.len() > 20, "{alone:?}");
     assert_eq!(alone, among);
 }
+
+const ONE_BLOCK_MAP: &str = r#"
+    name = "oneblock"
+    area = [30, 30]
+    sequence = ["Red"]
+    [[spawn]]
+    name = "S1"
+    at = [5, 5]
+    [[spawn]]
+    name = "S2"
+    at = [9, 5]
+    [[zone]]
+    name = "Hall"
+    type = "corridor"
+    centre = [15, 5]
+    size = [30, 10]
+    neighbours = ["DropZone", "RoomA"]
+    [[zone]]
+    name = "DropZone"
+    type = "room"
+    centre = [25, 15]
+    size = [10, 10]
+    doors = [[25, 10]]
+    [[zone]]
+    name = "RoomA"
+    type = "room"
+    centre = [15, 15]
+    size = [10, 10]
+    doors = [[15, 10]]
+    blocks = ["Red"]
+"#;
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn completing_the_sequence_ends_the_match_for_everyone() {
+    let mut config = bw4t_server::ServerConfig::new(bw4t_map::Map::from_native(ONE_BLOCK_MAP).expect("map"));
+    config.mode = Mode::Lockstep;
+    let server = TestServer::start(config).await;
+    let mut ann = AutoPlayer::join_with(server.addr, json!({"name": "Ann", "every_tick": true})).await;
+    let go = ann.act("goTo", json!(["RoomA"])).await;
+    ann.wait_result(&go).await;
+    let go = ann.act("goToBlock", json!([1])).await;
+    ann.wait_result(&go).await;
+    ann.act("pickUp", json!([])).await;
+    let go = ann.act("goTo", json!(["DropZone"])).await;
+    ann.wait_result(&go).await;
+    ann.act("putDown", json!([])).await;
+    let result = server.finish().await;
+    assert_eq!((result.end_reason.as_str(), result.completed, result.sequence_index), ("completed", true, 1));
+    assert_eq!(
+        result.completed_tick,
+        Some(result.ticks - 1),
+        "the delivery was applied after the last tick but one"
+    );
+    ann.wait("the end", |s| s.ended.then_some(())).await;
+    // With every_tick, Ann was sent (and answered) every tick.
+    let ticks = ann.seen.lock().expect("lock").tick;
+    assert_eq!(ticks, result.ticks);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_robot_whose_player_stays_away_leaves_after_the_grace_period() {
+    let mut config = bw4t_server::ServerConfig::new(bw4t_map::Map::from_native(ONE_BLOCK_MAP).expect("map"));
+    config.mode = Mode::Realtime;
+    config.game.ticks_per_second = 100;
+    config.robots = 2;
+    config.grace = Duration::from_millis(300);
+    let server = TestServer::start(config).await;
+    let mut ann = AutoPlayer::join(server.addr, "Ann").await;
+    let bob = AutoPlayer::join(server.addr, "Bob").await;
+    ann.wait_fact("player(Bob)").await;
+    bob.disconnect().await;
+    ann.wait("Bob's robot to leave", |s| {
+        (!s.beliefs.facts().iter().any(|p| p.to_string() == "player(Bob)")).then_some(())
+    })
+    .await;
+    // The name is free again.
+    let back = AutoPlayer::join(server.addr, "Bob").await;
+    assert_eq!(back.welcome.robot, Some(2), "a new robot, not the old one");
+    server.stop().await;
+}
