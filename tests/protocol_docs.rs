@@ -81,16 +81,40 @@ fn every_json_example_in_protocol_parses() {
                 }
             }
             Some("jsonl") => {
-                for (i, line) in text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty()) {
-                    let value: Value =
-                        serde_json::from_str(line).unwrap_or_else(|e| panic!("{name}:{}: {e}", i + 1));
-                    if let Some(sent) = value.get("send") {
-                        decode_client(&sent.to_string()).unwrap_or_else(|e| panic!("{name}:{}: {e}", i + 1));
-                    } else if let Some(received) = value.get("recv") {
-                        decode_server(&received.to_string())
-                            .unwrap_or_else(|e| panic!("{name}:{}: {e}", i + 1));
-                    } else if value.get("raw").is_none() && value.get("server").is_none() {
-                        panic!("{name}:{}: a transcript line is {{\"send\": ..}} or {{\"recv\": ..}}", i + 1);
+                let lines: Vec<(usize, Value)> = text
+                    .lines()
+                    .enumerate()
+                    .filter(|(_, l)| !l.trim().is_empty())
+                    .map(|(i, l)| {
+                        (i + 1, serde_json::from_str(l).unwrap_or_else(|e| panic!("{name}:{}: {e}", i + 1)))
+                    })
+                    .collect();
+                for (k, (at, value)) in lines.iter().enumerate() {
+                    if let Some(received) = value.get("recv") {
+                        decode_server(&received.to_string()).unwrap_or_else(|e| panic!("{name}:{at}: {e}"));
+                    } else if let Some(sent) = value
+                        .get("send")
+                        .map(Value::to_string)
+                        .or_else(|| value.get("raw").and_then(Value::as_str).map(str::to_string))
+                    {
+                        // Bad input is shown on purpose: then the server's next line answers it.
+                        if decode_client(&sent).is_err() {
+                            let reply =
+                                lines.get(k + 1).and_then(|(_, v)| v.get("recv")).map(Value::to_string);
+                            let answered =
+                                reply.as_deref().and_then(|r| decode_server(r).ok()).is_some_and(|m| {
+                                    matches!(m, bw4t_protocol::ServerMessage::Error(_))
+                                        || matches!(m, bw4t_protocol::ServerMessage::Ack(ref a) if !a.ok)
+                                });
+                            assert!(
+                                answered,
+                                "{name}:{at}: an invalid message must be followed by the error it gets"
+                            );
+                        }
+                    } else {
+                        panic!(
+                            "{name}:{at}: a transcript line is {{\"send\": ..}}, {{\"raw\": \"..\"}} or {{\"recv\": ..}}"
+                        );
                     }
                     checked += 1;
                 }
