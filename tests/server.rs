@@ -218,6 +218,8 @@ async fn bad_input_is_answered_and_the_connection_stays_open() {
     c.hello("Ann").await;
     c.send(json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": "Ann"})).await;
     assert_eq!(c.error_code().await, "already_joined");
+    c.send(json!({"type": "ready", "tick": 999})).await;
+    assert_eq!(c.error_code().await, "bad_tick");
     let acts = [
         (json!({"type": "act", "id": 1, "action": "fly", "args": []}), "unknown_action"),
         (json!({"type": "act", "id": 2, "action": "goTo", "args": []}), "bad_args"),
@@ -581,5 +583,39 @@ async fn a_robot_whose_player_stays_away_leaves_after_the_grace_period() {
     // The name is free again.
     let back = AutoPlayer::join(server.addr, "Bob").await;
     assert_eq!(back.welcome.robot, Some(2), "a new robot, not the old one");
+    server.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_dropped_players_robot_stands_still() {
+    let mut config = lockstep("fixed", 3, 1);
+    config.mode = Mode::Realtime;
+    config.game.ticks_per_second = 100;
+    let server = TestServer::start(config).await;
+    let mut watcher = Client::connect(server.addr).await;
+    watcher.send(json!({"type": "hello", "protocol": "bw4t", "versions": [1], "role": "spectator"})).await;
+    let mut ann = AutoPlayer::join(server.addr, "Ann").await;
+    ann.act("goTo", json!(["RoomA3"])).await;
+    ann.wait_fact("at(RightHallD)").await;
+    ann.disconnect().await;
+    // Once stopped (on its way, past RightHallD), the robot keeps its place across many ticks.
+    let stopped = watcher
+        .until(|m| match m {
+            ServerMessage::Frame(f)
+                if f.robots.first().is_some_and(|r| r.state == "arrived" && r.x >= 39.0) =>
+            {
+                Some(f.clone())
+            }
+            _ => None,
+        })
+        .await;
+    let later = watcher
+        .until(|m| match m {
+            ServerMessage::Frame(f) if f.tick > stopped.tick + 50 => Some(f.clone()),
+            _ => None,
+        })
+        .await;
+    assert_eq!((later.robots[0].x, later.robots[0].y), (stopped.robots[0].x, stopped.robots[0].y));
+    assert!(stopped.robots[0].y > 30.0, "stopped before reaching RoomA3: {:?}", stopped.robots[0]);
     server.stop().await;
 }

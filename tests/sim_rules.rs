@@ -240,6 +240,25 @@ fn a_new_order_supersedes_the_old_one() {
 }
 
 #[test]
+fn a_stopped_robot_stands_still() {
+    let mut s = check_fixed(
+        &["Bot1"],
+        "
+        Bot1 goTo RoomA1
+        run 10
+        ",
+    );
+    let id = bw4t_sim::RobotId(0);
+    let before = s.game.robots().next().expect("robot").pos;
+    s.game.stop(id).expect("stop");
+    s.line("run 1");
+    s.line("Bot1 ended superseded");
+    s.line("Bot1 sees state(arrived)");
+    s.line("run 20");
+    assert_eq!(s.game.robots().next().expect("robot").pos, before);
+}
+
+#[test]
 fn players_leave_and_others_are_told() {
     let s = check_fixed(
         &["Bot1", "Bot2"],
@@ -342,7 +361,7 @@ fn robots_pass_through_each_other_unless_collisions_are_on() {
 fn joining_checks_names_and_spawn_points() {
     let map = Map::from_native(TWIN_MAP).expect("twin map");
     let mut game = Match::new(&map, &MatchConfig::default(), 1).expect("match");
-    for bad in ["", "1abc", "a b", "ünï", "x-y"] {
+    for bad in ["", "1abc", "a b", "ünï", "x-y", "all"] {
         assert_eq!(game.join(bad), Err(JoinError::InvalidName(bad.to_string())));
     }
     let ann = game.join("Ann").expect("first");

@@ -308,10 +308,18 @@ impl Client {
             .map(|l| decode_server(&l).unwrap_or_else(|e| panic!("bad line from server {l}: {e}")))
     }
 
-    /// Reads until `pick` returns something; panics if the connection ends first.
+    /// Reads until `pick` returns something; panics if the connection ends first or it
+    /// takes longer than [`WAIT`] in all.
     pub async fn until<T>(&mut self, mut pick: impl FnMut(&ServerMessage) -> Option<T>) -> T {
+        let deadline = tokio::time::Instant::now() + WAIT;
+        let mut last = String::new();
         loop {
-            let message = self.recv().await.expect("connection open");
+            let Ok(line) = tokio::time::timeout_at(deadline, self.lines.next_line()).await else {
+                panic!("the awaited message did not come in time; the last line was {last}");
+            };
+            let line = line.ok().flatten().expect("connection open");
+            last.clone_from(&line);
+            let message = decode_server(&line).unwrap_or_else(|e| panic!("bad line from server {line}: {e}"));
             if let Some(found) = pick(&message) {
                 return found;
             }

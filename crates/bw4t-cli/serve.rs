@@ -49,6 +49,15 @@ pub struct ServeArgs {
     /// Seconds a dropped player's robot waits for its session to reconnect.
     #[arg(long, default_value_t = 30)]
     grace_s: u64,
+    /// Connections accepted at once; more are refused with `server_full`.
+    #[arg(long, default_value_t = 256)]
+    max_connections: usize,
+    /// Actions and messages a player may send per tick; more are rejected (`rate_limited`).
+    #[arg(long, default_value_t = 16)]
+    max_actions: u32,
+    /// Seconds a new connection has to say `hello`.
+    #[arg(long, default_value_t = 10)]
+    hello_timeout_s: u64,
     /// Robots block each other outside rooms.
     #[arg(long)]
     robot_collisions: bool,
@@ -85,6 +94,9 @@ pub fn run(args: &ServeArgs) -> Result<()> {
     config.token = args.token.clone();
     config.every_tick = args.every_tick;
     config.grace = Duration::from_secs(args.grace_s);
+    config.max_connections = args.max_connections;
+    config.max_actions_per_tick = args.max_actions;
+    config.hello_timeout = Duration::from_secs(args.hello_timeout_s);
     if args.robots > config.map.spawns().len() {
         anyhow::bail!(
             "--robots {} but map '{}' has {} spawn points",

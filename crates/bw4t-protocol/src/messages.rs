@@ -195,10 +195,11 @@ pub struct MatchInfo {
     pub mode: Mode,
     /// Simulated ticks per simulated second.
     pub tick_hz: u32,
-    /// Lockstep: how long the server waits for `ready` (0: forever).
-    pub deadline_ms: u64,
-    /// How many players the match waits for before the first tick.
-    pub robots: usize,
+    /// Lockstep only: how long the server waits for `ready` (0: forever).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub deadline_ms: Option<u64>,
+    /// How many connected players the match waits for before its first tick.
+    pub players_needed: usize,
     /// The last tick, if the match has a limit.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_ticks: Option<u64>,

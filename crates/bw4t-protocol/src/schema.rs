@@ -16,7 +16,9 @@ pub fn schemas() -> Vec<(String, Value)> {
         let whole = whole.unwrap_or_default();
         let defs = whole.get("$defs").cloned().unwrap_or_else(|| json!({}));
         for branch in whole.get("oneOf").and_then(Value::as_array).into_iter().flatten() {
-            let Some(name) = branch.pointer("/properties/type/const").and_then(Value::as_str) else { continue };
+            let Some(name) = branch.pointer("/properties/type/const").and_then(Value::as_str) else {
+                continue;
+            };
             let mut schema = json!({
                 "$schema": "https://json-schema.org/draft/2020-12/schema",
                 "$id": format!("https://bw4t.invalid/protocol/v1/{side}/{name}.json"),

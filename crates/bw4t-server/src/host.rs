@@ -48,13 +48,20 @@ enum ConnRole {
     Spectator,
 }
 
+/// What a player asked for, applied at the next tick boundary.
+enum Pending {
+    Act(Option<ActId>, Action),
+    /// The player's connection dropped: the robot stops where it stands.
+    Stop,
+}
+
 struct Player {
     name: String,
     session: String,
     conn: Option<ConnId>,
     dropped_at: Option<Instant>,
     every_tick: bool,
-    pending: Vec<(Option<ActId>, Action)>,
+    pending: Vec<Pending>,
     actions_this_tick: u32,
     orders: BTreeMap<OrderId, ActId>,
     awaiting: bool,
@@ -75,6 +82,8 @@ pub struct Host {
     frame_messages: Vec<FrameMessage>,
     end: Option<&'static str>,
     sessions: u64,
+    /// Writers of closed connections that may still be flushing.
+    closing: Vec<watch::Receiver<bool>>,
 }
 
 impl Host {
@@ -93,6 +102,7 @@ impl Host {
             frame_messages: Vec::new(),
             end: None,
             sessions: 0,
+            closing: Vec::new(),
         })
     }
 
@@ -101,7 +111,7 @@ impl Host {
         let started = Instant::now();
         tokio::pin!(shutdown);
         // Before the first tick: admit players until enough have joined.
-        while self.end.is_none() && self.players.len() < self.config.robots {
+        while self.end.is_none() && self.connected_players() < self.config.robots {
             tokio::select! {
                 () = &mut shutdown => self.end = Some("interrupted"),
                 event = self.events.recv() => self.on_event(event),
@@ -156,6 +166,15 @@ impl Host {
             if self.players.values().any(|p| p.awaiting) {
                 continue;
             }
+            // With no player connected there is no one to play for: wait instead of spinning.
+            if self.connected_players() == 0 {
+                tokio::select! {
+                    () = &mut *shutdown => self.end = Some("interrupted"),
+                    event = self.events.recv() => self.on_event(event),
+                    () = tokio::time::sleep(Duration::from_millis(250)) => self.expire_dropped(),
+                }
+                continue;
+            }
             // A stop request must be seen even while nobody is awaited and no event comes.
             tokio::select! {
                 biased;
@@ -173,6 +192,10 @@ impl Host {
         }
     }
 
+    fn connected_players(&self) -> usize {
+        self.players.values().filter(|p| p.conn.is_some()).count()
+    }
+
     /// Players that did not answer by the deadline are counted late and no longer awaited.
     fn mark_late(&mut self) {
         for (id, player) in self.players.iter_mut().filter(|(_, p)| p.awaiting) {
@@ -187,8 +210,13 @@ impl Host {
         for &id in &ids {
             let pending =
                 self.players.get_mut(&id).map(|p| std::mem::take(&mut p.pending)).unwrap_or_default();
-            for (act_id, action) in pending {
-                self.apply(id, act_id, action);
+            for item in pending {
+                match item {
+                    Pending::Act(act_id, action) => self.apply(id, act_id, action),
+                    Pending::Stop => {
+                        let _ = self.game.stop(id);
+                    }
+                }
             }
             if let Some(p) = self.players.get_mut(&id) {
                 p.actions_this_tick = 0;
@@ -202,8 +230,8 @@ impl Host {
             let Some(player) = self.players.get_mut(&end.robot) else { continue };
             let Some(id) = player.orders.remove(&end.order) else { continue };
             let result = ServerMessage::Result(ActResult { id, outcome: end.outcome.name().into(), tick });
-            player.awaiting = true;
             if let Some(conn) = player.conn {
+                player.awaiting = true;
                 self.send(conn, &result);
             }
         }
@@ -279,7 +307,9 @@ impl Host {
         let full = full || std::mem::take(&mut player.needs_snapshot);
         let delta = if full { self.game.snapshot(id) } else { self.game.poll_percepts(id) };
         let Some(delta) = delta else { return false };
-        if delta.is_empty() && !player.every_tick {
+        // A tick's messages to a player always end with its `percepts`, even an empty one
+        // after a `result`, so a player knows when it has heard everything for the tick.
+        if delta.is_empty() && !player.every_tick && !player.awaiting {
             return false;
         }
         player.awaiting = true;
@@ -375,12 +405,19 @@ impl Host {
     }
 
     fn on_closed(&mut self, conn: ConnId) {
-        if let Some(Conn { role: ConnRole::Agent(id), .. }) = self.conns.remove(&conn) {
+        let Some(closed) = self.conns.remove(&conn) else { return };
+        // The end of the match waits for this writer too, so nothing queued is cut off.
+        self.closing.retain(|done| !*done.borrow());
+        self.closing.push(closed.done);
+        if let ConnRole::Agent(id) = closed.role {
             if let Some(player) = self.players.get_mut(&id) {
                 if player.conn == Some(conn) {
+                    // The robot stands still (holding what it holds) until its player returns.
                     player.conn = None;
                     player.dropped_at = Some(Instant::now());
                     player.awaiting = false;
+                    player.orders.clear();
+                    player.pending = vec![Pending::Stop];
                 }
             }
         }
@@ -409,10 +446,17 @@ impl Host {
                 self.queue_action(conn, robot, say.id, action);
             }
             ClientMessage::Ready(ready) => {
-                if let Some(player) = self.players.get_mut(&robot) {
-                    if ready.tick == self.game.tick() {
+                let now = self.game.tick();
+                if ready.tick == now {
+                    if let Some(player) = self.players.get_mut(&robot) {
                         player.awaiting = false;
                     }
+                } else if ready.tick < now {
+                    let message = format!("tick {} is over; the match is at tick {now}", ready.tick);
+                    self.error(conn, "late_ready", &message, false);
+                } else {
+                    let message = format!("tick {} has not happened; the match is at tick {now}", ready.tick);
+                    self.error(conn, "bad_tick", &message, false);
                 }
             }
             ClientMessage::Resync(_) => {
@@ -435,7 +479,7 @@ impl Host {
             return self.reject(conn, id, "rate_limited", &reason);
         }
         player.actions_this_tick += 1;
-        player.pending.push((id, action));
+        player.pending.push(Pending::Act(id, action));
     }
 
     fn reject(&mut self, conn: ConnId, id: Option<ActId>, code: &str, reason: &str) {
@@ -458,9 +502,6 @@ impl Host {
         }
         if self.config.token.is_some() && hello.token != self.config.token {
             return self.error(conn, "bad_token", "wrong or missing token", true);
-        }
-        if self.end.is_some() {
-            return self.error(conn, "match_over", "the match has ended", true);
         }
         if hello.role == Role::Spectator {
             if let Some(c) = self.conns.get_mut(&conn) {
@@ -551,8 +592,9 @@ impl Host {
                 seed: self.config.seed,
                 mode: self.config.mode,
                 tick_hz: self.config.game.ticks_per_second,
-                deadline_ms: self.config.deadline.map_or(0, |d| d.as_millis() as u64),
-                robots: self.config.robots,
+                deadline_ms: (self.config.mode == Mode::Lockstep)
+                    .then(|| self.config.deadline.map_or(0, |d| d.as_millis() as u64)),
+                players_needed: self.config.robots,
                 max_ticks: self.config.max_ticks,
                 every_tick,
             },
@@ -620,7 +662,6 @@ impl Host {
             encode(&ServerMessage::MatchEnd(MatchEnd { reason: reason.into(), result: result.clone() }));
         let end: Arc<str> = end.into();
         let conns: Vec<ConnId> = self.conns.keys().copied().collect();
-        let mut done: Vec<watch::Receiver<bool>> = self.conns.values().map(|c| c.done.clone()).collect();
         for conn in conns {
             if matches!(self.conns.get(&conn).map(|c| c.role), Some(ConnRole::Agent(_) | ConnRole::Spectator))
             {
@@ -628,6 +669,7 @@ impl Host {
             }
             self.disconnect(conn, "match_over", "");
         }
+        let mut done = std::mem::take(&mut self.closing);
         let flushed = async {
             for d in &mut done {
                 let _ = d.wait_for(|d| *d).await;

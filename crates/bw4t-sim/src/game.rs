@@ -190,7 +190,9 @@ impl Match {
 
     /// Adds a robot for player `name` at the first spawn point no robot holds.
     pub fn join(&mut self, name: &str) -> Result<RobotId, JoinError> {
+        // `all` addresses every player in `sendMessage`, so no player may be called that.
         let valid = name.len() <= MAX_NAME_LEN
+            && name != "all"
             && name.starts_with(|c: char| c.is_ascii_alphabetic())
             && name.chars().all(|c| c.is_ascii_alphanumeric());
         if !valid {
@@ -244,6 +246,18 @@ impl Match {
             }
             self.physics.remove_robot(robot.body);
             self.departed.push((id, robot.stats));
+        }
+        Ok(())
+    }
+
+    /// Stops a robot where it stands: its current order ends as superseded.
+    pub fn stop(&mut self, id: RobotId) -> Result<(), Rejection> {
+        let robot =
+            self.robots.get_mut(id.0 as usize).and_then(Option::as_mut).ok_or(Rejection::UnknownRobot(id))?;
+        robot.plan.clear();
+        if let Some(order) = robot.order.take() {
+            robot.state = MoveState::Arrived;
+            self.ended.push(OrderEnd { robot: id, order, outcome: OrderOutcome::Superseded });
         }
         Ok(())
     }
