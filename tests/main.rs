@@ -12,6 +12,9 @@ mod sim_properties;
 /// Maps and their seeded random content.
 mod maps;
 
+/// Original BW4T XML maps: import, format detection, errors.
+mod import;
+
 /// The match server over real loopback TCP.
 mod server;
 

@@ -2,6 +2,7 @@
 //!
 //! Pure: everything here parses and produces values; no files, clocks or OS randomness.
 
+mod bw4t_xml;
 mod colour;
 mod content;
 mod geometry;
@@ -9,6 +10,7 @@ mod model;
 mod native;
 mod rng;
 
+pub use bw4t_xml::XmlError;
 pub use colour::{Colour, UnknownColour};
 pub use content::{
     BLOCK_SPACING, Content, ContentError, MAX_BLOCKS_PER_ROOM, PlacedBlock, block_area, spot_is_clear,
