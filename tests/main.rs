@@ -15,6 +15,10 @@ mod maps;
 /// Original BW4T XML maps: import, format detection, errors.
 mod import;
 
+/// Built-in agents in headless matches.
+mod agents;
+mod zz_debug;
+
 /// The match server over real loopback TCP.
 mod server;
 

@@ -10,7 +10,7 @@ mod model;
 mod native;
 mod rng;
 
-pub use bw4t_xml::XmlError;
+pub use bw4t_xml::{MapLoadError, XmlError, XmlPlace};
 pub use colour::{Colour, UnknownColour};
 pub use content::{
     BLOCK_SPACING, Content, ContentError, MAX_BLOCKS_PER_ROOM, PlacedBlock, block_area, spot_is_clear,

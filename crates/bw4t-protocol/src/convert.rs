@@ -103,6 +103,24 @@ pub fn action_from_act(action: &str, args: &[Value]) -> Result<Action, DecodeErr
     }
 }
 
+/// An action as the `action` name and `args` of an `act` (the inverse of [`action_from_act`]).
+pub fn action_to_act(action: &Action) -> (&'static str, Vec<Value>) {
+    let args = match action {
+        Action::GoTo(place) => vec![json!(place)],
+        Action::GoToBlock(b) => vec![json!(b)],
+        Action::PickUp(None) | Action::PutDown => vec![],
+        Action::PickUp(Some(b)) => vec![json!(b)],
+        Action::SendMessage { to, text } => {
+            let to = match to {
+                Receiver::All => "all".to_string(),
+                Receiver::Player(name) => name.clone(),
+            };
+            vec![json!(to), json!(text)]
+        }
+    };
+    (action.name(), args)
+}
+
 /// `all` or a player's name.
 pub fn receiver(to: &str) -> Receiver {
     if to == "all" { Receiver::All } else { Receiver::Player(to.to_string()) }
@@ -158,5 +176,17 @@ mod tests {
         assert_eq!(code("sendMessage", json!(["all"])), Err("bad_args"));
         assert_eq!(code("fly", json!([])), Err("unknown_action"));
         assert_eq!(code("sendMessage", json!(["all", "hi"])), Ok(()));
+        for action in [
+            Action::GoTo("RoomA1".into()),
+            Action::GoToBlock(4),
+            Action::PickUp(None),
+            Action::PickUp(Some(2)),
+            Action::PutDown,
+            Action::SendMessage { to: Receiver::All, text: "hi".into() },
+            Action::SendMessage { to: Receiver::Player("Bob".into()), text: "yo".into() },
+        ] {
+            let (name, args) = action_to_act(&action);
+            assert_eq!(action_from_act(name, &args), Ok(action));
+        }
     }
 }

@@ -6,12 +6,14 @@
 mod codec;
 mod convert;
 mod messages;
+mod replay;
 mod result;
 mod schema;
 
 pub use codec::{DecodeError, LineBuffer, MAX_LINE, decode_client, decode_server, encode};
-pub use convert::{FactError, action_from_act, fact_to_percept, percept_to_fact, receiver};
+pub use convert::{FactError, action_from_act, action_to_act, fact_to_percept, percept_to_fact, receiver};
 pub use messages::*;
+pub use replay::{REPLAY_FORMAT, Recorder, ReplayEvent, ReplayHeader, ReplayLine};
 pub use result::{MatchResult, RobotResult};
 pub use schema::schemas;
 

@@ -1,0 +1,136 @@
+//! The baseline: every robot for itself, no messages. It explores rooms in its own order,
+//! remembers what it saw, fetches the colour needed now and puts back a block that is no
+//! longer needed. It completes, slowly, which is what makes teamwork show in the figures.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use bw4t_map::Colour;
+use bw4t_sim::{Action, Beliefs};
+
+use crate::view::{DROP_ZONE, View, rotated};
+use crate::{Agent, Observation};
+
+/// A player that works alone.
+pub struct Baseline {
+    name: String,
+    beliefs: Beliefs,
+    /// Blocks seen lying in rooms: id -> (room, colour).
+    known: BTreeMap<u32, (String, Colour)>,
+    colours: BTreeMap<u32, Colour>,
+    explored: BTreeSet<String>,
+    /// Where the held block was picked up, to put it back there.
+    picked_in: Option<String>,
+    next_action: u64,
+    moving: Option<u64>,
+}
+
+impl Baseline {
+    /// A baseline agent for player `name`.
+    pub fn new(name: &str) -> Self {
+        Baseline {
+            name: name.to_string(),
+            beliefs: Beliefs::default(),
+            known: BTreeMap::new(),
+            colours: BTreeMap::new(),
+            explored: BTreeSet::new(),
+            picked_in: None,
+            next_action: 0,
+            moving: None,
+        }
+    }
+
+    fn go(&mut self, place: String) -> Vec<Action> {
+        self.moving = Some(self.next_action);
+        vec![Action::GoTo(place)]
+    }
+
+    fn plan(&mut self, v: &View) -> Vec<Action> {
+        let needed = v.sequence.get(v.index).copied();
+        if let Some(held) = v.holding {
+            if self.colours.get(&held).copied() == needed {
+                if v.in_drop_zone() {
+                    self.picked_in = None;
+                    return vec![Action::PutDown];
+                }
+                if v.occupied.contains(DROP_ZONE) {
+                    return Vec::new();
+                }
+                return self.go(DROP_ZONE.to_string());
+            }
+            // Not needed now: put it back in a room (never in the drop zone or a hall).
+            if v.room.is_some() && !v.in_drop_zone() {
+                self.picked_in = None;
+                return vec![Action::PutDown];
+            }
+            let room = self.picked_in.clone().or_else(|| v.rooms().into_iter().find(|r| r != DROP_ZONE));
+            return room.map(|r| self.go(r)).unwrap_or_default();
+        }
+        let Some(colour) = needed else { return Vec::new() };
+        let here = v.room.clone();
+        let wanted = self
+            .known
+            .iter()
+            .filter(|(_, (_, c))| *c == colour)
+            .min_by_key(|(id, (room, _))| (Some(room) != here.as_ref(), **id))
+            .map(|(id, (room, _))| (*id, room.clone()));
+        if let Some((block, room)) = wanted {
+            if here.as_ref() == Some(&room) {
+                if v.at_block == Some(block) {
+                    self.picked_in = Some(room);
+                    return vec![Action::PickUp(Some(block))];
+                }
+                self.moving = Some(self.next_action);
+                return vec![Action::GoToBlock(block)];
+            }
+            if v.occupied.contains(&room) {
+                return Vec::new();
+            }
+            return self.go(room);
+        }
+        let rooms: Vec<String> = rotated(
+            &v.rooms().into_iter().filter(|r| r != DROP_ZONE).collect::<Vec<_>>(),
+            &self.name,
+            &v.players,
+        );
+        if rooms.iter().all(|r| self.explored.contains(r)) {
+            self.explored.clear();
+        }
+        let next = rooms.iter().find(|r| !self.explored.contains(*r) && !v.occupied.contains(*r)).cloned();
+        match next {
+            Some(room) => self.go(room),
+            None if v.in_drop_zone() => self.go(v.waiting_place(None)),
+            None => Vec::new(),
+        }
+    }
+}
+
+impl Agent for Baseline {
+    fn decide(&mut self, obs: &Observation) -> Vec<Action> {
+        for delta in &obs.percepts {
+            self.beliefs.apply(delta);
+        }
+        self.beliefs.take_messages();
+        for ack in &obs.acks {
+            if ack.result.is_err() && Some(ack.action) == self.moving {
+                self.moving = None;
+            }
+        }
+        for done in &obs.done {
+            if Some(done.action) == self.moving {
+                self.moving = None;
+            }
+        }
+        let v = View::read(&self.beliefs);
+        if let Some(room) = v.room.clone().filter(|r| r != DROP_ZONE) {
+            self.explored.insert(room.clone());
+            self.known.retain(|_, (r, _)| *r != room);
+            for (id, colour) in &v.visible {
+                self.known.insert(*id, (room.clone(), *colour));
+                self.colours.insert(*id, *colour);
+            }
+        }
+        let actions = if v.complete() || self.moving.is_some() { Vec::new() } else { self.plan(&v) };
+        self.next_action += actions.len() as u64;
+        actions
+    }
+}

@@ -1,0 +1,95 @@
+//! Built-in agents. They see only what a remote player sees (percepts, the outcomes of
+//! their actions, messages) and act only through actions, behind the [`Agent`] trait that
+//! any driver (the headless runner, the server, a TCP client) can call.
+
+mod baseline;
+mod coop;
+mod view;
+
+use bw4t_sim::{Action, OrderOutcome, PerceptDelta};
+
+pub use baseline::Baseline;
+pub use coop::Cooperative;
+
+/// The outcome of one of the agent's actions, numbered in the order the agent returned
+/// them (0, 1, 2, ... over the whole match).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ActionAck {
+    /// The action's number.
+    pub action: u64,
+    /// `Ok`, or the rejection code (e.g. `not_at_block`).
+    pub result: Result<(), String>,
+}
+
+/// How a durative action (`goTo`, `goToBlock`) ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct OrderDone {
+    /// The action's number.
+    pub action: u64,
+    /// Arrived, collided or superseded.
+    pub outcome: OrderOutcome,
+}
+
+/// Everything a player was told since the agent was last called.
+#[derive(Clone, Debug, Default)]
+pub struct Observation {
+    /// The current tick.
+    pub tick: u64,
+    /// Percept deltas, oldest first (usually one).
+    pub percepts: Vec<PerceptDelta>,
+    /// Outcomes of actions applied since the last call.
+    pub acks: Vec<ActionAck>,
+    /// Durative actions that ended since the last call.
+    pub done: Vec<OrderDone>,
+}
+
+impl Observation {
+    /// Whether there is anything in it.
+    pub fn is_empty(&self) -> bool {
+        self.percepts.iter().all(PerceptDelta::is_empty) && self.acks.is_empty() && self.done.is_empty()
+    }
+}
+
+/// A player's brain. Drivers call [`Agent::decide`] at every tick the player is told
+/// something (a non-empty percept delta, or the end of an order), and apply the returned
+/// actions, in order, at the next tick boundary.
+pub trait Agent: Send {
+    /// The actions to take now.
+    fn decide(&mut self, observation: &Observation) -> Vec<Action>;
+}
+
+/// The built-in strategies.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Strategy {
+    /// Explore without duplicating work, share what rooms hold, agree who fetches which
+    /// colour, deliver in order.
+    Cooperative,
+    /// Each robot alone, no messages: fetch the colour needed now, put back what is not.
+    Baseline,
+}
+
+impl Strategy {
+    /// Every strategy, the default first.
+    pub const ALL: [Strategy; 2] = [Strategy::Cooperative, Strategy::Baseline];
+
+    /// The name used on the command line (`builtin:NAME`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Strategy::Cooperative => "coop",
+            Strategy::Baseline => "baseline",
+        }
+    }
+
+    /// The strategy with this name.
+    pub fn named(name: &str) -> Option<Strategy> {
+        Strategy::ALL.into_iter().find(|s| s.name() == name)
+    }
+
+    /// A new agent of this strategy for the player `name`.
+    pub fn agent(self, name: &str) -> Box<dyn Agent> {
+        match self {
+            Strategy::Cooperative => Box::new(Cooperative::new(name)),
+            Strategy::Baseline => Box::new(Baseline::new(name)),
+        }
+    }
+}

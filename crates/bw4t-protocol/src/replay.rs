@@ -1,0 +1,221 @@
+//! The replay format: JSON lines holding everything needed to re-simulate a match.
+//!
+//! A header (format version, program version, the map itself in the native format, seed,
+//! config, robots), then for every tick at which something was applied a `tick` line with
+//! the events applied after that tick, a `digest` line every `digest_every` ticks, and an
+//! `end` line with the final digest.
+
+use std::io::Write;
+
+use bw4t_sim::{Action, Match, MatchConfig, RobotId};
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+
+use crate::convert::{action_from_act, action_to_act};
+
+/// The replay format version this build writes and reads.
+pub const REPLAY_FORMAT: u32 = 1;
+
+/// One line of a replay.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum ReplayLine {
+    /// The first line.
+    Header(ReplayHeader),
+    /// Events applied after tick `tick` (before the next step).
+    Tick {
+        /// The tick they were applied after.
+        tick: u64,
+        /// In the order applied.
+        events: Vec<ReplayEvent>,
+    },
+    /// The state digest after tick `tick`.
+    Digest {
+        /// The tick.
+        tick: u64,
+        /// 16 hex digits.
+        digest: String,
+    },
+    /// The last line.
+    End {
+        /// The last tick.
+        tick: u64,
+        /// The final digest.
+        digest: String,
+        /// Why the match ended.
+        reason: String,
+    },
+}
+
+/// The header of a replay.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct ReplayHeader {
+    /// [`REPLAY_FORMAT`].
+    pub format: u32,
+    /// The program that wrote it, e.g. `bw4t 0.1.0`.
+    pub program: String,
+    /// The map's name.
+    pub map: String,
+    /// The whole map, in the native format.
+    pub map_native: String,
+    /// The match seed.
+    pub seed: u64,
+    /// Simulated ticks per second.
+    pub ticks_per_second: u32,
+    /// Map units per tick.
+    pub speed: f32,
+    /// Whether robots collide.
+    pub robot_collisions: bool,
+    /// The robots' names in joining order (as far as known when the header was written).
+    pub robots: Vec<String>,
+    /// How often a `digest` line is written.
+    pub digest_every: u64,
+}
+
+/// Something applied to the match at a tick boundary.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum ReplayEvent {
+    /// A robot joined.
+    Join {
+        /// The player's name.
+        name: String,
+        /// The id it got.
+        robot: u32,
+    },
+    /// A robot left.
+    Leave {
+        /// Its id.
+        robot: u32,
+    },
+    /// A robot was stopped (its player's connection dropped).
+    Stop {
+        /// Its id.
+        robot: u32,
+    },
+    /// An action, and whether it was accepted.
+    Act {
+        /// The robot.
+        robot: u32,
+        /// The action name.
+        action: String,
+        /// Its arguments.
+        args: Vec<Value>,
+        /// Whether the match accepted it.
+        ok: bool,
+    },
+}
+
+impl ReplayEvent {
+    /// The event for an action applied to `robot`.
+    pub fn act(robot: RobotId, action: &Action, ok: bool) -> Self {
+        let (name, args) = action_to_act(action);
+        ReplayEvent::Act { robot: robot.0, action: name.to_string(), args, ok }
+    }
+
+    /// The action of an `act` event.
+    pub fn action(&self) -> Option<Action> {
+        match self {
+            ReplayEvent::Act { action, args, .. } => action_from_act(action, args).ok(),
+            _ => None,
+        }
+    }
+}
+
+/// Writes a replay while a match is played: call [`Recorder::event`] for everything
+/// applied, [`Recorder::stepped`] after every step and [`Recorder::finish`] at the end.
+pub struct Recorder {
+    out: Box<dyn Write + Send>,
+    digest_every: u64,
+    pending: Vec<ReplayEvent>,
+    pending_tick: u64,
+    error: Option<std::io::Error>,
+}
+
+impl Recorder {
+    /// Starts a replay of `game` (before any robot joins) on `out`.
+    pub fn new(
+        mut out: Box<dyn Write + Send>,
+        game: &Match,
+        program: &str,
+        robots: Vec<String>,
+        digest_every: u64,
+    ) -> Self {
+        let config: &MatchConfig = game.config();
+        let header = ReplayLine::Header(ReplayHeader {
+            format: REPLAY_FORMAT,
+            program: program.to_string(),
+            map: game.map().name().to_string(),
+            map_native: game.map().to_native(),
+            seed: game.seed(),
+            ticks_per_second: config.ticks_per_second,
+            speed: config.speed,
+            robot_collisions: config.robot_collisions,
+            robots,
+            digest_every: digest_every.max(1),
+        });
+        let error = write_line(&mut out, &header).err();
+        Recorder {
+            out,
+            digest_every: digest_every.max(1),
+            pending: Vec::new(),
+            pending_tick: game.tick(),
+            error,
+        }
+    }
+
+    /// Records something applied to the match at its current tick.
+    pub fn event(&mut self, tick: u64, event: ReplayEvent) {
+        if tick != self.pending_tick {
+            self.flush_events();
+            self.pending_tick = tick;
+        }
+        self.pending.push(event);
+    }
+
+    /// Records a step: the events before it, and a digest when one is due.
+    pub fn stepped(&mut self, game: &Match) {
+        self.flush_events();
+        self.pending_tick = game.tick();
+        if game.tick() % self.digest_every == 0 {
+            let line = ReplayLine::Digest { tick: game.tick(), digest: format!("{:016x}", game.digest()) };
+            self.write(&line);
+        }
+    }
+
+    /// Writes the last line and flushes. Returns the first write error, if any happened.
+    pub fn finish(mut self, game: &Match, reason: &str) -> std::io::Result<()> {
+        self.flush_events();
+        let line = ReplayLine::End {
+            tick: game.tick(),
+            digest: format!("{:016x}", game.digest()),
+            reason: reason.into(),
+        };
+        self.write(&line);
+        if let Err(e) = self.out.flush() {
+            self.error.get_or_insert(e);
+        }
+        self.error.map_or(Ok(()), Err)
+    }
+
+    fn flush_events(&mut self) {
+        if !self.pending.is_empty() {
+            let line =
+                ReplayLine::Tick { tick: self.pending_tick, events: std::mem::take(&mut self.pending) };
+            self.write(&line);
+        }
+    }
+
+    fn write(&mut self, line: &ReplayLine) {
+        if self.error.is_none() {
+            self.error = write_line(&mut self.out, line).err();
+        }
+    }
+}
+
+fn write_line(out: &mut Box<dyn Write + Send>, line: &ReplayLine) -> std::io::Result<()> {
+    let text = serde_json::to_string(line).map_err(std::io::Error::other)?;
+    out.write_all(text.as_bytes())?;
+    out.write_all(b"\n")
+}

@@ -1,0 +1,15 @@
+//! Whole matches: headless with built-in agents, or served to external agent processes
+//! mixed with built-in ones; and replays (verify, show).
+
+mod drive;
+mod headless;
+mod replay;
+
+pub use drive::Driver;
+pub use headless::{RunError, Seat, play_headless};
+pub use replay::{ReplayError, ReplaySummary, Verdict, read_replay, verify_replay};
+
+/// The program name and version written into replays.
+pub fn program() -> String {
+    format!("bw4t {}", env!("CARGO_PKG_VERSION"))
+}
