@@ -17,7 +17,6 @@ mod import;
 
 /// Built-in agents in headless matches.
 mod agents;
-mod zz_debug;
 
 /// The match server over real loopback TCP.
 mod server;
