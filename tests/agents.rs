@@ -1,8 +1,12 @@
 use bw4t_agents::Strategy;
+use bw4t_map::Map;
 use bw4t_runner::{Seat, play_headless};
 use bw4t_sim::MatchConfig;
 
 use crate::util::shipped_map;
+
+/// Every match of the built-in team must end within this many ticks.
+const TICK_LIMIT: u64 = 20_000;
 
 fn team(strategy: Strategy, n: usize) -> Vec<Seat> {
     (0..n)
@@ -10,25 +14,87 @@ fn team(strategy: Strategy, n: usize) -> Vec<Seat> {
         .collect()
 }
 
-#[test]
-fn explore_figures() {
-    for map_name in ["default", "fixed"] {
-        let map = shipped_map(map_name);
-        for strategy in Strategy::ALL {
-            for n in [1, 3, 10] {
-                let mut ticks = Vec::new();
-                for seed in 0..10 {
-                    let (game, reason) =
-                        play_headless(&map, &MatchConfig::default(), seed, team(strategy, n), 30_000, None)
-                            .expect("play");
-                    ticks.push(if reason == "completed" {
-                        game.tick() as i64
-                    } else {
-                        -(game.sequence_index() as i64)
-                    });
-                }
-                eprintln!("{map_name} {} n={n}: {ticks:?}", strategy.name());
-            }
+/// The original BW4T maps (read from the shared test data) and the shipped ones.
+pub fn all_maps() -> Vec<(String, Map)> {
+    let shared = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/bw4t-maps");
+    let mut maps: Vec<(String, Map)> =
+        ["default", "fixed"].iter().map(|n| (n.to_string(), shipped_map(n))).collect();
+    for name in [
+        "Banana",
+        "Dutch Flag",
+        "Rainbow",
+        "Random",
+        "SuperRandom",
+        "test-variants/Rainbow-with-blockade",
+        "test-variants/red.map",
+    ] {
+        let text = std::fs::read_to_string(shared.join(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+        maps.push((name.to_string(), Map::parse(&text, name).unwrap_or_else(|e| panic!("{name}: {e}"))));
+    }
+    maps
+}
+
+/// Ticks to complete, per team size, for `seeds` seeds; panics naming any match that did not complete.
+fn ticks_to_complete(map_name: &str, map: &Map, strategy: Strategy, sizes: &[usize], seeds: u64) -> Vec<u64> {
+    let mut all = Vec::new();
+    for &n in sizes.iter().filter(|&&n| n <= map.spawns().len()) {
+        for seed in 0..seeds {
+            let (game, reason) =
+                play_headless(map, &MatchConfig::default(), seed, team(strategy, n), TICK_LIMIT, None)
+                    .expect("play");
+            assert_eq!(
+                reason,
+                "completed",
+                "{} team of {n} on {map_name}, seed {seed}: sequence {}/{} after {} ticks",
+                strategy.name(),
+                game.sequence_index(),
+                game.sequence().len(),
+                game.tick()
+            );
+            all.push(game.tick());
         }
     }
+    all
+}
+
+#[test]
+fn the_cooperative_team_completes_every_map_with_one_to_ten_robots() {
+    for (name, map) in all_maps() {
+        let ticks =
+            ticks_to_complete(&name, &map, Strategy::Cooperative, &[1, 2, 3, 4, 5, 6, 7, 8, 9, 10], 4);
+        assert!(!ticks.is_empty());
+    }
+}
+
+#[test]
+fn the_baseline_completes_too_but_teamwork_is_faster() {
+    let (mut coop_total, mut baseline_total) = (0, 0);
+    for (name, map) in all_maps() {
+        let baseline = ticks_to_complete(&name, &map, Strategy::Baseline, &[1, 3, 10], 2);
+        let coop = ticks_to_complete(&name, &map, Strategy::Cooperative, &[1, 3, 10], 2);
+        baseline_total += baseline.iter().sum::<u64>();
+        coop_total += coop.iter().sum::<u64>();
+    }
+    assert!(
+        coop_total * 10 < baseline_total * 8,
+        "coop {coop_total} ticks in all, baseline {baseline_total}"
+    );
+}
+
+#[test]
+fn a_headless_match_is_the_same_every_time() {
+    let map = shipped_map("default");
+    let run = || {
+        let (game, _) = play_headless(
+            &map,
+            &MatchConfig::default(),
+            42,
+            team(Strategy::Cooperative, 4),
+            TICK_LIMIT,
+            None,
+        )
+        .expect("play");
+        (game.tick(), game.digest())
+    };
+    assert_eq!(run(), run());
 }

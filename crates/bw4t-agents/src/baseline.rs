@@ -22,6 +22,7 @@ pub struct Baseline {
     picked_in: Option<String>,
     next_action: u64,
     moving: Option<u64>,
+    last_hall: Option<String>,
 }
 
 impl Baseline {
@@ -36,6 +37,7 @@ impl Baseline {
             picked_in: None,
             next_action: 0,
             moving: None,
+            last_hall: None,
         }
     }
 
@@ -53,7 +55,7 @@ impl Baseline {
                     return vec![Action::PutDown];
                 }
                 if v.occupied.contains(DROP_ZONE) {
-                    return Vec::new();
+                    return self.wait_outside(v);
                 }
                 return self.go(DROP_ZONE.to_string());
             }
@@ -63,7 +65,11 @@ impl Baseline {
                 return vec![Action::PutDown];
             }
             let room = self.picked_in.clone().or_else(|| v.rooms().into_iter().find(|r| r != DROP_ZONE));
-            return room.map(|r| self.go(r)).unwrap_or_default();
+            let free = v.rooms().into_iter().find(|r| r != DROP_ZONE && !v.occupied.contains(r));
+            return match room.filter(|r| !v.occupied.contains(r)).or(free) {
+                Some(r) => self.go(r),
+                None => self.wait_outside(v),
+            };
         }
         let Some(colour) = needed else { return Vec::new() };
         let here = v.room.clone();
@@ -83,7 +89,7 @@ impl Baseline {
                 return vec![Action::GoToBlock(block)];
             }
             if v.occupied.contains(&room) {
-                return Vec::new();
+                return self.wait_outside(v);
             }
             return self.go(room);
         }
@@ -98,9 +104,21 @@ impl Baseline {
         let next = rooms.iter().find(|r| !self.explored.contains(*r) && !v.occupied.contains(*r)).cloned();
         match next {
             Some(room) => self.go(room),
-            None if v.in_drop_zone() => self.go(v.waiting_place(None)),
-            None => Vec::new(),
+            None => self.wait_outside(v),
         }
+    }
+
+    /// Waits in a hall, never in a room, so as not to keep out whoever it waits for.
+    fn wait_outside(&mut self, v: &View) -> Vec<Action> {
+        if v.room.is_none() {
+            return Vec::new();
+        }
+        let place = if v.in_drop_zone() {
+            v.waiting_place(self.last_hall.as_ref())
+        } else {
+            self.last_hall.clone().unwrap_or_else(|| v.waiting_place(None))
+        };
+        self.go(place)
     }
 }
 
@@ -121,6 +139,9 @@ impl Agent for Baseline {
             }
         }
         let v = View::read(&self.beliefs);
+        if v.room.is_none() {
+            self.last_hall.clone_from(&v.at);
+        }
         if let Some(room) = v.room.clone().filter(|r| r != DROP_ZONE) {
             self.explored.insert(room.clone());
             self.known.retain(|_, (r, _)| *r != room);
