@@ -50,7 +50,7 @@ fn schemas_match_the_rust_types() {
         .collect();
     assert_eq!(found.keys().collect::<Vec<_>>(), expected.keys().collect::<Vec<_>>(), "schema files");
     for (path, text) in &expected {
-        assert_eq!(&found[path], text, "protocol/schema/{path} is out of date (BW4T_BLESS=1 regenerates it)");
+        assert!(&found[path] == text, "protocol/schema/{path} is out of date (BW4T_BLESS=1 regenerates it)");
     }
     for name in ["client/hello.json", "client/act.json", "server/percepts.json", "server/match_end.json"] {
         assert!(expected.contains_key(name), "{name}");

@@ -4,12 +4,14 @@
 
 mod baseline;
 mod coop;
+mod drive;
 mod view;
 
 use bw4t_sim::{Action, OrderOutcome, PerceptDelta};
 
 pub use baseline::Baseline;
 pub use coop::Cooperative;
+pub use drive::Driver;
 
 /// The outcome of one of the agent's actions, numbered in the order the agent returned
 /// them (0, 1, 2, ... over the whole match).

@@ -14,7 +14,7 @@ pub use codec::{DecodeError, LineBuffer, MAX_LINE, decode_client, decode_server,
 pub use convert::{FactError, action_from_act, action_to_act, fact_to_percept, percept_to_fact, receiver};
 pub use messages::*;
 pub use replay::{REPLAY_FORMAT, Recorder, ReplayEvent, ReplayHeader, ReplayLine};
-pub use result::{MatchResult, RobotResult};
+pub use result::{MatchResult, RobotExtra, RobotResult};
 pub use schema::schemas;
 
 /// The protocol's name, as sent in `hello`.

@@ -68,8 +68,34 @@ pub struct RobotResult {
     pub distance: f64,
     /// Lockstep ticks the player answered after the deadline (or not at all).
     pub late_ticks: u64,
+    /// Lines from the player that were not valid messages.
+    #[serde(default)]
+    pub errors: u64,
+    /// Whether a player (or a built-in agent) ever played the robot.
+    #[serde(default = "yes")]
+    pub connected: bool,
     /// Whether the robot was still in the match at the end.
     pub present: bool,
+}
+
+fn yes() -> bool {
+    true
+}
+
+/// What the driver of a match knows about a robot's player beyond the match itself.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RobotExtra {
+    /// Lockstep deadlines missed.
+    pub late_ticks: u64,
+    /// Invalid lines received.
+    pub errors: u64,
+    /// Whether anyone ever played the robot.
+    pub connected: bool,
+}
+
+impl RobotExtra {
+    /// A robot played in-process: never late, never wrong.
+    pub const LOCAL: RobotExtra = RobotExtra { late_ticks: 0, errors: 0, connected: true };
 }
 
 impl MatchResult {
@@ -79,12 +105,13 @@ impl MatchResult {
         mode: Option<Mode>,
         end_reason: &str,
         wall_ms: u64,
-        late_ticks: impl Fn(RobotId) -> u64,
+        extra: impl Fn(RobotId) -> RobotExtra,
     ) -> Self {
         let stats = game.stats();
         let per_robot: Vec<RobotResult> = game
             .all_robot_stats()
-            .map(|(id, name, s, present)| RobotResult {
+            .map(|(id, name, s, present)| (id, name, s, present, extra(id)))
+            .map(|(id, name, s, present, extra)| RobotResult {
                 id: id.0,
                 name: name.to_string(),
                 good_drops: s.good_drops,
@@ -93,7 +120,9 @@ impl MatchResult {
                 idle_ticks: s.idle_ticks,
                 rooms_entered: s.rooms_entered,
                 distance: (s.distance * 1000.0).round() / 1000.0,
-                late_ticks: late_ticks(id),
+                late_ticks: extra.late_ticks,
+                errors: extra.errors,
+                connected: extra.connected,
                 present,
             })
             .collect();

@@ -1,11 +1,9 @@
 //! A whole match in-process, as fast as the machine allows.
 
-use bw4t_agents::Agent;
+use bw4t_agents::{Agent, Driver};
 use bw4t_map::Map;
 use bw4t_protocol::{Recorder, ReplayEvent};
 use bw4t_sim::{JoinError, Match, MatchConfig, MatchError};
-
-use crate::drive::Driver;
 
 /// A player of a headless match.
 pub struct Seat {

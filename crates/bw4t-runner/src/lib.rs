@@ -1,11 +1,9 @@
 //! Whole matches: headless with built-in agents, or served to external agent processes
 //! mixed with built-in ones; and replays (verify, show).
 
-mod drive;
 mod headless;
 mod replay;
 
-pub use drive::Driver;
 pub use headless::{RunError, Seat, play_headless};
 pub use replay::{ReplayError, ReplaySummary, Verdict, read_replay, verify_replay};
 

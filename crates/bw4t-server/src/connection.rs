@@ -43,6 +43,8 @@ pub enum Event {
     Opened(Opened),
     /// A well-formed message (other than `ping`, answered by the connection itself).
     Message { conn: ConnId, message: ClientMessage },
+    /// The connection sent a line that is not a valid message.
+    BadInput { conn: ConnId },
     /// The connection is gone.
     Closed { conn: ConnId },
 }
@@ -143,6 +145,7 @@ async fn handle(stream: TcpStream, conn: ConnId, config: &ServerConfig, events: 
                     // Replies to bad input are best effort: a client that sends garbage
                     // and does not read loses only its own error messages.
                     let _ = tx.try_send(Outbound::Line(error_line(e.code, &e.message, false)));
+                    let _ = events.try_send(Event::BadInput { conn });
                 }
                 Ok(ClientMessage::Ping(ping)) => {
                     let _ = tx

@@ -6,17 +6,19 @@ use std::collections::BTreeMap;
 use std::future::Future;
 use std::sync::Arc;
 
+use bw4t_agents::Driver;
 use bw4t_protocol::{
     Ack, ActId, ActResult, ClientMessage, Frame, FrameBlock, FrameMessage, FrameRobot, Hello, MatchEnd,
     MatchInfo, MatchResult, Mode, Percepts, Role, ServerMessage, VERSION, Welcome, action_from_act, encode,
     percept_to_fact,
 };
-use bw4t_sim::{Action, BlockPlace, Match, OrderId, Receiver, RobotId};
+use bw4t_protocol::{Recorder, ReplayEvent, RobotExtra};
+use bw4t_sim::{Accepted, Action, BlockPlace, Match, OrderId, Receiver, Rejection, RobotId};
 use tokio::sync::{Notify, mpsc, watch};
 use tokio::time::{Duration, Instant};
 
-use crate::ServerConfig;
 use crate::connection::{ConnId, Event, Opened, Outbound, bye_line, error_line};
+use crate::{Extras, Seat, ServerConfig};
 
 /// Capacity of the channel from connections to the match task.
 pub const EVENT_QUEUE: usize = 4096;
@@ -67,6 +69,39 @@ struct Player {
     awaiting: bool,
     needs_snapshot: bool,
     full_since: Option<Instant>,
+    /// An in-process agent playing this robot.
+    local: Option<Driver>,
+    /// A seat kept for a remote player: its name is claimed by the first `hello` with it.
+    reserved: bool,
+    /// Whether a client ever played this robot.
+    connected_ever: bool,
+    /// Lockstep deadlines missed in a row.
+    late_in_row: u32,
+    /// Bad lines from this player's connections.
+    errors: u64,
+}
+
+impl Player {
+    fn new(name: String, session: String) -> Player {
+        Player {
+            name,
+            session,
+            conn: None,
+            dropped_at: None,
+            every_tick: false,
+            pending: Vec::new(),
+            actions_this_tick: 0,
+            orders: BTreeMap::new(),
+            awaiting: false,
+            needs_snapshot: false,
+            full_since: None,
+            local: None,
+            reserved: false,
+            connected_ever: false,
+            late_in_row: 0,
+            errors: 0,
+        }
+    }
 }
 
 /// The match and everyone connected to it.
@@ -84,13 +119,24 @@ pub struct Host {
     sessions: u64,
     /// Writers of closed connections that may still be flushing.
     closing: Vec<watch::Receiver<bool>>,
+    recorder: Option<Recorder>,
+    /// Figures of players that left (errors, whether they ever connected), for the result.
+    gone: BTreeMap<RobotId, (u64, bool)>,
 }
 
 impl Host {
     /// A host for a new match; nothing runs until [`Host::run`].
-    pub fn new(config: ServerConfig, events: mpsc::Receiver<Event>) -> Result<Host, bw4t_sim::MatchError> {
+    pub fn new(
+        config: ServerConfig,
+        events: mpsc::Receiver<Event>,
+        extras: Extras,
+    ) -> Result<Host, crate::ServerError> {
         let game = Match::new(&config.map, &config.game, config.seed)?;
-        Ok(Host {
+        let names = extras.seats.iter().map(|s| s.name().to_string()).collect();
+        let recorder = extras
+            .replay
+            .map(|out| Recorder::new(out, &game, &extras.program, names, crate::REPLAY_DIGEST_EVERY));
+        let mut host = Host {
             config,
             game,
             events,
@@ -103,7 +149,28 @@ impl Host {
             end: None,
             sessions: 0,
             closing: Vec::new(),
-        })
+            recorder,
+            gone: BTreeMap::new(),
+        };
+        for seat in extras.seats {
+            let (name, local) = match seat {
+                Seat::Remote(name) => (name, None),
+                Seat::Local(name, agent) => (name, Some(agent)),
+            };
+            let id = host.join(Some(&name)).map_err(|(_, message)| crate::ServerError::Seat(message))?;
+            if let Some(player) = host.players.get_mut(&id) {
+                player.reserved = local.is_none();
+                player.local = local.map(|agent| Driver::new(id, agent));
+            }
+        }
+        Ok(host)
+    }
+
+    fn record(&mut self, event: ReplayEvent) {
+        let tick = self.game.tick();
+        if let Some(r) = self.recorder.as_mut() {
+            r.event(tick, event);
+        }
     }
 
     /// Runs the match to its end and returns the result.
@@ -111,14 +178,19 @@ impl Host {
         let started = Instant::now();
         tokio::pin!(shutdown);
         // Before the first tick: admit players until enough have joined.
-        while self.end.is_none() && self.connected_players() < self.config.robots {
+        let start_by = self.config.start_timeout.map(|t| started + t);
+        while self.end.is_none()
+            && self.connected_players() < self.config.robots
+            && start_by.is_none_or(|t| Instant::now() < t)
+        {
             tokio::select! {
                 () = &mut shutdown => self.end = Some("interrupted"),
                 event = self.events.recv() => self.on_event(event),
-                () = tokio::time::sleep(Duration::from_millis(250)) => self.expire_dropped(),
+                () = tokio::time::sleep(Duration::from_millis(100)) => self.expire_dropped(),
             }
         }
         if self.end.is_none() {
+            self.observe_locals();
             self.tick_sent_at = Instant::now();
             match self.config.mode {
                 Mode::Realtime => self.run_realtime(&mut shutdown).await,
@@ -193,14 +265,32 @@ impl Host {
     }
 
     fn connected_players(&self) -> usize {
-        self.players.values().filter(|p| p.conn.is_some()).count()
+        self.players.values().filter(|p| p.conn.is_some() || p.local.is_some()).count()
+    }
+
+    /// In-process agents see what they were told and decide; their actions wait for the
+    /// next boundary like everyone else's.
+    fn observe_locals(&mut self) {
+        for player in self.players.values_mut() {
+            if let Some(driver) = player.local.as_mut() {
+                driver.observe(&mut self.game);
+            }
+        }
     }
 
     /// Players that did not answer by the deadline are counted late and no longer awaited.
     fn mark_late(&mut self) {
+        let mut unresponsive = Vec::new();
         for (id, player) in self.players.iter_mut().filter(|(_, p)| p.awaiting) {
             player.awaiting = false;
+            player.late_in_row += 1;
             *self.late.entry(*id).or_default() += 1;
+            if self.config.max_late_in_row.is_some_and(|max| player.late_in_row >= max) {
+                unresponsive.extend(player.conn);
+            }
+        }
+        for conn in unresponsive {
+            self.disconnect(conn, "unresponsive", "no ready for too many ticks in a row");
         }
     }
 
@@ -212,10 +302,20 @@ impl Host {
                 self.players.get_mut(&id).map(|p| std::mem::take(&mut p.pending)).unwrap_or_default();
             for item in pending {
                 match item {
-                    Pending::Act(act_id, action) => self.apply(id, act_id, action),
+                    Pending::Act(act_id, action) => {
+                        let _ = self.apply(id, act_id, action);
+                    }
                     Pending::Stop => {
                         let _ = self.game.stop(id);
+                        self.record(ReplayEvent::Stop { robot: id.0 });
                     }
+                }
+            }
+            let queued = self.players.get_mut(&id).and_then(|p| p.local.as_mut()).map(Driver::take_queued);
+            for (n, action) in queued.unwrap_or_default() {
+                let outcome = self.apply(id, None, action);
+                if let Some(driver) = self.players.get_mut(&id).and_then(|p| p.local.as_mut()) {
+                    driver.answered(n, &outcome);
                 }
             }
             if let Some(p) = self.players.get_mut(&id) {
@@ -224,10 +324,17 @@ impl Host {
         }
         let report = self.game.step();
         let tick = report.tick;
+        if let Some(r) = self.recorder.as_mut() {
+            r.stepped(&self.game);
+        }
         // A new tick: players are awaited again only if they are sent something now.
         self.players.values_mut().for_each(|p| p.awaiting = false);
         for end in report.ended {
             let Some(player) = self.players.get_mut(&end.robot) else { continue };
+            if let Some(driver) = player.local.as_mut() {
+                driver.ended(&end);
+                continue;
+            }
             let Some(id) = player.orders.remove(&end.order) else { continue };
             let result = ServerMessage::Result(ActResult { id, outcome: end.outcome.name().into(), tick });
             if let Some(conn) = player.conn {
@@ -239,6 +346,7 @@ impl Host {
         for id in ids {
             self.send_percepts(id, false);
         }
+        self.observe_locals();
         self.send_frames(false);
         self.expire_dropped();
         if self.game.is_complete() {
@@ -248,7 +356,12 @@ impl Host {
         }
     }
 
-    fn apply(&mut self, robot: RobotId, act_id: Option<ActId>, action: Action) {
+    fn apply(
+        &mut self,
+        robot: RobotId,
+        act_id: Option<ActId>,
+        action: Action,
+    ) -> Result<Accepted, Rejection> {
         let message = match &action {
             Action::SendMessage { to, text } => Some(FrameMessage {
                 from: self.players.get(&robot).map(|p| p.name.clone()).unwrap_or_default(),
@@ -260,7 +373,10 @@ impl Host {
             }),
             _ => None,
         };
+        let (name, args) = bw4t_protocol::action_to_act(&action);
         let outcome = self.game.handle_action(robot, action);
+        let event = ReplayEvent::Act { robot: robot.0, action: name.to_string(), args, ok: outcome.is_ok() };
+        self.record(event);
         let tick = self.game.tick();
         let ack = match &outcome {
             Ok(_) => Ack { id: act_id.clone(), ok: true, tick, code: None, reason: None },
@@ -278,15 +394,16 @@ impl Host {
             }
             self.frame_messages.push(message);
         }
-        let Some(player) = self.players.get_mut(&robot) else { return };
+        let Some(player) = self.players.get_mut(&robot) else { return outcome };
         if let (Ok(accepted), Some(id)) = (&outcome, act_id) {
             if let Some(order) = accepted.order {
                 player.orders.insert(order, id);
             }
         }
-        if let Some(conn) = player.conn {
+        if let (Some(conn), None) = (player.conn, &player.local) {
             self.send(conn, &ServerMessage::Ack(ack));
         }
+        outcome
     }
 
     /// Sends a player what it has not been told. Returns whether anything was sent.
@@ -400,7 +517,16 @@ impl Host {
                 self.conns.insert(conn, Conn { tx, kill, done, role: ConnRole::New });
             }
             Some(Event::Closed { conn }) => self.on_closed(conn),
+            Some(Event::BadInput { conn }) => self.count_error(conn),
             Some(Event::Message { conn, message }) => self.on_message(conn, message),
+        }
+    }
+
+    fn count_error(&mut self, conn: ConnId) {
+        if let Some(ConnRole::Agent(id)) = self.conns.get(&conn).map(|c| c.role) {
+            if let Some(player) = self.players.get_mut(&id) {
+                player.errors += 1;
+            }
         }
     }
 
@@ -450,6 +576,7 @@ impl Host {
                 if ready.tick == now {
                     if let Some(player) = self.players.get_mut(&robot) {
                         player.awaiting = false;
+                        player.late_in_row = 0;
                     }
                 } else if ready.tick < now {
                     let message = format!("tick {} is over; the match is at tick {now}", ready.tick);
@@ -463,8 +590,7 @@ impl Host {
                 self.send_percepts(robot, true);
             }
             ClientMessage::Bye(_) => {
-                self.players.remove(&robot);
-                let _ = self.game.leave(robot);
+                self.remove_player(robot);
                 self.disconnect(conn, "goodbye", "");
             }
             ClientMessage::Hello(_) | ClientMessage::Ping(_) => {}
@@ -522,13 +648,27 @@ impl Host {
                 }
                 id
             }
-            None => match self.join(hello.name.as_deref()) {
-                Ok(id) => id,
-                Err((code, message)) => return self.error(conn, code, &message, true),
-            },
+            None => {
+                let seat = self
+                    .players
+                    .iter()
+                    .find(|(_, p)| {
+                        p.reserved && p.conn.is_none() && Some(p.name.as_str()) == hello.name.as_deref()
+                    })
+                    .map(|(id, _)| *id);
+                match seat {
+                    Some(id) => id,
+                    None => match self.join(hello.name.as_deref()) {
+                        Ok(id) => id,
+                        Err((code, message)) => return self.error(conn, code, &message, true),
+                    },
+                }
+            }
         };
         if let Some(player) = self.players.get_mut(&robot) {
             player.conn = Some(conn);
+            player.connected_ever = true;
+            player.late_in_row = 0;
             player.dropped_at = None;
             player.every_tick = every_tick;
             player.full_since = None;
@@ -559,24 +699,10 @@ impl Host {
             };
             (code, e.to_string())
         })?;
+        self.record(ReplayEvent::Join { name: name.clone(), robot: id.0 });
         self.sessions += 1;
         let session = format!("{:016x}{:08x}", session_entropy(), self.sessions);
-        self.players.insert(
-            id,
-            Player {
-                name,
-                session,
-                conn: None,
-                dropped_at: None,
-                every_tick: false,
-                pending: Vec::new(),
-                actions_this_tick: 0,
-                orders: BTreeMap::new(),
-                awaiting: false,
-                needs_snapshot: false,
-                full_since: None,
-            },
-        );
+        self.players.insert(id, Player::new(name, session));
         Ok(id)
     }
 
@@ -602,6 +728,16 @@ impl Host {
         self.send(conn, &ServerMessage::Welcome(welcome));
     }
 
+    /// Takes a player's robot out of the match, keeping its figures for the result.
+    fn remove_player(&mut self, id: RobotId) {
+        if let Some(player) = self.players.remove(&id) {
+            self.gone.insert(id, (player.errors, player.connected_ever));
+        }
+        if self.game.leave(id).is_ok() {
+            self.record(ReplayEvent::Leave { robot: id.0 });
+        }
+    }
+
     /// Robots whose players stayed away longer than the grace period leave the match.
     fn expire_dropped(&mut self) {
         let grace = self.config.grace;
@@ -612,8 +748,7 @@ impl Host {
             .map(|(id, _)| *id)
             .collect();
         for id in expired {
-            self.players.remove(&id);
-            let _ = self.game.leave(id);
+            self.remove_player(id);
         }
     }
 
@@ -654,10 +789,18 @@ impl Host {
     async fn finish(mut self, started: Instant) -> MatchResult {
         let reason = self.end.unwrap_or("interrupted");
         let wall_ms = started.elapsed().as_millis() as u64;
-        let late = self.late.clone();
-        let result = MatchResult::of(&self.game, Some(self.config.mode), reason, wall_ms, |id| {
-            late.get(&id).copied().unwrap_or(0)
-        });
+        let extra = |id: RobotId| {
+            let (errors, connected) = match self.players.get(&id) {
+                Some(p) => (p.errors, p.connected_ever || p.local.is_some()),
+                None => self.gone.get(&id).copied().unwrap_or((0, false)),
+            };
+            RobotExtra { late_ticks: self.late.get(&id).copied().unwrap_or(0), errors, connected }
+        };
+        let result = MatchResult::of(&self.game, Some(self.config.mode), reason, wall_ms, extra);
+        if let Some(recorder) = self.recorder.take() {
+            // A replay that cannot be written must not cost the match its result.
+            let _ = recorder.finish(&self.game, reason);
+        }
         let end =
             encode(&ServerMessage::MatchEnd(MatchEnd { reason: reason.into(), result: result.clone() }));
         let end: Arc<str> = end.into();

@@ -52,6 +52,10 @@ pub struct ServerConfig {
     pub slow_limit: Duration,
     /// Spectator frames per wall-clock second, at most.
     pub spectator_hz: u32,
+    /// Start even if fewer than `robots` players are connected after this long.
+    pub start_timeout: Option<Duration>,
+    /// Lockstep: disconnect a player that misses this many deadlines in a row.
+    pub max_late_in_row: Option<u32>,
 }
 
 impl ServerConfig {
@@ -74,8 +78,41 @@ impl ServerConfig {
             queue: 1024,
             slow_limit: Duration::from_secs(5),
             spectator_hz: 20,
+            start_timeout: None,
+            max_late_in_row: None,
         }
     }
+}
+
+/// How often a served match's replay records a digest, in ticks.
+pub const REPLAY_DIGEST_EVERY: u64 = 100;
+
+/// A seat taken before any client connects, so robot ids follow a fixed order.
+pub enum Seat {
+    /// Kept for a remote player, who claims it with `hello` and this name.
+    Remote(String),
+    /// Played in-process by a built-in agent.
+    Local(String, Box<dyn bw4t_agents::Agent>),
+}
+
+impl Seat {
+    /// The player's name.
+    pub fn name(&self) -> &str {
+        match self {
+            Seat::Remote(name) | Seat::Local(name, _) => name,
+        }
+    }
+}
+
+/// What a served match has besides its configuration.
+#[derive(Default)]
+pub struct Extras {
+    /// Seats taken at the start, in robot-id order.
+    pub seats: Vec<Seat>,
+    /// Where to write the replay.
+    pub replay: Option<Box<dyn std::io::Write + Send>>,
+    /// The program name written into the replay.
+    pub program: String,
 }
 
 /// Why a match could not be served.
@@ -84,6 +121,9 @@ pub enum ServerError {
     /// The match could not be created (bad configuration or content).
     #[error(transparent)]
     Match(#[from] bw4t_sim::MatchError),
+    /// A seat could not be taken (a bad name, or more seats than spawn points).
+    #[error("cannot seat a player: {0}")]
+    Seat(String),
 }
 
 /// Serves one match on `listener` until it ends (sequence complete, `max_ticks`, or
@@ -93,8 +133,18 @@ pub async fn serve(
     config: ServerConfig,
     shutdown: impl Future<Output = ()>,
 ) -> Result<MatchResult, ServerError> {
+    serve_with(listener, config, Extras::default(), shutdown).await
+}
+
+/// [`serve`] with seats taken in advance (built-in agents and reserved names) and a replay.
+pub async fn serve_with(
+    listener: TcpListener,
+    config: ServerConfig,
+    extras: Extras,
+    shutdown: impl Future<Output = ()>,
+) -> Result<MatchResult, ServerError> {
     let (events_tx, events_rx) = mpsc::channel(host::EVENT_QUEUE);
-    let host = host::Host::new(config.clone(), events_rx)?;
+    let host = host::Host::new(config.clone(), events_rx, extras)?;
     let acceptor = tokio::spawn(connection::accept_loop(listener, config, events_tx));
     let result = host.run(shutdown).await;
     acceptor.abort();

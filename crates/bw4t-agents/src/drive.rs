@@ -2,7 +2,7 @@
 
 use std::collections::BTreeMap;
 
-use bw4t_agents::{ActionAck, Agent, Observation, OrderDone};
+use crate::{ActionAck, Agent, Observation, OrderDone};
 use bw4t_sim::{Accepted, Action, Match, OrderEnd, OrderId, Rejection, RobotId};
 
 /// One in-process agent and its robot.
