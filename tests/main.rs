@@ -24,5 +24,8 @@ mod server;
 /// The protocol documents: schemas and examples checked against the Rust types.
 mod protocol_docs;
 
+/// `bw4t run`: headless and served matches, external agent processes, replays.
+mod run;
+
 /// The `bw4t` binary, run as a child process.
 mod cli;

@@ -25,6 +25,9 @@ pub struct BenchArgs {
     /// Ticks per `lockstep` measurement.
     #[arg(long, default_value_t = 5_000)]
     lockstep_ticks: u64,
+    /// Matches played by the `match` case.
+    #[arg(long, default_value_t = 200)]
+    matches: u64,
     /// Wall-clock seconds the `realtime` case measures for.
     #[arg(long, default_value_t = 5.0)]
     realtime_seconds: f64,
@@ -42,6 +45,8 @@ enum Case {
     Lockstep,
     /// CPU use of a `bw4t serve` process with 100 connected robots at 20 ticks/s.
     Realtime,
+    /// Whole default-map matches played headless by the built-in team of 3, one thread.
+    Match,
 }
 
 /// Runs the chosen cases and prints their figures.
@@ -65,6 +70,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
             Case::Realtime => {
                 println!("{}", crate::bench_net::realtime(args.seed, 100, args.realtime_seconds)?)
             }
+            Case::Match => println!("{}", matches(args)?),
         }
     }
     Ok(())
@@ -122,5 +128,36 @@ fn sim(args: &BenchArgs, n_robots: usize) -> Result<serde_json::Value> {
         "percepts": facts,
         "good_drops": good,
         "wrong_drops": wrong,
+    }))
+}
+
+fn matches(args: &BenchArgs) -> Result<serde_json::Value> {
+    let map = crate::maps::load(&args.map)?;
+    let config = MatchConfig::default();
+    let mut ticks = Vec::new();
+    let mut completed = 0;
+    let started = Instant::now();
+    for i in 0..args.matches {
+        let seats = (1..=3)
+            .map(|n| {
+                let name = format!("Bot{n}");
+                bw4t_runner::Seat { agent: bw4t_agents::Strategy::Cooperative.agent(&name), name }
+            })
+            .collect();
+        let (game, reason) =
+            bw4t_runner::play_headless(&map, &config, args.seed.wrapping_add(i), seats, 20_000, None)?;
+        completed += u64::from(reason == "completed");
+        ticks.push(game.tick());
+    }
+    let seconds = started.elapsed().as_secs_f64();
+    ticks.sort_unstable();
+    Ok(json!({
+        "case": "match",
+        "map": map.name(),
+        "robots": 3,
+        "matches": args.matches,
+        "completed": completed,
+        "matches_per_s": (args.matches as f64 / seconds * 10.0).round() / 10.0,
+        "median_ticks": ticks.get(ticks.len() / 2).copied().unwrap_or(0),
     }))
 }

@@ -3,6 +3,8 @@
 mod bench;
 mod bench_net;
 mod maps;
+mod replay;
+mod run;
 mod serve;
 
 use std::process::ExitCode;
@@ -19,6 +21,10 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Run one match as fast as possible, with the built-in team and/or your agent programs.
+    Run(run::RunArgs),
+    /// Check (re-simulate) or summarise a replay.
+    Replay(replay::ReplayArgs),
     /// Serve one match over TCP (JSON lines; see protocol/PROTOCOL.md).
     Serve(serve::ServeArgs),
     /// Measure performance; prints one JSON object per line per case.
@@ -39,6 +45,8 @@ pub fn random_seed() -> u64 {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
+        Command::Run(args) => run::run(&args),
+        Command::Replay(args) => replay::run(&args),
         Command::Serve(args) => serve::run(&args),
         Command::Bench(args) => bench::run(&args),
     };

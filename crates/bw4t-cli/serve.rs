@@ -64,6 +64,9 @@ pub struct ServeArgs {
     /// Write the match result as JSON to this file when the match ends.
     #[arg(long)]
     results: Option<PathBuf>,
+    /// Write a replay (JSON lines) of the match to this file.
+    #[arg(long)]
+    replay: Option<PathBuf>,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -105,6 +108,15 @@ pub fn run(args: &ServeArgs) -> Result<()> {
             config.map.spawns().len()
         );
     }
+    let replay: Option<Box<dyn std::io::Write + Send>> = match &args.replay {
+        Some(path) => Some(Box::new(std::io::BufWriter::new(
+            std::fs::File::create(path)
+                .with_context(|| format!("cannot create replay file {}", path.display()))?,
+        ))),
+        None => None,
+    };
+    let extras =
+        bw4t_server::Extras { replay, program: bw4t_runner::program(), ..bw4t_server::Extras::default() };
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()
@@ -121,7 +133,7 @@ pub fn run(args: &ServeArgs) -> Result<()> {
             config.mode.name(),
             config.robots
         );
-        bw4t_server::serve(listener, config, stop_signal()).await.context("the match failed")
+        bw4t_server::serve_with(listener, config, extras, stop_signal()).await.context("the match failed")
     })?;
     eprintln!(
         "bw4t: match over ({}): {} ticks, sequence {}/{}, digest {}",

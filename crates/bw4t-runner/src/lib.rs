@@ -1,9 +1,11 @@
 //! Whole matches: headless with built-in agents, or served to external agent processes
 //! mixed with built-in ones; and replays (verify, show).
 
+mod external;
 mod headless;
 mod replay;
 
+pub use external::{AgentReport, SeatSpec, ServedError, ServedRun, play_served};
 pub use headless::{RunError, Seat, play_headless};
 pub use replay::{ReplayError, ReplaySummary, Verdict, read_replay, verify_replay};
 

@@ -120,6 +120,9 @@ pub struct Host {
     /// Writers of closed connections that may still be flushing.
     closing: Vec<watch::Receiver<bool>>,
     recorder: Option<Recorder>,
+    /// Names of reserved seats whose player will not come (its process died).
+    gone_seats: Option<mpsc::Receiver<String>>,
+    abandoned: std::collections::BTreeSet<String>,
     /// Figures of players that left (errors, whether they ever connected), for the result.
     gone: BTreeMap<RobotId, (u64, bool)>,
 }
@@ -150,6 +153,8 @@ impl Host {
             sessions: 0,
             closing: Vec::new(),
             recorder,
+            gone_seats: extras.gone_seats,
+            abandoned: std::collections::BTreeSet::new(),
             gone: BTreeMap::new(),
         };
         for seat in extras.seats {
@@ -180,12 +185,15 @@ impl Host {
         // Before the first tick: admit players until enough have joined.
         let start_by = self.config.start_timeout.map(|t| started + t);
         while self.end.is_none()
-            && self.connected_players() < self.config.robots
+            && self.connected_players() + self.abandoned.len() < self.config.robots
             && start_by.is_none_or(|t| Instant::now() < t)
         {
             tokio::select! {
                 () = &mut shutdown => self.end = Some("interrupted"),
                 event = self.events.recv() => self.on_event(event),
+                Some(name) = recv_opt(&mut self.gone_seats) => {
+                    self.abandoned.insert(name);
+                }
                 () = tokio::time::sleep(Duration::from_millis(100)) => self.expire_dropped(),
             }
         }
@@ -820,6 +828,13 @@ impl Host {
         };
         let _ = tokio::time::timeout(FLUSH_LIMIT, flushed).await;
         result
+    }
+}
+
+async fn recv_opt<T>(rx: &mut Option<mpsc::Receiver<T>>) -> Option<T> {
+    match rx {
+        Some(rx) => rx.recv().await,
+        None => std::future::pending().await,
     }
 }
 

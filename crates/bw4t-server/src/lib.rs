@@ -113,6 +113,9 @@ pub struct Extras {
     pub replay: Option<Box<dyn std::io::Write + Send>>,
     /// The program name written into the replay.
     pub program: String,
+    /// Names of reserved seats whose player will never come (e.g. its process exited),
+    /// so the match need not wait for them to start.
+    pub gone_seats: Option<mpsc::Receiver<String>>,
 }
 
 /// Why a match could not be served.

@@ -1,0 +1,242 @@
+//! `bw4t run`: one whole match as fast as possible, with built-in and external agents.
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, Result, bail};
+use bw4t_agents::Strategy;
+use bw4t_protocol::{MatchResult, RobotExtra};
+use bw4t_runner::{AgentReport, Seat, SeatSpec, ServedRun, play_headless, play_served};
+use bw4t_sim::MatchConfig;
+use clap::Args;
+
+/// Options of `bw4t run`.
+#[derive(Args)]
+pub struct RunArgs {
+    /// Map: a shipped map's name, a native map file or an original BW4T map file.
+    #[arg(long, default_value = "default")]
+    map: String,
+    /// Match seed; a random one is chosen and printed when omitted.
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Robots in the match (default 3, or one per --agent).
+    #[arg(long)]
+    robots: Option<usize>,
+    /// The built-in team filling the seats no --agent takes: `builtin` or `builtin:STRATEGY`
+    /// (coop, baseline).
+    #[arg(long)]
+    team: Option<String>,
+    /// An agent program, run with `sh -c`; repeat for more. One --agent with --robots N and
+    /// no --team starts N copies. Each gets BW4T_HOST, BW4T_PORT, BW4T_NAME, BW4T_TOKEN.
+    #[arg(long = "agent", value_name = "COMMAND")]
+    agents: Vec<String>,
+    /// End the match after this many ticks.
+    #[arg(long, default_value_t = 20_000)]
+    max_ticks: u64,
+    /// Milliseconds an external agent has to answer each tick (0: forever).
+    #[arg(long, default_value_t = 1000)]
+    deadline_ms: u64,
+    /// Seconds external agents have to connect.
+    #[arg(long, default_value_t = 10)]
+    connect_timeout_s: u64,
+    /// Print the result as JSON instead of the summary.
+    #[arg(long)]
+    json: bool,
+    /// Also write the result as JSON to this file.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Write a replay (JSON lines) to this file.
+    #[arg(long)]
+    replay: Option<PathBuf>,
+    /// Directory for external agents' logs (default: a new one under the system's temp dir).
+    #[arg(long)]
+    log_dir: Option<PathBuf>,
+}
+
+/// Runs one match and reports it.
+pub fn run(args: &RunArgs) -> Result<()> {
+    let map = crate::maps::load(&args.map)?;
+    let seed = args.seed.unwrap_or_else(crate::random_seed);
+    let seats = seats(args)?;
+    if seats.len() > map.spawns().len() {
+        bail!("{} robots but map '{}' has {} spawn points", seats.len(), map.name(), map.spawns().len());
+    }
+    if seats.is_empty() {
+        bail!("a match needs at least one robot");
+    }
+    if !args.json {
+        eprintln!(
+            "bw4t: map '{}', seed {seed} (rerun with --seed {seed}), {} robots",
+            map.name(),
+            seats.len()
+        );
+    }
+    let replay: Option<Box<dyn Write + Send>> = match &args.replay {
+        Some(path) => Some(Box::new(std::io::BufWriter::new(
+            std::fs::File::create(path)
+                .with_context(|| format!("cannot create replay file {}", path.display()))?,
+        ))),
+        None => None,
+    };
+    let started = Instant::now();
+    let external = seats.iter().any(|s| matches!(s, SeatSpec::External { .. }));
+    let (mut result, agents) = if external {
+        let log_dir = args
+            .log_dir
+            .clone()
+            .unwrap_or_else(|| std::env::temp_dir().join(format!("bw4t-run-{}-{seed}", std::process::id())));
+        play_served(ServedRun {
+            map: &map,
+            game: MatchConfig::default(),
+            seed,
+            seats: seats.clone(),
+            max_ticks: args.max_ticks,
+            deadline: (args.deadline_ms > 0).then(|| Duration::from_millis(args.deadline_ms)),
+            connect_timeout: Duration::from_secs(args.connect_timeout_s),
+            log_dir: &log_dir,
+            replay,
+        })?
+    } else {
+        headless(args, &map, seed, &seats, replay)?
+    };
+    result.wall_ms = started.elapsed().as_millis() as u64;
+    let mut json = serde_json::to_value(&result)?;
+    json["agents"] = serde_json::to_value(&agents)?;
+    if let Some(path) = &args.out {
+        let text = serde_json::to_string_pretty(&json)? + "\n";
+        std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&json)?);
+    } else {
+        print!("{}", summary(&result, &agents));
+    }
+    Ok(())
+}
+
+fn headless(
+    args: &RunArgs,
+    map: &bw4t_map::Map,
+    seed: u64,
+    seats: &[SeatSpec],
+    replay: Option<Box<dyn Write + Send>>,
+) -> Result<(MatchResult, Vec<AgentReport>)> {
+    let config = MatchConfig::default();
+    let mut recorder = match replay {
+        Some(out) => {
+            // The recorder is given the match to describe; a blank one has the same header.
+            let blank = bw4t_sim::Match::new(map, &config, seed)?;
+            let names = seats.iter().map(|s| s.name().to_string()).collect();
+            Some(bw4t_protocol::Recorder::new(out, &blank, &bw4t_runner::program(), names, 100))
+        }
+        None => None,
+    };
+    let players = seats
+        .iter()
+        .map(|s| match s {
+            SeatSpec::Builtin { name, strategy } => {
+                Ok(Seat { name: name.clone(), agent: strategy.agent(name) })
+            }
+            SeatSpec::External { .. } => bail!("external agents need the served path"),
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let (game, reason) = play_headless(map, &config, seed, players, args.max_ticks, recorder.as_mut())?;
+    if let Some(recorder) = recorder {
+        recorder.finish(&game, reason).context("cannot write the replay")?;
+    }
+    let result = MatchResult::of(&game, None, reason, 0, |_| RobotExtra::LOCAL);
+    let agents = seats
+        .iter()
+        .map(|s| AgentReport {
+            name: s.name().to_string(),
+            kind: match s {
+                SeatSpec::Builtin { strategy, .. } => format!("builtin:{}", strategy.name()),
+                SeatSpec::External { .. } => "external".into(),
+            },
+            command: None,
+            status: "ok".into(),
+            detail: "played in-process".into(),
+            exit_code: None,
+            log: None,
+        })
+        .collect();
+    Ok((result, agents))
+}
+
+/// The seats a run's options describe: external agents first, the built-in team after.
+fn seats(args: &RunArgs) -> Result<Vec<SeatSpec>> {
+    let strategy = match args.team.as_deref() {
+        None | Some("builtin") => Strategy::Cooperative,
+        Some(team) => {
+            let name = team
+                .strip_prefix("builtin:")
+                .with_context(|| format!("--team '{team}': expected builtin or builtin:STRATEGY"))?;
+            let names: Vec<&str> = Strategy::ALL.iter().map(|s| s.name()).collect();
+            Strategy::named(name)
+                .with_context(|| format!("unknown strategy '{name}' (known: {})", names.join(", ")))?
+        }
+    };
+    let commands: Vec<String> = if args.agents.len() == 1 && args.team.is_none() {
+        vec![args.agents[0].clone(); args.robots.unwrap_or(1)]
+    } else {
+        args.agents.clone()
+    };
+    let total = args.robots.unwrap_or(if args.agents.is_empty() { 3 } else { commands.len() });
+    if commands.len() > total {
+        bail!("{} agent commands but --robots {total}", commands.len());
+    }
+    let mut seats: Vec<SeatSpec> = commands
+        .into_iter()
+        .enumerate()
+        .map(|(i, command)| SeatSpec::External { name: format!("Agent{}", i + 1), command })
+        .collect();
+    let builtins = total - seats.len();
+    seats.extend((0..builtins).map(|i| SeatSpec::Builtin { name: format!("Bot{}", i + 1), strategy }));
+    Ok(seats)
+}
+
+/// The readable report of a match.
+fn summary(r: &MatchResult, agents: &[AgentReport]) -> String {
+    let mut out = String::new();
+    let outcome = if r.completed { "completed" } else { "NOT completed" };
+    let at = r.completed_tick.unwrap_or(r.ticks);
+    out += &format!(
+        "{outcome} ({}) after {at} ticks ({:.1} s simulated, {} ms wall)\n",
+        r.end_reason,
+        at as f64 * r.sim_seconds / r.ticks.max(1) as f64,
+        r.wall_ms
+    );
+    let marked: Vec<String> = r
+        .sequence
+        .iter()
+        .enumerate()
+        .map(|(i, c)| if i < r.sequence_index as usize { format!("[{c}]") } else { c.clone() })
+        .collect();
+    out += &format!("sequence {}/{}: {}\n", r.sequence_index, r.sequence.len(), marked.join(" "));
+    out += &format!("drops: {} good, {} wrong; messages: {}\n", r.good_drops, r.wrong_drops, r.messages);
+    out += &format!(
+        "{:<4} {:<10} {:>5} {:>6} {:>5} {:>6} {:>6} {:>9}  {}\n",
+        "id", "name", "good", "wrong", "msgs", "idle", "rooms", "distance", "agent"
+    );
+    for robot in &r.per_robot {
+        let agent = agents.iter().find(|a| a.name == robot.name);
+        let agent = agent.map_or(String::new(), |a| format!("{} {} ({})", a.kind, a.status, a.detail));
+        out += &format!(
+            "{:<4} {:<10} {:>5} {:>6} {:>5} {:>6} {:>6} {:>9.1}  {agent}\n",
+            robot.id,
+            robot.name,
+            robot.good_drops,
+            robot.wrong_drops,
+            robot.messages_sent,
+            robot.idle_ticks,
+            robot.rooms_entered,
+            robot.distance
+        );
+    }
+    for agent in agents.iter().filter_map(|a| a.log.as_ref().map(|l| (a, l))) {
+        out += &format!("log of {}: {}\n", agent.0.name, agent.1.display());
+    }
+    out += &format!("digest {}\n", r.digest);
+    out
+}

@@ -1,0 +1,299 @@
+//! Matches with external agent programs: a lockstep server on loopback, one child process
+//! per external seat, built-in agents playing in-process beside them.
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::Duration;
+
+use bw4t_agents::Strategy;
+use bw4t_map::Map;
+use bw4t_protocol::{MatchResult, Mode};
+use bw4t_server::{Extras, Seat, ServerConfig};
+use bw4t_sim::MatchConfig;
+use serde::Serialize;
+
+/// Who plays a seat.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum SeatSpec {
+    /// A built-in agent.
+    Builtin {
+        /// Player name.
+        name: String,
+        /// Its strategy.
+        strategy: Strategy,
+    },
+    /// A program, started with `sh -c COMMAND`.
+    External {
+        /// Player name.
+        name: String,
+        /// The command line.
+        command: String,
+    },
+}
+
+impl SeatSpec {
+    /// The player's name.
+    pub fn name(&self) -> &str {
+        match self {
+            SeatSpec::Builtin { name, .. } | SeatSpec::External { name, .. } => name,
+        }
+    }
+}
+
+/// How an agent fared.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+pub struct AgentReport {
+    /// Player name.
+    pub name: String,
+    /// `builtin:STRATEGY` or `external`.
+    pub kind: String,
+    /// The command, for external agents.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub command: Option<String>,
+    /// `ok`, `crashed`, `never_connected`, `unresponsive` or `bad_protocol`.
+    pub status: String,
+    /// A sentence saying what happened.
+    pub detail: String,
+    /// The exit code, when the program exited by itself.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub exit_code: Option<i32>,
+    /// Where its standard output and error went.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub log: Option<PathBuf>,
+}
+
+/// Everything a served run needs.
+pub struct ServedRun<'a> {
+    /// The map.
+    pub map: &'a Map,
+    /// Simulation settings.
+    pub game: MatchConfig,
+    /// The seed.
+    pub seed: u64,
+    /// The seats, in robot-id order.
+    pub seats: Vec<SeatSpec>,
+    /// The last tick.
+    pub max_ticks: u64,
+    /// Lockstep deadline (`None`: wait forever).
+    pub deadline: Option<Duration>,
+    /// How long agents have to connect before the match starts without them.
+    pub connect_timeout: Duration,
+    /// Where agent logs go.
+    pub log_dir: &'a Path,
+    /// Where the replay goes.
+    pub replay: Option<Box<dyn std::io::Write + Send>>,
+}
+
+/// Why a served run failed to start.
+#[derive(Debug, thiserror::Error)]
+pub enum ServedError {
+    /// A local resource (socket, runtime, log file) is unavailable.
+    #[error("{0}")]
+    Io(String),
+    /// The match could not be set up.
+    #[error(transparent)]
+    Server(#[from] bw4t_server::ServerError),
+}
+
+/// Deadlines a player may miss in a row before it is dropped as unresponsive.
+const MAX_LATE_IN_ROW: u32 = 3;
+
+/// Plays a match with external agent processes; every child (and its children) is gone
+/// when this returns.
+pub fn play_served(run: ServedRun<'_>) -> Result<(MatchResult, Vec<AgentReport>), ServedError> {
+    let io = |what: &str, e: std::io::Error| ServedError::Io(format!("{what}: {e}"));
+    std::fs::create_dir_all(run.log_dir)
+        .map_err(|e| io(&format!("cannot create {}", run.log_dir.display()), e))?;
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .map_err(|e| io("runtime", e))?;
+    let token = format!("{:016x}", token_bits());
+    runtime.block_on(async {
+        let listener =
+            tokio::net::TcpListener::bind("127.0.0.1:0").await.map_err(|e| io("cannot listen", e))?;
+        let addr = listener.local_addr().map_err(|e| io("no address", e))?;
+        let mut config = ServerConfig::new(run.map.clone());
+        config.seed = run.seed;
+        config.game = run.game.clone();
+        config.mode = Mode::Lockstep;
+        config.robots = run.seats.len();
+        config.max_ticks = Some(run.max_ticks);
+        config.deadline = run.deadline;
+        config.token = Some(token.clone());
+        config.start_timeout = Some(run.connect_timeout);
+        config.hello_timeout = run.connect_timeout;
+        config.max_late_in_row = Some(MAX_LATE_IN_ROW);
+        let seats = run
+            .seats
+            .iter()
+            .map(|s| match s {
+                SeatSpec::Builtin { name, strategy } => Seat::Local(name.clone(), strategy.agent(name)),
+                SeatSpec::External { name, .. } => Seat::Remote(name.clone()),
+            })
+            .collect();
+        let (gone_tx, gone_rx) = tokio::sync::mpsc::channel(run.seats.len().max(1));
+        let extras =
+            Extras { seats, replay: run.replay, program: crate::program(), gone_seats: Some(gone_rx) };
+        let server = tokio::spawn(bw4t_server::serve_with(listener, config, extras, std::future::pending()));
+        let mut children = Vec::new();
+        for seat in &run.seats {
+            if let SeatSpec::External { name, command } = seat {
+                let log = run.log_dir.join(format!("{name}.log"));
+                let child = spawn(command, name, &addr, &token, &log);
+                children.push(Running { name: name.clone(), log, child, exited: None });
+            }
+        }
+        // Watch the children: one that dies before connecting must not hold up the start.
+        tokio::pin!(server);
+        let outcome = loop {
+            tokio::select! {
+                outcome = &mut server => break outcome,
+                () = tokio::time::sleep(Duration::from_millis(50)) => {
+                    for c in children.iter_mut().filter(|c| c.exited.is_none()) {
+                        if let Some(code) = c.poll() {
+                            c.exited = Some(code);
+                            let _ = gone_tx.try_send(c.name.clone());
+                        }
+                    }
+                }
+            }
+        };
+        for c in &mut children {
+            c.stop().await;
+        }
+        let result = match outcome {
+            Ok(Ok(result)) => result,
+            Ok(Err(e)) => return Err(ServedError::Server(e)),
+            Err(e) => return Err(ServedError::Io(format!("the server task failed: {e}"))),
+        };
+        let reports = run.seats.iter().map(|seat| report(seat, &result, &children)).collect();
+        Ok((result, reports))
+    })
+}
+
+struct Running {
+    name: String,
+    log: PathBuf,
+    child: Result<Child, String>,
+    /// Exit code (or -signal) if it exited before the match ended.
+    exited: Option<Result<i32, String>>,
+}
+
+impl Running {
+    fn poll(&mut self) -> Option<Result<i32, String>> {
+        match &mut self.child {
+            Err(e) => Some(Err(e.clone())),
+            Ok(child) => match child.try_wait() {
+                Ok(Some(status)) => Some(Ok(status.code().unwrap_or(-1))),
+                Ok(None) => None,
+                Err(e) => Some(Err(e.to_string())),
+            },
+        }
+    }
+
+    /// Ends the program and everything it started: TERM to its process group, KILL after a second.
+    async fn stop(&mut self) {
+        let Ok(child) = &mut self.child else { return };
+        if self.exited.is_none() {
+            if let Ok(Some(status)) = child.try_wait() {
+                self.exited = Some(Ok(status.code().unwrap_or(-1)));
+            }
+        }
+        let group = format!("-{}", child.id());
+        let _ = Command::new("kill").args(["-TERM", "--", &group]).stderr(Stdio::null()).status();
+        for _ in 0..20 {
+            if matches!(child.try_wait(), Ok(Some(_))) {
+                break;
+            }
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+        let _ = Command::new("kill").args(["-KILL", "--", &group]).stderr(Stdio::null()).status();
+        let _ = child.wait();
+    }
+}
+
+fn spawn(
+    command: &str,
+    name: &str,
+    addr: &std::net::SocketAddr,
+    token: &str,
+    log: &Path,
+) -> Result<Child, String> {
+    let file = std::fs::File::create(log).map_err(|e| format!("cannot create {}: {e}", log.display()))?;
+    let err = file.try_clone().map_err(|e| e.to_string())?;
+    let mut cmd = Command::new("sh");
+    cmd.arg("-c")
+        .arg(command)
+        .env("BW4T_HOST", addr.ip().to_string())
+        .env("BW4T_PORT", addr.port().to_string())
+        .env("BW4T_NAME", name)
+        .env("BW4T_TOKEN", token)
+        .stdin(Stdio::null())
+        .stdout(file)
+        .stderr(err);
+    #[cfg(unix)]
+    {
+        // Its own process group, so the whole tree can be ended at once.
+        use std::os::unix::process::CommandExt;
+        cmd.process_group(0);
+    }
+    cmd.spawn().map_err(|e| format!("cannot start `{command}`: {e}"))
+}
+
+fn report(seat: &SeatSpec, result: &MatchResult, children: &[Running]) -> AgentReport {
+    let robot = result.per_robot.iter().find(|r| r.name == seat.name());
+    match seat {
+        SeatSpec::Builtin { name, strategy } => AgentReport {
+            name: name.clone(),
+            kind: format!("builtin:{}", strategy.name()),
+            command: None,
+            status: "ok".into(),
+            detail: "played in-process".into(),
+            exit_code: None,
+            log: None,
+        },
+        SeatSpec::External { name, command } => {
+            let running = children.iter().find(|c| &c.name == name);
+            let exited = running.and_then(|c| c.exited.clone());
+            let (late, errors, connected) =
+                robot.map_or((0, 0, false), |r| (r.late_ticks, r.errors, r.connected));
+            let (status, detail) = match (&exited, connected) {
+                (Some(Err(e)), _) => ("crashed", format!("could not run: {e}")),
+                (Some(Ok(code)), false) if *code != 0 => {
+                    ("crashed", format!("exited with code {code} before connecting"))
+                }
+                (_, false) if errors > 0 => {
+                    ("bad_protocol", format!("never completed hello; {errors} invalid lines"))
+                }
+                (_, false) => ("never_connected", "never connected".to_string()),
+                (Some(Ok(code)), true) if *code != 0 && !result.completed => {
+                    ("crashed", format!("exited with code {code} during the match"))
+                }
+                _ if errors > 0 => ("bad_protocol", format!("sent {errors} invalid lines")),
+                _ if late >= u64::from(MAX_LATE_IN_ROW) => {
+                    ("unresponsive", format!("missed {late} deadlines"))
+                }
+                _ => ("ok", if late > 0 { format!("missed {late} deadlines") } else { "played".to_string() }),
+            };
+            AgentReport {
+                name: name.clone(),
+                kind: "external".into(),
+                command: Some(command.clone()),
+                status: status.into(),
+                detail,
+                exit_code: exited.and_then(Result::ok),
+                log: running.map(|c| c.log.clone()),
+            }
+        }
+    }
+}
+
+/// Unpredictable bits for the match token.
+fn token_bits() -> u64 {
+    use std::hash::{BuildHasher, Hasher};
+    let mut h = std::collections::hash_map::RandomState::new().build_hasher();
+    h.write_u64(std::process::id().into());
+    h.finish()
+}
