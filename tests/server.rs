@@ -619,3 +619,36 @@ async fn a_dropped_players_robot_stands_still() {
     assert!(stopped.robots[0].y > 30.0, "stopped before reaching RoomA3: {:?}", stopped.robots[0]);
     server.stop().await;
 }
+
+/// The built-in team playing over TCP, one connection per robot, gives the very match it
+/// plays headless: the same agent trait, the same lockstep rule.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_builtin_team_over_tcp_plays_the_same_match_as_headless() {
+    let mut config = lockstep("default", 21, 3);
+    config.max_ticks = Some(20_000);
+    // Seats taken in advance fix the robot ids, whoever connects first.
+    let seats = ["Bot1", "Bot2", "Bot3"].map(|n| bw4t_server::Seat::Remote(n.to_string())).into();
+    let server = TestServer::start_with(config, bw4t_server::Extras { seats, ..Default::default() }).await;
+    let mut clients = Vec::new();
+    for name in ["Bot3", "Bot1", "Bot2"] {
+        let agent = bw4t_agents::Strategy::Cooperative.agent(name);
+        clients.push(tokio::spawn(bw4t_runner::play_remote(server.addr, name, None, agent)));
+    }
+    let served = server.finish().await;
+    for client in clients {
+        let result = client.await.expect("client task").expect("played to the end");
+        assert_eq!(result.digest, served.digest);
+    }
+    let seats = ["Bot1", "Bot2", "Bot3"]
+        .iter()
+        .map(|n| bw4t_runner::Seat {
+            name: n.to_string(),
+            agent: bw4t_agents::Strategy::Cooperative.agent(n),
+        })
+        .collect();
+    let (game, reason) =
+        bw4t_runner::play_headless(&shipped_map("default"), &MatchConfig::default(), 21, seats, 20_000, None)
+            .expect("play");
+    assert_eq!((reason, served.end_reason.as_str()), ("completed", "completed"));
+    assert_eq!(format!("{:016x}", game.digest()), served.digest);
+}

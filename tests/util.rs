@@ -230,6 +230,11 @@ pub struct TestServer {
 
 impl TestServer {
     pub async fn start(config: ServerConfig) -> TestServer {
+        TestServer::start_with(config, bw4t_server::Extras::default()).await
+    }
+
+    /// A server with seats taken in advance (and possibly a replay).
+    pub async fn start_with(config: ServerConfig, extras: bw4t_server::Extras) -> TestServer {
         let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.expect("bind");
         let addr = listener.local_addr().expect("addr");
         let (stop, stopped) = oneshot::channel::<()>();
@@ -237,7 +242,7 @@ impl TestServer {
             let shutdown = async {
                 let _ = stopped.await;
             };
-            bw4t_server::serve(listener, config, shutdown).await.expect("serve")
+            bw4t_server::serve_with(listener, config, extras, shutdown).await.expect("serve")
         });
         TestServer { addr, stop: Some(stop), task }
     }

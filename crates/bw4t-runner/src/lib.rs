@@ -3,10 +3,12 @@
 
 mod external;
 mod headless;
+mod remote;
 mod replay;
 
 pub use external::{AgentReport, SeatSpec, ServedError, ServedRun, play_served};
 pub use headless::{RunError, Seat, play_headless};
+pub use remote::{RemoteError, play_remote};
 pub use replay::{ReplayError, ReplaySummary, Verdict, read_replay, verify_replay};
 
 /// The program name and version written into replays.

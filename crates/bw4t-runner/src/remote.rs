@@ -1,0 +1,96 @@
+//! Any [`Agent`] as a TCP client: it plays a served match through the protocol exactly as
+//! it plays in-process, deciding when its player is told something.
+
+use std::net::SocketAddr;
+
+use bw4t_agents::{ActionAck, Agent, Observation, OrderDone};
+use bw4t_protocol::{ActId, MatchResult, ServerMessage, action_to_act, decode_server, fact_to_percept};
+use bw4t_sim::{OrderOutcome, PerceptDelta};
+use serde_json::json;
+use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader};
+use tokio::net::TcpStream;
+
+/// Why a remote game ended without a result.
+#[derive(Debug, thiserror::Error)]
+pub enum RemoteError {
+    /// The connection failed.
+    #[error("connection: {0}")]
+    Io(#[from] std::io::Error),
+    /// The server sent something this client cannot use.
+    #[error("protocol: {0}")]
+    Protocol(String),
+}
+
+/// Connects, joins as `name` (with `token` if the server wants one) and lets `agent` play
+/// until the match ends; returns the result the server sent.
+pub async fn play_remote(
+    addr: SocketAddr,
+    name: &str,
+    token: Option<&str>,
+    mut agent: Box<dyn Agent>,
+) -> Result<MatchResult, RemoteError> {
+    let stream = TcpStream::connect(addr).await?;
+    stream.set_nodelay(true)?;
+    let (reader, mut writer) = stream.into_split();
+    let mut lines = BufReader::new(reader).lines();
+    let hello = json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": name, "token": token});
+    writer.write_all(format!("{hello}\n").as_bytes()).await?;
+    let mut told = Observation::default();
+    let mut next_action = 0u64;
+    // `act` ids are the agent's action numbers, so acks and results map straight back.
+    while let Some(line) = lines.next_line().await? {
+        let message = decode_server(&line).map_err(|e| RemoteError::Protocol(e.to_string()))?;
+        match message {
+            ServerMessage::Ack(ack) => {
+                if let Some(ActId::Number(n)) = ack.id {
+                    let result = if ack.ok { Ok(()) } else { Err(ack.code.unwrap_or_default()) };
+                    told.acks.push(ActionAck { action: n, result });
+                }
+            }
+            ServerMessage::Result(result) => {
+                let ActId::Number(n) = result.id else { continue };
+                let outcome = match result.outcome.as_str() {
+                    "arrived" => OrderOutcome::Arrived,
+                    "collided" => OrderOutcome::Collided,
+                    _ => OrderOutcome::Superseded,
+                };
+                told.done.push(OrderDone { action: n, outcome });
+            }
+            ServerMessage::Percepts(p) => {
+                let facts = |list: &[Vec<serde_json::Value>]| {
+                    list.iter()
+                        .map(|f| fact_to_percept(f).map_err(|e| RemoteError::Protocol(e.to_string())))
+                        .collect::<Result<Vec<_>, _>>()
+                };
+                let delta =
+                    PerceptDelta { tick: p.tick, full: p.full, add: facts(&p.add)?, not: facts(&p.not)? };
+                // The same rule as in-process: decide when told something.
+                let decide = !delta.is_empty() || !told.done.is_empty();
+                if !delta.is_empty() {
+                    told.percepts.push(delta);
+                }
+                let mut out = String::new();
+                if decide {
+                    told.tick = p.tick;
+                    for action in agent.decide(&told) {
+                        let (name, args) = action_to_act(&action);
+                        out += &format!(
+                            "{}\n",
+                            json!({"type": "act", "id": next_action, "action": name, "args": args})
+                        );
+                        next_action += 1;
+                    }
+                    told = Observation::default();
+                }
+                out += &format!("{}\n", json!({"type": "ready", "tick": p.tick}));
+                writer.write_all(out.as_bytes()).await?;
+            }
+            ServerMessage::MatchEnd(end) => return Ok(end.result),
+            ServerMessage::Error(e) if e.fatal => {
+                return Err(RemoteError::Protocol(format!("{}: {}", e.code, e.message)));
+            }
+            _ => {}
+        }
+    }
+    Err(RemoteError::Protocol("the server closed the connection before the end".into()))
+}
