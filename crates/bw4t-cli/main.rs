@@ -2,6 +2,7 @@
 
 mod bench;
 mod bench_net;
+mod map_cmd;
 mod maps;
 mod replay;
 mod run;
@@ -23,6 +24,8 @@ struct Cli {
 enum Command {
     /// Run one match as fast as possible, with the built-in team and/or your agent programs.
     Run(run::RunArgs),
+    /// Import, check, show, render or generate maps.
+    Map(map_cmd::MapArgs),
     /// Check (re-simulate) or summarise a replay.
     Replay(replay::ReplayArgs),
     /// Serve one match over TCP (JSON lines; see protocol/PROTOCOL.md).
@@ -46,6 +49,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Run(args) => run::run(&args),
+        Command::Map(args) => map_cmd::run(&args),
         Command::Replay(args) => replay::run(&args),
         Command::Serve(args) => serve::run(&args),
         Command::Bench(args) => bench::run(&args),

@@ -3,11 +3,14 @@
 //! Pure: everything here parses and produces values; no files, clocks or OS randomness.
 
 mod bw4t_xml;
+mod check;
 mod colour;
 mod content;
+mod generate;
 mod geometry;
 mod model;
 mod native;
+mod render;
 mod rng;
 
 pub use bw4t_xml::{MapLoadError, XmlError, XmlPlace};
@@ -15,6 +18,7 @@ pub use colour::{Colour, UnknownColour};
 pub use content::{
     BLOCK_SPACING, Content, ContentError, MAX_BLOCKS_PER_ROOM, PlacedBlock, block_area, spot_is_clear,
 };
+pub use generate::generate;
 pub use geometry::{Door, Orientation, Rect, Vec2};
 pub use model::{DROP_ZONE, Map, MapError, MapParts, Spawn, Zone, ZoneIdx, ZoneKind};
 pub use native::NativeError;

@@ -1,0 +1,1 @@
+//! Map checking: every problem of a map file, with where it is.
