@@ -14,7 +14,21 @@ fn team(strategy: Strategy, n: usize) -> Vec<Seat> {
         .collect()
 }
 
-/// The original BW4T maps (read from the shared test data) and the shipped ones.
+/// Every map shipped in `maps/`, by file stem.
+pub fn shipped_maps() -> Vec<(String, Map)> {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("maps");
+    let mut names: Vec<String> = std::fs::read_dir(&dir)
+        .expect("maps dir")
+        .filter_map(|e| e.ok())
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+        .filter_map(|p| p.file_stem().map(|s| s.to_string_lossy().into_owned()))
+        .collect();
+    names.sort();
+    names.into_iter().map(|n| (n.clone(), shipped_map(&n))).collect()
+}
+
+/// The original BW4T maps (read from the shared test data) and two shipped ones.
 pub fn all_maps() -> Vec<(String, Map)> {
     let shared = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/bw4t-maps");
     let mut maps: Vec<(String, Map)> =
@@ -97,4 +111,16 @@ fn a_headless_match_is_the_same_every_time() {
         (game.tick(), game.digest())
     };
     assert_eq!(run(), run());
+}
+
+#[test]
+fn every_shipped_map_is_completed_by_the_builtin_team() {
+    let maps = shipped_maps();
+    assert!(maps.len() >= 7, "maps/ holds {} maps", maps.len());
+    for (name, map) in maps {
+        // Big maps get a bigger team so the test stays quick.
+        let n = if map.zones().len() > 100 { 10 } else { 3 }.min(map.spawns().len());
+        let ticks = ticks_to_complete(&name, &map, Strategy::Cooperative, &[n], 1);
+        assert_eq!(ticks.len(), 1);
+    }
 }

@@ -312,3 +312,13 @@ fn bench_match_reports_matches_per_second() {
             && line["median_ticks"].as_u64().is_some_and(|t| t > 0)
     );
 }
+
+#[test]
+fn bench_scale_reports_ticks_per_second_with_100_robots() {
+    let line = json_of(&bw4t(&["bench", "scale", "--scale-ticks", "20"]));
+    assert_eq!(
+        (line["case"].as_str(), line["robots"].as_u64(), line["ticks"].as_u64()),
+        (Some("scale"), Some(100), Some(20))
+    );
+    assert!(line["ticks_per_s"].as_f64().is_some_and(|t| t > 0.0), "{line}");
+}

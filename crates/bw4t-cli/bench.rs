@@ -25,6 +25,9 @@ pub struct BenchArgs {
     /// Ticks per `lockstep` measurement.
     #[arg(long, default_value_t = 5_000)]
     lockstep_ticks: u64,
+    /// Ticks per `scale` measurement.
+    #[arg(long, default_value_t = 5_000)]
+    scale_ticks: u64,
     /// Matches played by the `match` case.
     #[arg(long, default_value_t = 200)]
     matches: u64,
@@ -47,6 +50,9 @@ enum Case {
     Realtime,
     /// Whole default-map matches played headless by the built-in team of 3, one thread.
     Match,
+    /// A generated 10 x 10-room map with 100 robots kept moving, every robot polled every
+    /// tick; one thread.
+    Scale,
 }
 
 /// Runs the chosen cases and prints their figures.
@@ -71,6 +77,7 @@ pub fn run(args: &BenchArgs) -> Result<()> {
                 println!("{}", crate::bench_net::realtime(args.seed, 100, args.realtime_seconds)?)
             }
             Case::Match => println!("{}", matches(args)?),
+            Case::Scale => println!("{}", scale(args)?),
         }
     }
     Ok(())
@@ -159,5 +166,36 @@ fn matches(args: &BenchArgs) -> Result<serde_json::Value> {
         "completed": completed,
         "matches_per_s": (args.matches as f64 / seconds * 10.0).round() / 10.0,
         "median_ticks": ticks.get(ticks.len() / 2).copied().unwrap_or(0),
+    }))
+}
+
+fn scale(args: &BenchArgs) -> Result<serde_json::Value> {
+    let robots = 100;
+    let map = bw4t_map::generate(10, 10, robots, args.seed)?;
+    let mut game = Match::new(&map, &MatchConfig::default(), args.seed).context("cannot create the match")?;
+    let ids: Vec<RobotId> = (0..robots)
+        .map(|i| game.join(&format!("Bot{}", i + 1)))
+        .collect::<Result<_, _>>()
+        .context("joining")?;
+    let mut play = RandomPlay::new(args.seed);
+    let started = Instant::now();
+    for _ in 0..args.scale_ticks {
+        play.act(&mut game);
+        game.step();
+        for &r in &ids {
+            game.poll_percepts(r);
+        }
+    }
+    let seconds = started.elapsed().as_secs_f64();
+    let per_tick_ms = seconds * 1000.0 / args.scale_ticks as f64;
+    Ok(json!({
+        "case": "scale",
+        "map": map.name(),
+        "robots": robots,
+        "ticks": args.scale_ticks,
+        "ticks_per_s": (args.scale_ticks as f64 / seconds).round(),
+        // Share of one core a match at 20 ticks/s would use: 20 ticks' time per second.
+        "core_percent_at_20_hz": (per_tick_ms * 20.0 / 1000.0 * 100.0 * 100.0).round() / 100.0,
+        "moves": play.accepted().moves,
     }))
 }
