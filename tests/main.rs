@@ -21,6 +21,9 @@ mod agents;
 /// The match server over real loopback TCP.
 mod server;
 
+/// The conformance suite: example transcripts replayed against the server.
+mod conformance;
+
 /// The protocol documents: schemas and examples checked against the Rust types.
 mod protocol_docs;
 
