@@ -32,3 +32,6 @@ mod run;
 
 /// The `bw4t` binary, run as a child process.
 mod cli;
+
+/// Map tools: check, render, show, import.
+mod map_tools;

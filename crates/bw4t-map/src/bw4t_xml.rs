@@ -13,6 +13,7 @@ use std::fmt;
 
 use roxmltree::{Document, Node};
 
+use crate::check::{Problem, guess_orientation};
 use crate::colour::{Colour, UnknownColour};
 use crate::geometry::{Door, Orientation, Rect, Vec2};
 use crate::model::{Map, MapError, MapParts, Spawn, Zone, ZoneKind, infer_orientation};
@@ -137,47 +138,57 @@ impl Map {
     /// project's corridors never limit robots. A negative `<seed>` is kept as its
     /// two's-complement `u64`, so the content stays fixed.
     pub fn from_bw4t_xml_named(text: &str, name: &str) -> Result<Map, XmlError> {
-        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-        let blanked = blank_late_declaration(text);
-        let text = blanked.as_deref().unwrap_or(text);
-        let doc = Document::parse(text).map_err(|e| syntax_error(text, &e))?;
-        let root = doc.root_element();
-        if root.tag_name().name() != ROOT {
-            return Err(XmlError::Root { found: root.tag_name().name().to_string() });
-        }
-        let area_node = required(root, "area", MAP_PLACE)?;
-        let area = point(area_node, "<area>")?;
-
-        let spawns = elements(root, "entities")
-            .enumerate()
-            .map(|(i, node)| spawn(node, i + 1))
-            .collect::<Result<Vec<_>, _>>()?;
-        if let Some(node) = optional(root, "oneBotPerCorridorZone", MAP_PLACE)? {
-            boolean(node, "oneBotPerCorridorZone")?;
-        }
-        let random_blocks = optional_count(root, "randomBlocks")?;
-        let random_sequence = optional_count(root, "randomSequence")?;
-        let seed = optional(root, "seed", MAP_PLACE)?.map(seed).transpose()?;
-        let sequence =
-            elements(root, "sequence").map(|n| colour(n, "<sequence>")).collect::<Result<_, _>>()?;
-        let mut zones = elements(root, "zones")
-            .enumerate()
-            .map(|(i, node)| zone(node, i + 1))
-            .collect::<Result<Vec<_>, _>>()?;
-        drop_dangling_neighbours(&mut zones);
-
-        let parts = MapParts {
-            name: name.to_string(),
-            area,
-            zones,
-            spawns,
-            sequence,
-            random_sequence,
-            random_blocks,
-            seed,
-        };
-        Ok(Map::new(parts)?)
+        Ok(Map::new(xml_parts(text, name, None)?)?)
     }
+}
+
+/// Reads an original map into its parts without validating them. Neighbour names that name
+/// no zone are dropped; with `lenient` each is reported there as a warning, and a door
+/// without `<orientation>` whose centre picks no single edge is kept and left to the checks
+/// (see [`guess_orientation`]) instead of refused.
+pub(crate) fn xml_parts(
+    text: &str,
+    name: &str,
+    mut lenient: Option<&mut Vec<Problem>>,
+) -> Result<MapParts, XmlError> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let blanked = blank_late_declaration(text);
+    let text = blanked.as_deref().unwrap_or(text);
+    let doc = Document::parse(text).map_err(|e| syntax_error(text, &e))?;
+    let root = doc.root_element();
+    if root.tag_name().name() != ROOT {
+        return Err(XmlError::Root { found: root.tag_name().name().to_string() });
+    }
+    let area_node = required(root, "area", MAP_PLACE)?;
+    let area = point(area_node, "<area>")?;
+
+    let spawns = elements(root, "entities")
+        .enumerate()
+        .map(|(i, node)| spawn(node, i + 1))
+        .collect::<Result<Vec<_>, _>>()?;
+    if let Some(node) = optional(root, "oneBotPerCorridorZone", MAP_PLACE)? {
+        boolean(node, "oneBotPerCorridorZone")?;
+    }
+    let random_blocks = optional_count(root, "randomBlocks")?;
+    let random_sequence = optional_count(root, "randomSequence")?;
+    let seed = optional(root, "seed", MAP_PLACE)?.map(seed).transpose()?;
+    let sequence = elements(root, "sequence").map(|n| colour(n, "<sequence>")).collect::<Result<_, _>>()?;
+    let mut zones = Vec::new();
+    for (i, node) in elements(root, "zones").enumerate() {
+        zones.push(zone(node, i + 1, lenient.as_deref_mut())?);
+    }
+    drop_dangling_neighbours(root, &mut zones, lenient);
+
+    Ok(MapParts {
+        name: name.to_string(),
+        area,
+        zones,
+        spawns,
+        sequence,
+        random_sequence,
+        random_blocks,
+        seed,
+    })
 }
 
 /// A map file in either format that could not be loaded.
@@ -254,7 +265,7 @@ fn spawn(node: Node, index: usize) -> Result<Spawn, XmlError> {
     Ok(Spawn { name, pos })
 }
 
-fn zone(node: Node, index: usize) -> Result<Zone, XmlError> {
+fn zone(node: Node, index: usize, mut lenient: Option<&mut Vec<Problem>>) -> Result<Zone, XmlError> {
     let name = text(required(node, "name", &format!("zone {index}"))?);
     let what = if name.is_empty() { format!("zone {index}") } else { format!("zone '{name}'") };
 
@@ -276,10 +287,10 @@ fn zone(node: Node, index: usize) -> Result<Zone, XmlError> {
 
     let blocks_what = format!("{what}, <blocks>");
     let blocks = elements(node, "blocks").map(|n| colour(n, &blocks_what)).collect::<Result<_, _>>()?;
-    let doors = elements(node, "doors")
-        .enumerate()
-        .map(|(i, n)| door(n, &rect, &format!("{what}, door {}", i + 1)))
-        .collect::<Result<_, _>>()?;
+    let mut doors = Vec::new();
+    for (i, n) in elements(node, "doors").enumerate() {
+        doors.push(door(n, &rect, &format!("{what}, door {}", i + 1), lenient.as_deref_mut())?);
+    }
     let neighbours = elements(node, "neighbours").map(text).collect();
     Ok(Zone { name, kind, rect, doors, neighbours, blocks })
 }
@@ -287,14 +298,32 @@ fn zone(node: Node, index: usize) -> Result<Zone, XmlError> {
 /// Drops neighbour names that are no zone of the file, which the native format rejects: an
 /// original file has them (`Rainbow-with-blockade` still names `RightHallA`, renamed to
 /// `BlockadeA`), and edges are undirected, so the renamed zone's own list still links it.
-fn drop_dangling_neighbours(zones: &mut [Zone]) {
+/// With `lenient`, each dropped name is reported there as a warning with its line.
+fn drop_dangling_neighbours(root: Node, zones: &mut [Zone], lenient: Option<&mut Vec<Problem>>) {
     let names: BTreeSet<String> = zones.iter().map(|z| z.name.clone()).collect();
+    if let Some(problems) = lenient {
+        // `zones` was read from these nodes, in this order.
+        for (i, (zone, node)) in zones.iter().zip(elements(root, "zones")).enumerate() {
+            for n in elements(node, "neighbours").filter(|n| !names.contains(&text(*n))) {
+                let what = if zone.name.is_empty() {
+                    format!("zone {}", i + 1)
+                } else {
+                    format!("zone '{}'", zone.name)
+                };
+                let line = place(n, "").line;
+                problems.push(Problem::warning(
+                    what,
+                    format!("neighbour '{}' (line {line}) is not a zone; it is ignored", text(n)),
+                ));
+            }
+        }
+    }
     for zone in zones {
         zone.neighbours.retain(|n| names.contains(n));
     }
 }
 
-fn door(node: Node, room: &Rect, what: &str) -> Result<Door, XmlError> {
+fn door(node: Node, room: &Rect, what: &str, lenient: Option<&mut Vec<Problem>>) -> Result<Door, XmlError> {
     let centre = point(required(node, "position", what)?, &format!("{what}, <position>"))?;
     let orientation = match optional(node, "orientation", what)? {
         Some(o) => match text(o).to_ascii_uppercase().as_str() {
@@ -303,11 +332,13 @@ fn door(node: Node, room: &Rect, what: &str) -> Result<Door, XmlError> {
             _ => return Err(XmlError::Orientation { place: place(o, what), found: text(o) }),
         },
         // JAXB always writes it; a hand-written file may leave it to the door's edge.
-        None => infer_orientation(centre, room).ok_or_else(|| XmlError::DoorOrientation {
-            place: place(node, what),
-            x: centre.x,
-            y: centre.y,
-        })?,
+        None => match (infer_orientation(centre, room), lenient) {
+            (Some(inferred), _) => inferred,
+            (None, Some(problems)) => guess_orientation(what, centre, room, problems),
+            (None, None) => {
+                return Err(XmlError::DoorOrientation { place: place(node, what), x: centre.x, y: centre.y });
+            }
+        },
     };
     Ok(Door { centre, orientation })
 }

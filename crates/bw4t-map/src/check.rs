@@ -1,1 +1,632 @@
 //! Map checking: every problem of a map file, with where it is.
+//!
+//! [`check_parts`] works on [`MapParts`], so it explains maps that [`Map::new`] refuses as
+//! well as maps that load but cannot be played (a room nobody reaches, a sequence colour no
+//! block has) or look wrong (warnings). [`parse_parts`] reads either file format without
+//! validating, so a file's problems can all be reported at once.
+//!
+//! [`Map::new`]: crate::Map::new
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::fmt;
+
+use crate::bw4t_xml::MapLoadError;
+use crate::colour::Colour;
+use crate::content::MAX_BLOCKS_PER_ROOM;
+use crate::geometry::{Door, Orientation, Rect, Vec2};
+use crate::model::{DROP_ZONE, MapParts, Zone, ZoneKind, door_on_edge};
+
+/// How bad a [`Problem`] is; errors sort before warnings.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Severity {
+    /// The map is refused, or a match on it cannot be completed.
+    Error,
+    /// The map loads and plays, but something looks unintended.
+    Warning,
+}
+
+impl Severity {
+    /// The lower-case word used in reports: `error` or `warning`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Severity::Error => "error",
+            Severity::Warning => "warning",
+        }
+    }
+}
+
+impl fmt::Display for Severity {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// One thing wrong with a map, and where it is.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Problem {
+    /// Error or warning.
+    pub severity: Severity,
+    /// The part of the map concerned, e.g. `zone 'RoomA1'`, `spawn 2 'Bot2'`, `sequence`.
+    pub place: String,
+    /// What is wrong there.
+    pub message: String,
+}
+
+impl Problem {
+    /// An error at `place`.
+    pub fn error(place: impl Into<String>, message: impl Into<String>) -> Problem {
+        Problem { severity: Severity::Error, place: place.into(), message: message.into() }
+    }
+
+    /// A warning at `place`.
+    pub fn warning(place: impl Into<String>, message: impl Into<String>) -> Problem {
+        Problem { severity: Severity::Warning, place: place.into(), message: message.into() }
+    }
+
+    /// Whether this is an error (not a warning).
+    pub fn is_error(&self) -> bool {
+        self.severity == Severity::Error
+    }
+}
+
+impl fmt::Display for Problem {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: {}: {}", self.severity, self.place, self.message)
+    }
+}
+
+/// Reads a map file in either format (told apart as [`Map::parse`] does) into its parts,
+/// without validating them. Syntax errors (and anything else that leaves no map to look
+/// at) are errors; the problems returned are those the readers tolerate to go on: a door
+/// at a room's corner given without orientation, and (original XML files) neighbour
+/// names that name no zone, which are dropped as on import.
+///
+/// `name` names the map unless the native text gives a non-empty `name` of its own.
+///
+/// [`Map::parse`]: crate::Map::parse
+pub fn parse_parts(text: &str, name: &str) -> Result<(MapParts, Vec<Problem>), MapLoadError> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let mut problems = Vec::new();
+    let parts = if text.trim_start().starts_with('<') {
+        crate::bw4t_xml::xml_parts(text, name, Some(&mut problems))?
+    } else {
+        let mut parts = crate::native::native_parts(text, Some(&mut problems))?;
+        if parts.name.is_empty() {
+            parts.name = name.to_string();
+        }
+        parts
+    };
+    Ok((parts, problems))
+}
+
+/// Reads and checks a map file: the problems of [`parse_parts`] and [`check_parts`],
+/// errors first. `robots`, when given, is the number of robots the map must take.
+pub fn check_text(text: &str, name: &str, robots: Option<usize>) -> Result<Vec<Problem>, MapLoadError> {
+    let (parts, mut problems) = parse_parts(text, name)?;
+    problems.extend(check_parts(&parts, robots));
+    problems.sort_by_key(|p| p.severity);
+    Ok(problems)
+}
+
+/// Every problem of `parts`, errors first, each group in the order checked.
+///
+/// Whatever [`Map::new`] refuses is an error here, and so is a map that cannot be
+/// played: a room or the drop zone no robot reaches, a fixed sequence without the
+/// blocks for it, random blocks with no room to go to, or (with `robots`) too few
+/// spawn points. Warnings name things that load but look unintended.
+///
+/// [`Map::new`]: crate::Map::new
+pub fn check_parts(parts: &MapParts, robots: Option<usize>) -> Vec<Problem> {
+    let mut checker = Checker { parts, out: Vec::new() };
+    checker.area();
+    checker.names();
+    for (idx, zone) in parts.zones.iter().enumerate() {
+        checker.zone(idx, zone);
+    }
+    checker.overlaps();
+    checker.drop_zone();
+    checker.spawns(robots);
+    checker.reachability();
+    checker.sequence();
+    checker.random_content();
+    checker.edges();
+    let mut out = checker.out;
+    out.sort_by_key(|p| p.severity);
+    out
+}
+
+/// The orientation to keep for a door given without one whose centre picks no single
+/// edge of its room, for a reader that goes on to report every problem. A door at a
+/// corner (on two edges) is reported here; one off every edge is left to [`check_parts`],
+/// which names it.
+pub(crate) fn guess_orientation(
+    place: &str,
+    centre: Vec2,
+    room: &Rect,
+    out: &mut Vec<Problem>,
+) -> Orientation {
+    let on_both = door_on_edge(&Door { centre, orientation: Orientation::Horizontal }, room);
+    if on_both {
+        out.push(Problem::error(
+            place,
+            format!("door at {} is at a corner of the room: its orientation must be given", point(centre)),
+        ));
+    }
+    Orientation::Horizontal
+}
+
+/// A point as `(x, y)`; whole numbers print without a fraction.
+fn point(p: Vec2) -> String {
+    format!("({}, {})", p.x, p.y)
+}
+
+/// How a zone is named in reports: by name, or by position in the file when it has none.
+fn zone_place(idx: usize, zone: &Zone) -> String {
+    if zone.name.is_empty() { format!("zone {}", idx + 1) } else { format!("zone '{}'", zone.name) }
+}
+
+fn spawn_place(idx: usize, name: &str) -> String {
+    format!("spawn {} '{name}'", idx + 1)
+}
+
+/// Half the side of a robot (robots are 2 x 2).
+const ROBOT_HALF: f32 = 1.0;
+
+/// How close a door's centre may come to the end of its edge (half the opening).
+const DOOR_HALF: f32 = Door::WIDTH / 2.0;
+
+/// Slack for comparing coordinates that are meant to be equal.
+const SLACK: f32 = 1e-3;
+
+struct Checker<'a> {
+    parts: &'a MapParts,
+    out: Vec<Problem>,
+}
+
+impl<'a> Checker<'a> {
+    fn error(&mut self, place: impl Into<String>, message: impl Into<String>) {
+        self.out.push(Problem::error(place, message));
+    }
+
+    fn warning(&mut self, place: impl Into<String>, message: impl Into<String>) {
+        self.out.push(Problem::warning(place, message));
+    }
+
+    /// The area as a box from the origin, when it is a real one.
+    fn area_rect(&self) -> Option<Rect> {
+        let a = self.parts.area;
+        (a.is_finite() && a.x > 0.0 && a.y > 0.0).then(|| Rect::new(a / 2.0, a))
+    }
+
+    /// The first zone of each name.
+    fn index(&self) -> BTreeMap<&'a str, usize> {
+        let parts: &'a MapParts = self.parts;
+        let mut index = BTreeMap::new();
+        for (i, z) in parts.zones.iter().enumerate() {
+            index.entry(z.name.as_str()).or_insert(i);
+        }
+        index
+    }
+
+    /// Undirected edges (each once, as first named) between zones that exist, without loops.
+    fn edges_list(&self) -> Vec<(usize, usize)> {
+        let index = self.index();
+        let mut seen = BTreeSet::new();
+        let mut edges = Vec::new();
+        for (i, zone) in self.parts.zones.iter().enumerate() {
+            for n in &zone.neighbours {
+                if let Some(&j) = index.get(n.as_str()) {
+                    if i != j && seen.insert((i.min(j), i.max(j))) {
+                        edges.push((i, j));
+                    }
+                }
+            }
+        }
+        edges
+    }
+
+    fn area(&mut self) {
+        let a = self.parts.area;
+        if !a.is_finite() {
+            self.error("area", format!("{} x {} is not a pair of finite numbers", a.x, a.y));
+        } else if !(a.x > 0.0 && a.y > 0.0) {
+            self.error("area", format!("{} x {} is not positive", a.x, a.y));
+        }
+    }
+
+    fn names(&mut self) {
+        let mut first: BTreeMap<&str, usize> = BTreeMap::new();
+        for (i, zone) in self.parts.zones.iter().enumerate() {
+            if zone.name.is_empty() {
+                self.error(zone_place(i, zone), "has an empty name");
+                continue;
+            }
+            match first.get(zone.name.as_str()) {
+                Some(&j) => self.error(
+                    zone_place(i, zone),
+                    format!("the name is already used by zone {} (names must be unique)", j + 1),
+                ),
+                None => {
+                    first.insert(zone.name.as_str(), i);
+                }
+            }
+        }
+    }
+
+    fn zone(&mut self, idx: usize, zone: &Zone) {
+        let place = zone_place(idx, zone);
+        let (centre, size) = (zone.rect.centre, zone.rect.size);
+        if !centre.is_finite() || !size.is_finite() {
+            self.error(&place, format!("centre {} or size {} is not finite", point(centre), point(size)));
+        } else if !(size.x > 0.0 && size.y > 0.0) {
+            self.error(&place, format!("size {} x {} is not positive", size.x, size.y));
+        }
+        let index = self.index();
+        for n in &zone.neighbours {
+            if !index.contains_key(n.as_str()) {
+                self.error(&place, format!("neighbour '{n}' is not a zone"));
+            } else if *n == zone.name {
+                self.warning(&place, "names itself as a neighbour");
+            }
+        }
+        if zone.kind != ZoneKind::Room {
+            if !zone.doors.is_empty() {
+                self.error(&place, format!("only rooms have doors, this is a {}", zone.kind.name()));
+            }
+            if !zone.blocks.is_empty() {
+                self.error(&place, format!("only rooms hold blocks, this is a {}", zone.kind.name()));
+            }
+        }
+        if zone.blocks.len() > MAX_BLOCKS_PER_ROOM {
+            self.error(
+                &place,
+                format!("{} blocks, at most {MAX_BLOCKS_PER_ROOM} fit in a room", zone.blocks.len()),
+            );
+        }
+        if zone.kind == ZoneKind::Room {
+            for door in &zone.doors {
+                self.door(&place, door, &zone.rect);
+            }
+        }
+        if let Some(area) = self.area_rect() {
+            if size.x > 0.0 && size.y > 0.0 && centre.is_finite() && size.is_finite() {
+                let inside =
+                    zone.rect.min().cmpge(area.min()).all() && zone.rect.max().cmple(area.max()).all();
+                if !zone.rect.overlaps(&area) {
+                    self.warning(
+                        &place,
+                        format!("lies outside the area ({} x {})", area.size.x, area.size.y),
+                    );
+                } else if zone.kind == ZoneKind::Room && !inside {
+                    self.warning(
+                        &place,
+                        format!("extends beyond the area ({} x {})", area.size.x, area.size.y),
+                    );
+                }
+            }
+        }
+    }
+
+    fn door(&mut self, place: &str, door: &Door, room: &Rect) {
+        let at = point(door.centre);
+        if !door.centre.is_finite() {
+            self.error(place, format!("door at {at} is not finite"));
+            return;
+        }
+        if door_on_edge(door, room) {
+            // The opening is 4 wide; past the corner it would cut the next wall.
+            let (c, min, max) = match door.orientation {
+                Orientation::Horizontal => (door.centre.x, room.min().x, room.max().x),
+                Orientation::Vertical => (door.centre.y, room.min().y, room.max().y),
+            };
+            if c - DOOR_HALF < min - SLACK || c + DOOR_HALF > max + SLACK {
+                self.warning(place, format!("door at {at} reaches past the room's corner"));
+            }
+            return;
+        }
+        let flipped = match door.orientation {
+            Orientation::Horizontal => Orientation::Vertical,
+            Orientation::Vertical => Orientation::Horizontal,
+        };
+        if door_on_edge(&Door { centre: door.centre, orientation: flipped }, room) {
+            let (is, edge) = match door.orientation {
+                Orientation::Horizontal => ("horizontal", "left or right"),
+                Orientation::Vertical => ("vertical", "top or bottom"),
+            };
+            self.error(place, format!("door at {at} is {is} but lies on the room's {edge} edge"));
+        } else {
+            self.error(place, format!("door at {at} is not on the room's edge"));
+        }
+    }
+
+    fn overlaps(&mut self) {
+        let zones: &'a [Zone] = &self.parts.zones;
+        let proper = |z: &Zone| {
+            z.rect.centre.is_finite() && z.rect.size.is_finite() && z.rect.size.cmpgt(Vec2::ZERO).all()
+        };
+        let mut found = Vec::new();
+        for (j, b) in zones.iter().enumerate() {
+            for (i, a) in zones.iter().enumerate().take(j) {
+                if proper(a) && proper(b) && a.rect.overlaps(&b.rect) {
+                    found.push(Problem::error(zone_place(j, b), format!("overlaps {}", zone_place(i, a))));
+                }
+            }
+        }
+        self.out.extend(found);
+    }
+
+    fn drop_zone(&mut self) {
+        let parts: &'a MapParts = self.parts;
+        let drop_zones: Vec<(usize, &Zone)> =
+            parts.zones.iter().enumerate().filter(|(_, z)| z.name == DROP_ZONE).collect();
+        match drop_zones.as_slice() {
+            [] => self.error("map", format!("no zone named '{DROP_ZONE}' (the drop zone)")),
+            [(i, dz)] => {
+                if dz.kind != ZoneKind::Room {
+                    self.error(
+                        zone_place(*i, dz),
+                        format!("the drop zone must be a room, not a {}", dz.kind.name()),
+                    );
+                }
+            }
+            several => self
+                .error("map", format!("{} zones are named '{DROP_ZONE}', there must be one", several.len())),
+        }
+    }
+
+    fn spawns(&mut self, robots: Option<usize>) {
+        let spawns: &'a [crate::model::Spawn] = &self.parts.spawns;
+        if spawns.is_empty() {
+            self.error("spawn points", "there are none: robots cannot enter");
+        }
+        if let Some(n) = robots {
+            if spawns.len() < n {
+                self.error("spawn points", format!("{} for {n} robots: each robot needs one", spawns.len()));
+            }
+        }
+        let zones: &'a [Zone] = &self.parts.zones;
+        for (i, spawn) in spawns.iter().enumerate() {
+            let place = spawn_place(i, &spawn.name);
+            let at = point(spawn.pos);
+            if !spawn.pos.is_finite() {
+                self.error(&place, format!("position {at} is not finite"));
+                continue;
+            }
+            let walled = zones.iter().find(|z| z.kind.is_walled() && z.rect.contains(spawn.pos));
+            match walled {
+                Some(z) if z.kind == ZoneKind::Blockade => self.warning(
+                    &place,
+                    format!("at {at} is inside blockade '{}': the robot cannot move", z.name),
+                ),
+                Some(z) => self.warning(
+                    &place,
+                    format!("at {at} is inside room '{}', which holds one robot at a time", z.name),
+                ),
+                None if !zones.iter().any(|z| z.rect.contains(spawn.pos)) => {
+                    self.warning(&place, format!("at {at} is in no zone"))
+                }
+                None => {}
+            }
+            // Robots are 2 x 2: closer than that on both axes, they would start overlapping.
+            let earlier = spawns[..i]
+                .iter()
+                .position(|s| (s.pos - spawn.pos).abs().max_element() < 2.0 * ROBOT_HALF - SLACK);
+            if let Some(j) = earlier {
+                self.warning(
+                    &place,
+                    format!("at {at} overlaps {} (robots are 2 x 2)", spawn_place(j, &spawns[j].name)),
+                );
+            }
+        }
+    }
+
+    /// Rooms (and the drop zone) that no robot reaches from any spawn point over the
+    /// neighbour graph. A blockade is never entered or left, nor is a walled zone without
+    /// doors; a robot starts in the zone the simulation puts it in (a room containing it,
+    /// else the first zone containing it, else the nearest).
+    fn reachability(&mut self) {
+        let zones: &'a [Zone] = &self.parts.zones;
+        let usable: Vec<usize> =
+            (0..self.parts.spawns.len()).filter(|&i| self.parts.spawns[i].pos.is_finite()).collect();
+        if zones.is_empty() || usable.is_empty() {
+            return;
+        }
+        let mut adjacency = vec![Vec::new(); zones.len()];
+        for (i, j) in self.edges_list() {
+            adjacency[i].push(j);
+            adjacency[j].push(i);
+        }
+        let passable = |z: &Zone| z.kind.is_walkable() && !(z.kind.is_walled() && z.doors.is_empty());
+        let mut reached = vec![false; zones.len()];
+        let mut queue = Vec::new();
+        for i in usable {
+            let start = start_zone(zones, self.parts.spawns[i].pos);
+            if !reached[start] {
+                reached[start] = true;
+                if passable(&zones[start]) {
+                    queue.push(start);
+                }
+            }
+        }
+        while let Some(a) = queue.pop() {
+            for &b in &adjacency[a] {
+                if !reached[b] && passable(&zones[b]) {
+                    reached[b] = true;
+                    queue.push(b);
+                }
+            }
+        }
+        for (i, zone) in zones.iter().enumerate() {
+            if reached[i] || !(zone.kind == ZoneKind::Room || zone.name == DROP_ZONE) {
+                continue;
+            }
+            let why = if zone.kind.is_walled() && zone.doors.is_empty() {
+                " (it has no doors)"
+            } else if adjacency[i].is_empty() {
+                " (it has no neighbours)"
+            } else {
+                ""
+            };
+            self.error(zone_place(i, zone), format!("no robot can reach it from the spawn points{why}"));
+        }
+    }
+
+    /// With fixed content only, every sequence colour needs as many blocks as it occurs.
+    fn sequence(&mut self) {
+        let parts = self.parts;
+        if parts.sequence.is_empty() && parts.random_sequence == 0 {
+            self.warning("sequence", "is empty: a match is over as soon as it starts");
+        }
+        // Random content can supply any colour, so only fixed-only maps can be short.
+        if parts.random_sequence != 0 || parts.random_blocks != 0 {
+            return;
+        }
+        let mut have: BTreeMap<Colour, usize> = BTreeMap::new();
+        for colour in parts.zones.iter().flat_map(|z| &z.blocks) {
+            *have.entry(*colour).or_default() += 1;
+        }
+        let mut seen = BTreeSet::new();
+        for &colour in &parts.sequence {
+            if !seen.insert(colour) {
+                continue;
+            }
+            let need = parts.sequence.iter().filter(|&&c| c == colour).count();
+            let got = have.get(&colour).copied().unwrap_or(0);
+            if got < need {
+                let s = if need == 1 { "" } else { "s" };
+                self.error("sequence", format!("needs {need} {colour} block{s}, the map has {got}"));
+            }
+        }
+    }
+
+    /// Random blocks go to rooms other than the drop zone with fewer than 10 blocks.
+    fn random_content(&mut self) {
+        let parts = self.parts;
+        let need = u64::from(parts.random_sequence) + u64::from(parts.random_blocks);
+        if need == 0 {
+            return;
+        }
+        let space: usize = parts
+            .zones
+            .iter()
+            .filter(|z| z.kind == ZoneKind::Room && z.name != DROP_ZONE)
+            .map(|z| MAX_BLOCKS_PER_ROOM.saturating_sub(z.blocks.len()))
+            .sum();
+        if need > space as u64 {
+            self.error(
+                "random content",
+                format!(
+                    "{need} random blocks, but the rooms (other than the drop zone) have space for {space}"
+                ),
+            );
+        }
+    }
+
+    /// Edges robots cannot travel as drawn: between halls, a straight way through walls;
+    /// to a room, no door of the room on the neighbour's side.
+    fn edges(&mut self) {
+        let zones: &'a [Zone] = &self.parts.zones;
+        let proper = |z: &Zone| z.rect.centre.is_finite() && z.rect.size.is_finite();
+        let mut found = Vec::new();
+        for (i, j) in self.edges_list() {
+            let (a, b) = (&zones[i], &zones[j]);
+            if !proper(a) || !proper(b) {
+                continue;
+            }
+            let free = |z: &Zone| !z.kind.is_walled();
+            if free(a) && free(b) {
+                let wall = zones.iter().enumerate().find(|&(k, z)| {
+                    k != i && k != j && z.kind.is_walled() && crosses(a.rect.centre, b.rect.centre, &z.rect)
+                });
+                if let Some((k, z)) = wall {
+                    found.push(Problem::warning(
+                        zone_place(i, a),
+                        format!(
+                            "the way to neighbour '{}' goes through the walls of {}",
+                            b.name,
+                            zone_place(k, z)
+                        ),
+                    ));
+                }
+            }
+            for (room_idx, room, other) in [(i, a, b), (j, b, a)] {
+                if room.kind == ZoneKind::Room && !room.doors.is_empty() && !door_leads_to(room, &other.rect)
+                {
+                    found.push(Problem::warning(
+                        zone_place(room_idx, room),
+                        format!("no door leads to its neighbour '{}'", other.name),
+                    ));
+                }
+            }
+        }
+        self.out.extend(found);
+    }
+}
+
+/// The zone the simulation puts a robot at `p` in: a room containing it, else the first
+/// zone containing it, else the nearest (lowest index on ties). `zones` is not empty.
+fn start_zone(zones: &[Zone], p: Vec2) -> usize {
+    let room = zones.iter().position(|z| z.kind == ZoneKind::Room && z.rect.contains(p));
+    room.or_else(|| zones.iter().position(|z| z.rect.contains(p))).unwrap_or_else(|| {
+        let dist = |i: &usize| zones[*i].rect.distance(p);
+        (0..zones.len()).min_by(|a, b| dist(a).total_cmp(&dist(b))).unwrap_or(0)
+    })
+}
+
+/// Whether some door of `room` opens onto `other`: the point just outside the door lies in
+/// `other` (edges included).
+fn door_leads_to(room: &Zone, other: &Rect) -> bool {
+    room.doors.iter().any(|door| {
+        let outside = door.centre - door.inward(&room.rect) * (Door::DEPTH / 2.0);
+        outside.cmpge(other.min() - SLACK).all() && outside.cmple(other.max() + SLACK).all()
+    })
+}
+
+/// Whether the segment from `a` to `b` passes through the inside of `rect` (touching its
+/// edges does not count).
+fn crosses(a: Vec2, b: Vec2, rect: &Rect) -> bool {
+    let (min, max) = (rect.min() + SLACK, rect.max() - SLACK);
+    let d = b - a;
+    let (mut t0, mut t1) = (0.0f32, 1.0f32);
+    for axis in 0..2 {
+        let (p, v, lo, hi) = (a[axis], d[axis], min[axis], max[axis]);
+        if v.abs() < f32::EPSILON {
+            if p <= lo || p >= hi {
+                return false;
+            }
+            continue;
+        }
+        let (mut s0, mut s1) = ((lo - p) / v, (hi - p) / v);
+        if s0 > s1 {
+            std::mem::swap(&mut s0, &mut s1);
+        }
+        t0 = t0.max(s0);
+        t1 = t1.min(s1);
+        if t0 >= t1 {
+            return false;
+        }
+    }
+    true
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn segments_cross_only_through_the_inside() {
+        let r = Rect::new(Vec2::new(5.0, 5.0), Vec2::new(2.0, 2.0));
+        assert!(crosses(Vec2::new(0.0, 5.0), Vec2::new(10.0, 5.0), &r));
+        assert!(crosses(Vec2::new(0.0, 0.0), Vec2::new(10.0, 10.0), &r));
+        assert!(!crosses(Vec2::new(0.0, 4.0), Vec2::new(10.0, 4.0), &r), "along an edge");
+        assert!(!crosses(Vec2::new(0.0, 5.0), Vec2::new(3.0, 5.0), &r), "stops short");
+        assert!(!crosses(Vec2::new(0.0, 0.0), Vec2::new(10.0, 0.0), &r), "misses");
+    }
+
+    #[test]
+    fn problems_print_with_severity_and_place() {
+        let p = Problem::error("zone 'RoomA1'", "door at (15, 17) is not on the room's edge");
+        assert_eq!(p.to_string(), "error: zone 'RoomA1': door at (15, 17) is not on the room's edge");
+        assert_eq!(Problem::warning("sequence", "x").to_string(), "warning: sequence: x");
+    }
+}

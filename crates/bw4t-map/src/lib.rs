@@ -14,6 +14,7 @@ mod render;
 mod rng;
 
 pub use bw4t_xml::{MapLoadError, XmlError, XmlPlace};
+pub use check::{Problem, Severity, check_parts, check_text, parse_parts};
 pub use colour::{Colour, UnknownColour};
 pub use content::{
     BLOCK_SPACING, Content, ContentError, MAX_BLOCKS_PER_ROOM, PlacedBlock, block_area, spot_is_clear,
@@ -22,4 +23,5 @@ pub use generate::generate;
 pub use geometry::{Door, Orientation, Rect, Vec2};
 pub use model::{DROP_ZONE, Map, MapError, MapParts, Spawn, Zone, ZoneIdx, ZoneKind};
 pub use native::NativeError;
+pub use render::render_svg;
 pub use rng::SeededRng;

@@ -4,6 +4,7 @@ use std::fmt::Write as _;
 
 use serde::Deserialize;
 
+use crate::check::{Problem, guess_orientation};
 use crate::colour::{Colour, UnknownColour};
 use crate::geometry::{Door, Orientation, Rect, Vec2};
 use crate::model::{Map, MapError, MapParts, Spawn, Zone, ZoneKind, infer_orientation};
@@ -114,24 +115,7 @@ enum OrientationFile {
 impl Map {
     /// Parses a map in the native format.
     pub fn from_native(text: &str) -> Result<Map, NativeError> {
-        let file: MapFile = toml::from_str(text)?;
-        if let Some(v) = file.version.filter(|&v| v > FORMAT_VERSION) {
-            return Err(NativeError::Version(v));
-        }
-        let sequence = colours(&file.sequence, "sequence")?;
-        let spawns = file.spawn.into_iter().map(|s| Spawn { name: s.name, pos: s.at.into() }).collect();
-        let zones = file.zone.into_iter().map(zone_from_file).collect::<Result<Vec<_>, _>>()?;
-        let parts = MapParts {
-            name: file.name,
-            area: file.area.into(),
-            zones,
-            spawns,
-            sequence,
-            random_sequence: file.random_sequence,
-            random_blocks: file.random_blocks,
-            seed: file.seed,
-        };
-        Ok(Map::new(parts)?)
+        Ok(Map::new(native_parts(text, None)?)?)
     }
 
     /// Writes the map in the native format; [`Map::from_native`] reads it back unchanged.
@@ -168,28 +152,56 @@ impl Map {
     }
 }
 
-fn zone_from_file(z: ZoneFile) -> Result<Zone, NativeError> {
+/// Reads a native map into its parts without validating them. With `lenient`, a door
+/// given without orientation whose centre picks no single edge is kept and left to the
+/// checks (see [`guess_orientation`]) instead of refused.
+pub(crate) fn native_parts(
+    text: &str,
+    mut lenient: Option<&mut Vec<Problem>>,
+) -> Result<MapParts, NativeError> {
+    let file: MapFile = toml::from_str(text)?;
+    if let Some(v) = file.version.filter(|&v| v > FORMAT_VERSION) {
+        return Err(NativeError::Version(v));
+    }
+    let sequence = colours(&file.sequence, "sequence")?;
+    let spawns = file.spawn.into_iter().map(|s| Spawn { name: s.name, pos: s.at.into() }).collect();
+    let mut zones = Vec::with_capacity(file.zone.len());
+    for z in file.zone {
+        zones.push(zone_from_file(z, lenient.as_deref_mut())?);
+    }
+    Ok(MapParts {
+        name: file.name,
+        area: file.area.into(),
+        zones,
+        spawns,
+        sequence,
+        random_sequence: file.random_sequence,
+        random_blocks: file.random_blocks,
+        seed: file.seed,
+    })
+}
+
+fn zone_from_file(z: ZoneFile, mut lenient: Option<&mut Vec<Problem>>) -> Result<Zone, NativeError> {
     let rect = Rect::new(z.centre.into(), z.size.into());
-    let doors = z
-        .doors
-        .iter()
-        .map(|d| {
-            let (at, given) = match d {
-                DoorFile::At(at) => (Vec2::from(*at), None),
-                DoorFile::Full { at, orientation } => (Vec2::from(*at), Some(*orientation)),
-            };
-            let orientation = match given {
-                Some(OrientationFile::Horizontal) => Orientation::Horizontal,
-                Some(OrientationFile::Vertical) => Orientation::Vertical,
-                None => infer_orientation(at, &rect).ok_or_else(|| NativeError::DoorOrientation {
-                    zone: z.name.clone(),
-                    x: at.x,
-                    y: at.y,
-                })?,
-            };
-            Ok(Door { centre: at, orientation })
-        })
-        .collect::<Result<Vec<_>, NativeError>>()?;
+    let mut doors = Vec::with_capacity(z.doors.len());
+    for d in &z.doors {
+        let (at, given) = match d {
+            DoorFile::At(at) => (Vec2::from(*at), None),
+            DoorFile::Full { at, orientation } => (Vec2::from(*at), Some(*orientation)),
+        };
+        let orientation = match (given, infer_orientation(at, &rect), lenient.as_deref_mut()) {
+            (Some(OrientationFile::Horizontal), ..) => Orientation::Horizontal,
+            (Some(OrientationFile::Vertical), ..) => Orientation::Vertical,
+            (None, Some(inferred), _) => inferred,
+            (None, None, Some(problems)) => {
+                guess_orientation(&format!("zone '{}'", z.name), at, &rect, problems)
+            }
+            (None, None, None) => {
+                return Err(NativeError::DoorOrientation { zone: z.name.clone(), x: at.x, y: at.y });
+            }
+        };
+        doors.push(Door { centre: at, orientation });
+    }
     let kind = match z.kind {
         KindFile::Room => ZoneKind::Room,
         KindFile::Corridor => ZoneKind::Corridor,
