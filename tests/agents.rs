@@ -118,6 +118,14 @@ fn every_shipped_map_is_completed_by_the_builtin_team() {
     let maps = shipped_maps();
     assert!(maps.len() >= 7, "maps/ holds {} maps", maps.len());
     for (name, map) in maps {
+        let problems = bw4t_map::check_parts(map.parts(), None);
+        assert!(problems.iter().all(|p| !p.is_error()), "maps/{name}.toml: {problems:?}");
+        // Every shipped map is built into the binary, so its name works anywhere.
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_bw4t"))
+            .args(["map", "show", &name])
+            .output()
+            .expect("run");
+        assert!(out.status.success(), "bw4t map show {name}: {}", String::from_utf8_lossy(&out.stderr));
         // Big maps get a bigger team so the test stays quick.
         let n = if map.zones().len() > 100 { 10 } else { 3 }.min(map.spawns().len());
         let ticks = ticks_to_complete(&name, &map, Strategy::Cooperative, &[n], 1);

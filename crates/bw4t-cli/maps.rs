@@ -5,8 +5,15 @@ use anyhow::{Context, Result, bail};
 use bw4t_map::Map;
 
 /// The maps shipped in `maps/`, by name, as built into the binary.
-pub const BUILTIN: &[(&str, &str)] =
-    &[("default", include_str!("../../maps/default.toml")), ("fixed", include_str!("../../maps/fixed.toml"))];
+pub const BUILTIN: &[(&str, &str)] = &[
+    ("default", include_str!("../../maps/default.toml")),
+    ("fixed", include_str!("../../maps/fixed.toml")),
+    ("rooms12", include_str!("../../maps/rooms12.toml")),
+    ("rooms24", include_str!("../../maps/rooms24.toml")),
+    ("crowd24", include_str!("../../maps/crowd24.toml")),
+    ("side-doors", include_str!("../../maps/side-doors.toml")),
+    ("rooms100", include_str!("../../maps/rooms100.toml")),
+];
 
 /// Loads `spec`: a path to a map file if one exists there, else the name of a shipped map.
 pub fn load(spec: &str) -> Result<Map> {
