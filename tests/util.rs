@@ -382,7 +382,7 @@ pub struct Seen {
     pub ended: bool,
 }
 
-/// A player that answers every `percepts` and `result` with `ready`, so lockstep matches
+/// A player that answers every `percepts` with `ready`, so lockstep matches
 /// move on, while the test sends actions and waits on what the player has seen.
 pub struct AutoPlayer {
     pub welcome: bw4t_protocol::Welcome,
@@ -435,9 +435,9 @@ impl AutoPlayer {
                             Some(p.tick)
                         }
                         ServerMessage::Result(r) => {
-                            let tick = r.tick;
+                            // A tick's messages end with its `percepts`: answer that one.
                             s.results.push(r);
-                            Some(tick)
+                            None
                         }
                         ServerMessage::Ack(a) => {
                             s.acks.push(a);

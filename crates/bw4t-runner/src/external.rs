@@ -268,12 +268,14 @@ fn report(seat: &SeatSpec, result: &MatchResult, children: &[Running]) -> AgentR
                     ("bad_protocol", format!("never completed hello; {errors} invalid lines"))
                 }
                 (_, false) => ("never_connected", "never connected".to_string()),
-                (Some(Ok(code)), true) if *code != 0 && !result.completed => {
-                    ("crashed", format!("exited with code {code} during the match"))
-                }
+                // Causes before consequences: a program dropped for garbage or silence often
+                // exits with an error afterwards.
                 _ if errors > 0 => ("bad_protocol", format!("sent {errors} invalid lines")),
                 _ if late >= u64::from(MAX_LATE_IN_ROW) => {
                     ("unresponsive", format!("missed {late} deadlines"))
+                }
+                (Some(Ok(code)), true) if *code != 0 && !result.completed => {
+                    ("crashed", format!("exited with code {code} during the match"))
                 }
                 _ => ("ok", if late > 0 { format!("missed {late} deadlines") } else { "played".to_string() }),
             };

@@ -1,0 +1,317 @@
+"""The protocol logic shared by the blocking and the asyncio client (no I/O here).
+
+:class:`ProtocolCore` turns server messages into state (welcome, belief base, action
+answers, per-tick :class:`~bw4t.data.Update` objects) and builds the client's messages.
+It also keeps the lockstep bookkeeping: which tick the client still has to answer with
+``ready``. The I/O classes decide *when* to send that ``ready``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections import deque
+from dataclasses import dataclass
+from typing import Any, Deque, Dict, List, Optional, Tuple
+
+from .beliefs import BeliefBase
+from .data import Ack, ActId, MatchEnd, Message, Result, Update, Welcome
+from .errors import (
+    ActionLost,
+    Bw4tError,
+    ConnectionClosed,
+    FatalServerError,
+    ProtocolError,
+    ServerError,
+)
+
+PROTOCOL = "bw4t"
+#: Protocol versions this client speaks.
+VERSIONS = (1,)
+#: Actions whose order ends with a ``result`` after the ``ack``.
+DURATIVE_ACTIONS = frozenset({"goTo", "goToBlock"})
+DEFAULT_HOST = "127.0.0.1"
+DEFAULT_PORT = 12300
+
+
+def resolve_address(
+    host: Optional[str], port: Optional[int], name: Optional[str], token: Optional[str]
+) -> Tuple[str, int, Optional[str], Optional[str]]:
+    """Fill missing connection settings from ``BW4T_HOST``, ``BW4T_PORT``, ``BW4T_NAME``
+    and ``BW4T_TOKEN`` (as set by ``bw4t run``), else the defaults ``127.0.0.1:12300``.
+    Empty variables count as unset."""
+    host = host or os.environ.get("BW4T_HOST") or DEFAULT_HOST
+    if port is None:
+        env_port = os.environ.get("BW4T_PORT")
+        port = int(env_port) if env_port else DEFAULT_PORT
+    name = name or os.environ.get("BW4T_NAME") or None
+    token = token or os.environ.get("BW4T_TOKEN") or None
+    return host, int(port), name, token
+
+
+def encode(msg: Dict[str, Any]) -> bytes:
+    """One message as a compact JSON line."""
+    return (json.dumps(msg, separators=(",", ":"), ensure_ascii=False) + "\n").encode("utf-8")
+
+
+def decode(line: bytes) -> Optional[Dict[str, Any]]:
+    """Parse one line from the server; ``None`` for blank lines."""
+    text = line.decode("utf-8").rstrip("\r\n")
+    if not text.strip():
+        return None
+    try:
+        msg = json.loads(text)
+    except ValueError as exc:
+        raise ProtocolError(f"server sent a line that is not JSON: {text[:200]!r}") from exc
+    if not isinstance(msg, dict) or not isinstance(msg.get("type"), str):
+        raise ProtocolError(f"server sent a line that is not a message: {text[:200]!r}")
+    return msg
+
+
+@dataclass
+class ActionRecord:
+    """The client's bookkeeping for one ``act`` or ``say``."""
+
+    id: ActId
+    action: str
+    args: Tuple[Any, ...]
+    ack: Optional[Ack] = None
+    result: Optional[Result] = None
+    #: True once the ``percepts`` of the tick the result arrived in was processed, so
+    #: that the belief base already shows the state the order ended in.
+    settled: bool = False
+    lost: Optional[Bw4tError] = None
+
+    @property
+    def durative(self) -> bool:
+        """Whether a ``result`` follows an accepting ``ack``."""
+        return self.action in DURATIVE_ACTIONS
+
+    @property
+    def acked(self) -> bool:
+        """Whether the ack arrived, or it never will."""
+        return self.ack is not None or self.lost is not None
+
+    @property
+    def done(self) -> bool:
+        """Whether nothing more will arrive for this action."""
+        if self.lost is not None:
+            return True
+        if self.ack is None:
+            return False
+        if not self.ack.ok or not self.durative:
+            return True
+        return self.settled
+
+
+class ProtocolCore:
+    """State of one player's protocol session, independent of the transport.
+
+    Feed every server message to :meth:`handle`; send what :meth:`hello`, :meth:`act`,
+    :meth:`say` and :meth:`take_ready` return.
+    """
+
+    def __init__(self) -> None:
+        self.beliefs = BeliefBase()
+        self.welcome: Optional[Welcome] = None
+        #: Completed per-tick updates not yet handed to the agent, oldest first.
+        self.queue: Deque[Update] = deque()
+        #: Non-fatal errors received, oldest first.
+        self.errors: List[ServerError] = []
+        self.fatal: Optional[FatalServerError] = None
+        self.match_end: Optional[MatchEnd] = None
+        self.bye_reason: Optional[str] = None
+        #: The tick of the last ``percepts`` not yet answered with ``ready`` (lockstep).
+        self.pending_ready: Optional[int] = None
+        self.awaiting_snapshot = False
+        self.last_snapshot: Optional[Update] = None
+        self.pongs: Dict[Any, int] = {}
+        self._actions: Dict[ActId, ActionRecord] = {}
+        self._next_id = 1
+        self._acks: List[Ack] = []
+        self._results: List[Result] = []
+        self._errors: List[ServerError] = []
+        self._carried: List[Message] = []
+
+    # ------------------------------------------------------------- properties
+
+    @property
+    def lockstep(self) -> bool:
+        """Whether ``ready`` must be answered (known after ``welcome``)."""
+        return self.welcome is not None and self.welcome.match.lockstep
+
+    @property
+    def finished(self) -> bool:
+        """Whether the match ended (``match_end`` received)."""
+        return self.match_end is not None
+
+    # --------------------------------------------------------- client messages
+
+    def hello(
+        self,
+        name: Optional[str] = None,
+        token: Optional[str] = None,
+        session: Optional[str] = None,
+        every_tick: bool = False,
+    ) -> Dict[str, Any]:
+        """The ``hello`` message (a player's)."""
+        msg: Dict[str, Any] = {"type": "hello", "protocol": PROTOCOL, "versions": list(VERSIONS)}
+        if name:
+            msg["name"] = name
+        if token:
+            msg["token"] = token
+        if session:
+            msg["session"] = session
+        if every_tick:
+            msg["every_tick"] = True
+        return msg
+
+    def _new_id(self) -> int:
+        action_id = self._next_id
+        self._next_id += 1
+        return action_id
+
+    def act(self, action: str, args: Tuple[Any, ...]) -> Tuple[Dict[str, Any], ActionRecord]:
+        """An ``act`` message with a fresh id, and its record."""
+        record = ActionRecord(self._new_id(), action, tuple(args))
+        self._actions[record.id] = record
+        msg = {"type": "act", "id": record.id, "action": action, "args": list(args)}
+        return msg, record
+
+    def say(self, to: str, text: str) -> Tuple[Dict[str, Any], ActionRecord]:
+        """A ``say`` message with a fresh id, and its record."""
+        record = ActionRecord(self._new_id(), "sendMessage", (to, text))
+        self._actions[record.id] = record
+        return {"type": "say", "id": record.id, "to": to, "text": text}, record
+
+    def ping(self) -> Tuple[Dict[str, Any], Any]:
+        """A ``ping`` message with a fresh id, and that id."""
+        ping_id = f"ping-{self._new_id()}"
+        return {"type": "ping", "id": ping_id}, ping_id
+
+    def take_ready(self) -> Optional[Dict[str, Any]]:
+        """The ``ready`` still owed to the server, if any (then it counts as sent).
+
+        In lockstep every ``percepts`` (including the snapshots after ``welcome`` and
+        ``resync``) is answered once with its tick; a ``ready`` covers every tick
+        received so far, so only the latest one is sent.
+        """
+        if self.pending_ready is None or self.finished:
+            return None
+        tick = self.pending_ready
+        self.pending_ready = None
+        for update in self.queue:
+            if update.tick <= tick:
+                update.answered = True
+        return {"type": "ready", "tick": tick}
+
+    # --------------------------------------------------------- server messages
+
+    def handle(self, msg: Dict[str, Any]) -> Optional[Update]:
+        """Process one server message. Returns the tick's :class:`Update` when ``msg`` is
+        a ``percepts`` that ends a tick (it is then also in :attr:`queue`).
+
+        Raises :class:`FatalServerError` for a fatal ``error``.
+        """
+        kind = msg.get("type")
+        if kind == "percepts":
+            return self._percepts(msg)
+        if kind == "ack":
+            ack = Ack.from_json(msg)
+            self._acks.append(ack)
+            record = self._actions.get(ack.id) if ack.id is not None else None
+            if record is not None and record.ack is None:
+                record.ack = ack
+        elif kind == "result":
+            result = Result.from_json(msg)
+            self._results.append(result)
+            record = self._actions.get(result.id)
+            if record is not None and record.result is None:
+                record.result = result
+        elif kind == "error":
+            fatal = bool(msg.get("fatal"))
+            code = str(msg.get("code", "unknown"))
+            text = str(msg.get("message", ""))
+            if fatal:
+                self.fatal = FatalServerError(code, text, True)
+                self._lose_all(self.fatal)
+                raise self.fatal
+            error = ServerError(code, text, False)
+            self.errors.append(error)
+            self._errors.append(error)
+        elif kind == "welcome":
+            self.welcome = Welcome.from_json(msg)
+        elif kind == "pong":
+            key = msg.get("id")
+            self.pongs[key] = self.pongs.get(key, 0) + 1
+        elif kind == "match_end":
+            self.match_end = MatchEnd(str(msg.get("reason", "")), dict(msg.get("result") or {}))
+            self.pending_ready = None  # no ready is expected for the last tick
+            self._lose_all(ActionLost("the match ended before the action's answer"))
+        elif kind == "bye":
+            self.bye_reason = str(msg.get("reason", ""))
+        # Unknown types (and spectator frames) are ignored, as the protocol asks.
+        return None
+
+    def _percepts(self, msg: Dict[str, Any]) -> Optional[Update]:
+        tick = int(msg.get("tick", 0))
+        full = bool(msg.get("full", False))
+        added, removed, messages = self.beliefs.apply(
+            tick, msg.get("add") or [], msg.get("not") or [], full
+        )
+        if self.lockstep:
+            self.pending_ready = tick
+        if self.awaiting_snapshot and full:
+            # The answer to resync: not a new tick for the agent. Its messages (if any
+            # were undelivered) are handed over with the next update.
+            self.awaiting_snapshot = False
+            self.last_snapshot = Update(
+                tick, True, added, removed, messages=messages, answered=not self.lockstep
+            )
+            self._carried.extend(messages)
+            return None
+        update = Update(
+            tick=tick,
+            full=full,
+            added=added,
+            removed=removed,
+            acks=self._acks,
+            results=self._results,
+            messages=self._carried + messages,
+            errors=self._errors,
+            answered=not self.lockstep,
+        )
+        for result in self._results:
+            record = self._actions.get(result.id)
+            if record is not None and record.result is result:
+                record.settled = True
+        self._acks, self._results, self._errors, self._carried = [], [], [], []
+        self.queue.append(update)
+        return update
+
+    # --------------------------------------------------------------- endings
+
+    def _lose_all(self, error: Bw4tError) -> None:
+        for record in self._actions.values():
+            if not record.done:
+                record.lost = error
+        self._actions = {k: r for k, r in self._actions.items() if not r.done}
+
+    def connection_lost(self, reason: Optional[str] = None) -> None:
+        """The transport closed: unanswered actions will never be answered."""
+        self.pending_ready = None
+        self.awaiting_snapshot = False
+        self._lose_all(ActionLost(reason or "the connection closed before the action's answer"))
+
+    def closed_error(self) -> Bw4tError:
+        """The exception describing why the connection is gone."""
+        if self.fatal is not None:
+            return self.fatal
+        if self.bye_reason is not None:
+            return ConnectionClosed(f"the server said bye ({self.bye_reason})", self.bye_reason)
+        return ConnectionClosed("the connection to the server dropped")
+
+    def forget_done(self) -> None:
+        """Drop finished action records (called now and then to bound memory)."""
+        if len(self._actions) > 256:
+            self._actions = {k: r for k, r in self._actions.items() if not r.done}

@@ -1,0 +1,187 @@
+"""Plain data objects built from the server's messages."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Dict, List, Optional, Tuple, Union
+
+from .errors import ServerError
+
+#: An ``act``/``say`` id: a non-negative integer or a string.
+ActId = Union[int, str]
+
+#: A fact (percept) as a tuple ``(name, arg, ...)``; JSON arrays inside become tuples,
+#: e.g. ``("color", 11, "Yellow")`` or ``("sequence", ("Yellow", "Red"))``.
+Fact = Tuple[Any, ...]
+
+
+@dataclass(frozen=True)
+class MatchInfo:
+    """The ``match`` object of ``welcome``: what match the client joined."""
+
+    map: str
+    seed: int
+    mode: str
+    tick_hz: int
+    players_needed: int
+    every_tick: bool
+    deadline_ms: Optional[int] = None
+    max_ticks: Optional[int] = None
+    raw: Dict[str, Any] = field(default_factory=dict, compare=False, repr=False)
+
+    @property
+    def lockstep(self) -> bool:
+        """Whether the match is paced in lockstep (the client must answer ``ready``)."""
+        return self.mode == "lockstep"
+
+    @classmethod
+    def from_json(cls, obj: Dict[str, Any]) -> "MatchInfo":
+        """Build from the JSON object of ``welcome.match``."""
+        return cls(
+            map=str(obj.get("map", "")),
+            seed=int(obj.get("seed", 0)),
+            mode=str(obj.get("mode", "realtime")),
+            tick_hz=int(obj.get("tick_hz", 20)),
+            players_needed=int(obj.get("players_needed", 1)),
+            every_tick=bool(obj.get("every_tick", False)),
+            deadline_ms=obj.get("deadline_ms"),
+            max_ticks=obj.get("max_ticks"),
+            raw=dict(obj),
+        )
+
+
+@dataclass(frozen=True)
+class Welcome:
+    """The server's ``welcome``: the player's name, robot id, session token and match."""
+
+    version: int
+    name: Optional[str]
+    robot: Optional[int]
+    session: Optional[str]
+    match: MatchInfo
+    raw: Dict[str, Any] = field(default_factory=dict, compare=False, repr=False)
+
+    @classmethod
+    def from_json(cls, obj: Dict[str, Any]) -> "Welcome":
+        """Build from a ``welcome`` message."""
+        return cls(
+            version=int(obj.get("version", 1)),
+            name=obj.get("name"),
+            robot=obj.get("robot"),
+            session=obj.get("session"),
+            match=MatchInfo.from_json(obj.get("match") or {}),
+            raw=dict(obj),
+        )
+
+
+@dataclass(frozen=True)
+class Ack:
+    """An ``ack``: whether an action (or message) was accepted.
+
+    ``tick`` is the tick after which it was applied; ``code`` and ``reason`` are set
+    when ``ok`` is false.
+    """
+
+    id: Optional[ActId]
+    ok: bool
+    tick: int
+    code: Optional[str] = None
+    reason: Optional[str] = None
+
+    @classmethod
+    def from_json(cls, obj: Dict[str, Any]) -> "Ack":
+        """Build from an ``ack`` message."""
+        return cls(
+            id=obj.get("id"),
+            ok=bool(obj.get("ok")),
+            tick=int(obj.get("tick", 0)),
+            code=obj.get("code"),
+            reason=obj.get("reason"),
+        )
+
+
+@dataclass(frozen=True)
+class Result:
+    """A ``result``: how a durative order (``goTo``, ``goToBlock``) ended.
+
+    ``outcome`` is ``"arrived"``, ``"collided"`` or ``"superseded"``.
+    """
+
+    id: ActId
+    outcome: str
+    tick: int
+
+    @property
+    def arrived(self) -> bool:
+        """True when the order ended with ``arrived``."""
+        return self.outcome == "arrived"
+
+    @classmethod
+    def from_json(cls, obj: Dict[str, Any]) -> "Result":
+        """Build from a ``result`` message."""
+        action_id: ActId = obj.get("id", "")
+        return cls(id=action_id, outcome=str(obj.get("outcome")), tick=int(obj.get("tick", 0)))
+
+
+@dataclass(frozen=True)
+class Message:
+    """A message from another player (a ``["message", From, Text]`` fact) and its tick."""
+
+    sender: str
+    text: str
+    tick: int
+
+
+@dataclass(frozen=True)
+class MatchEnd:
+    """The ``match_end`` message: why the match ended and its result object.
+
+    ``result`` is the JSON object described in PROTOCOL.md (``completed``, ``ticks``,
+    ``sequence_index``, ``digest``, ``per_robot``, ...).
+    """
+
+    reason: str
+    result: Dict[str, Any]
+
+    @property
+    def completed(self) -> bool:
+        """Whether the whole sequence was delivered."""
+        return bool(self.result.get("completed"))
+
+
+@dataclass
+class Update:
+    """Everything the client received for one tick, ending with that tick's ``percepts``.
+
+    Attributes:
+        tick: the tick of the ``percepts``.
+        full: whether the ``percepts`` was a full snapshot (the belief base was cleared).
+        added: the facts of ``add`` other than messages.
+        removed: the facts of ``not``.
+        acks: ``ack`` messages received since the previous update.
+        results: ``result`` messages received since the previous update.
+        messages: messages from other players received since the previous update.
+        errors: non-fatal ``error`` messages received since the previous update.
+        answered: whether, when the update was handed to the agent, the client had
+            already told the server it is ``ready`` after this tick (always true
+            outside lockstep). Updates that arrived while the agent was blocked in
+            ``ack()``/``result()`` are answered at once and still delivered afterwards,
+            in order; then acting on them lands at a later tick boundary.
+    """
+
+    tick: int
+    full: bool = False
+    added: List[Fact] = field(default_factory=list)
+    removed: List[Fact] = field(default_factory=list)
+    acks: List[Ack] = field(default_factory=list)
+    results: List[Result] = field(default_factory=list)
+    messages: List[Message] = field(default_factory=list)
+    errors: List[ServerError] = field(default_factory=list)
+    answered: bool = False
+
+    def result_of(self, action_id: ActId) -> Optional[Result]:
+        """The result with this id in this update, if any."""
+        for r in self.results:
+            if r.id == action_id:
+                return r
+        return None
