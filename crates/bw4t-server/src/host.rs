@@ -50,6 +50,17 @@ enum ConnRole {
     Spectator,
 }
 
+/// Which percepts to send a player.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Send {
+    /// A full snapshot.
+    Snapshot,
+    /// This tick's delta: sent if anything changed, after a `result`, or with `every_tick`.
+    Tick,
+    /// A delta only if something changed.
+    News,
+}
+
 /// What a player asked for, applied at the next tick boundary.
 enum Pending {
     Act(Option<ActId>, Action),
@@ -198,6 +209,11 @@ impl Host {
             }
         }
         if self.end.is_none() {
+            // Players who joined early learn who joined after them before the first tick.
+            let ids: Vec<RobotId> = self.players.keys().copied().collect();
+            for id in ids {
+                self.send_percepts(id, Send::News);
+            }
             self.observe_locals();
             self.tick_sent_at = Instant::now();
             match self.config.mode {
@@ -352,7 +368,7 @@ impl Host {
         }
         self.tick_sent_at = Instant::now();
         for id in ids {
-            self.send_percepts(id, false);
+            self.send_percepts(id, Send::Tick);
         }
         self.observe_locals();
         self.send_frames(false);
@@ -415,7 +431,7 @@ impl Host {
     }
 
     /// Sends a player what it has not been told. Returns whether anything was sent.
-    fn send_percepts(&mut self, id: RobotId, full: bool) -> bool {
+    fn send_percepts(&mut self, id: RobotId, what: Send) -> bool {
         let Some(player) = self.players.get_mut(&id) else { return false };
         let Some(conn_id) = player.conn else { return false };
         let Some(conn) = self.conns.get(&conn_id) else { return false };
@@ -429,12 +445,16 @@ impl Host {
             return false;
         }
         player.full_since = None;
-        let full = full || std::mem::take(&mut player.needs_snapshot);
+        let full = what == Send::Snapshot || std::mem::take(&mut player.needs_snapshot);
         let delta = if full { self.game.snapshot(id) } else { self.game.poll_percepts(id) };
         let Some(delta) = delta else { return false };
         // A tick's messages to a player always end with its `percepts`, even an empty one
         // after a `result`, so a player knows when it has heard everything for the tick.
-        if delta.is_empty() && !player.every_tick && !player.awaiting {
+        let wanted = match what {
+            Send::News => false,
+            Send::Tick | Send::Snapshot => player.every_tick || player.awaiting,
+        };
+        if delta.is_empty() && !wanted {
             return false;
         }
         player.awaiting = true;
@@ -595,7 +615,7 @@ impl Host {
                 }
             }
             ClientMessage::Resync(_) => {
-                self.send_percepts(robot, true);
+                self.send_percepts(robot, Send::Snapshot);
             }
             ClientMessage::Bye(_) => {
                 self.remove_player(robot);
@@ -685,7 +705,7 @@ impl Host {
             c.role = ConnRole::Agent(robot);
         }
         self.welcome(conn, Some(robot), every_tick);
-        self.send_percepts(robot, true);
+        self.send_percepts(robot, Send::Snapshot);
     }
 
     fn join(&mut self, name: Option<&str>) -> Result<RobotId, (&'static str, String)> {
