@@ -150,3 +150,43 @@ fn serve_refuses_bad_options() {
         assert!(stderr(&out).contains(expected), "{args:?}: {}", stderr(&out));
     }
 }
+
+#[test]
+fn map_generate_makes_a_map_that_checks_clean_and_refuses_bad_sizes() {
+    let dir = std::env::temp_dir().join(format!("bw4t-generate-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let file = dir.join("g.toml");
+    let out = bw4t(&[
+        "map",
+        "generate",
+        "--rooms",
+        "2x5",
+        "--robots",
+        "7",
+        "--seed",
+        "3",
+        "-o",
+        file.to_str().expect("utf-8"),
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let check = bw4t(&["map", "check", file.to_str().expect("utf-8"), "--robots", "7"]);
+    assert!(check.status.success(), "{}{}", String::from_utf8_lossy(&check.stdout), stderr(&check));
+    let map = bw4t_map::Map::from_native(&std::fs::read_to_string(&file).expect("read")).expect("valid");
+    let rooms = map.zones().iter().filter(|z| z.name.starts_with("Room")).count();
+    assert_eq!((rooms, map.spawns().len()), (10, 7));
+    let again = bw4t(&["map", "generate", "--rooms", "2x5", "--robots", "7", "--seed", "3"]);
+    assert_eq!(
+        String::from_utf8_lossy(&again.stdout),
+        std::fs::read_to_string(&file).expect("read"),
+        "same seed, same map"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+    for (rooms, expected) in [
+        ("0x3", "expected ROWSxCOLUMNS"),
+        ("3by4", "expected ROWSxCOLUMNS"),
+        ("30x3", "rooms must be 1x1 to"),
+    ] {
+        let out = bw4t(&["map", "generate", "--rooms", rooms]);
+        assert!(!out.status.success() && stderr(&out).contains(expected), "{rooms}: {}", stderr(&out));
+    }
+}
