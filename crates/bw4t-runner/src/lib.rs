@@ -5,6 +5,7 @@ mod external;
 mod headless;
 mod remote;
 mod replay;
+pub mod tournament;
 
 pub use external::{AgentReport, SeatSpec, ServedError, ServedRun, play_served};
 pub use headless::{RunError, Seat, play_headless};
