@@ -30,6 +30,9 @@ mod protocol_docs;
 /// `bw4t run`: headless and served matches, external agent processes, replays.
 mod run;
 
+/// `bw4t tournament`: files, statistics, resume, shards, failing agents.
+mod tournament;
+
 /// The `bw4t` binary, run as a child process.
 mod cli;
 

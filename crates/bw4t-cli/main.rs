@@ -7,6 +7,7 @@ mod maps;
 mod replay;
 mod run;
 mod serve;
+mod tournament;
 
 use std::process::ExitCode;
 
@@ -28,6 +29,8 @@ enum Command {
     Map(map_cmd::MapArgs),
     /// Check (re-simulate) or summarise a replay.
     Replay(replay::ReplayArgs),
+    /// Play many matches over teams, maps and seeds, and summarise them.
+    Tournament(tournament::TournamentArgs),
     /// Serve one match over TCP (JSON lines; see protocol/PROTOCOL.md).
     Serve(serve::ServeArgs),
     /// Measure performance; prints one JSON object per line per case.
@@ -52,6 +55,7 @@ fn main() -> ExitCode {
         Command::Map(args) => map_cmd::run(&args),
         Command::Replay(args) => replay::run(&args),
         Command::Serve(args) => serve::run(&args),
+        Command::Tournament(args) => tournament::run(&args),
         Command::Bench(args) => bench::run(&args),
     };
     match result {

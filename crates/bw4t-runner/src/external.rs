@@ -125,6 +125,7 @@ pub fn play_served(run: ServedRun<'_>) -> Result<(MatchResult, Vec<AgentReport>)
         config.start_timeout = Some(run.connect_timeout);
         config.hello_timeout = run.connect_timeout;
         config.max_late_in_row = Some(MAX_LATE_IN_ROW);
+        config.pause_when_empty = false;
         let seats = run
             .seats
             .iter()

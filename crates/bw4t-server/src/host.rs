@@ -263,7 +263,7 @@ impl Host {
                 continue;
             }
             // With no player connected there is no one to play for: wait instead of spinning.
-            if self.connected_players() == 0 {
+            if self.config.pause_when_empty && self.connected_players() == 0 {
                 tokio::select! {
                     () = &mut *shutdown => self.end = Some("interrupted"),
                     event = self.events.recv() => self.on_event(event),

@@ -56,6 +56,9 @@ pub struct ServerConfig {
     pub start_timeout: Option<Duration>,
     /// Lockstep: disconnect a player that misses this many deadlines in a row.
     pub max_late_in_row: Option<u32>,
+    /// Lockstep: with no player connected, wait for one instead of running on. Off for
+    /// matches whose players are programs that will not come back once gone.
+    pub pause_when_empty: bool,
 }
 
 impl ServerConfig {
@@ -80,6 +83,7 @@ impl ServerConfig {
             spectator_hz: 20,
             start_timeout: None,
             max_late_in_row: None,
+            pause_when_empty: true,
         }
     }
 }

@@ -1,8 +1,17 @@
 //! Tournaments: every team plays the same (map, seed) pairs; rows are written as matches
 //! end, and the summary gives rates, intervals and paired differences.
 
+mod chart;
+mod config;
+mod report;
 mod row;
+mod run;
 mod stats;
 
+pub use config::{ConfigError, Planned, Resolved, Seeds, TeamConfig, TournamentConfig, derive_seeds, seats};
 pub use row::Row;
+pub use run::{
+    CSV_COLUMNS, Options, Outcome, Progress, ReplayPolicy, TournamentError, merge, run_tournament,
+};
+pub use stats::{EndReasonCount, Interval, Method, PairStats, TeamMapStats, TeamRank, Totals};
 pub use stats::{Summary, summarize};

@@ -1,0 +1,548 @@
+//! Running a tournament: matches on a pool of threads, rows appended and flushed as each
+//! match ends, resumable, shardable, and shards merged back into one.
+
+use std::collections::BTreeSet;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex, mpsc};
+use std::time::{Duration, Instant};
+
+use bw4t_map::Map;
+use bw4t_protocol::{MatchResult, Recorder, RobotExtra};
+use bw4t_sim::{Match, MatchConfig};
+use serde_json::{Value, json};
+
+use super::config::{Planned, Resolved, seats};
+use super::row::Row;
+use super::stats::{Summary, summarize};
+use crate::external::{AgentReport, SeatSpec, ServedRun, play_served};
+use crate::headless::{Seat, play_headless};
+
+/// Which replays to keep.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ReplayPolicy {
+    /// Every match's.
+    All,
+    /// Those of matches that did not complete.
+    Failed,
+    /// None.
+    None,
+}
+
+impl ReplayPolicy {
+    /// The name used on the command line and in the manifest.
+    pub fn name(self) -> &'static str {
+        match self {
+            ReplayPolicy::All => "all",
+            ReplayPolicy::Failed => "failed",
+            ReplayPolicy::None => "none",
+        }
+    }
+}
+
+/// How to run a tournament.
+#[derive(Clone, Debug)]
+pub struct Options {
+    /// The output directory.
+    pub out: PathBuf,
+    /// Matches played at once.
+    pub concurrency: usize,
+    /// Replays to keep.
+    pub replays: ReplayPolicy,
+    /// Skip the matches already in `matches.jsonl`.
+    pub resume: bool,
+    /// Play only every n-th match: `(i, n)` with `1 <= i <= n`.
+    pub shard: Option<(u64, u64)>,
+    /// How long external agents have to connect.
+    pub connect_timeout: Duration,
+}
+
+/// Where a tournament stands, for progress displays.
+#[derive(Clone, Debug)]
+pub struct Progress {
+    /// Matches finished (including those found when resuming).
+    pub done: usize,
+    /// Matches in this run (including those found when resuming).
+    pub total: usize,
+    /// Finished matches that did not complete the sequence.
+    pub failures: usize,
+    /// Time since this run started.
+    pub elapsed: Duration,
+    /// Matches played in this run so far.
+    pub played: usize,
+    /// Matches this run has to play.
+    pub to_play: usize,
+    /// The match that just finished.
+    pub last: Option<Row>,
+}
+
+/// What a tournament run leaves behind.
+#[derive(Clone, Debug)]
+pub struct Outcome {
+    /// Every row of the directory, in match order.
+    pub rows: Vec<Row>,
+    /// Matches played in this run.
+    pub played: usize,
+    /// Matches skipped because they were already done.
+    pub skipped: usize,
+    /// The summary written.
+    pub summary: Summary,
+}
+
+/// Why a tournament could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum TournamentError {
+    /// A file could not be read or written.
+    #[error("{0}")]
+    Io(String),
+    /// The output directory holds something else.
+    #[error("{0}")]
+    Directory(String),
+}
+
+fn io(what: impl std::fmt::Display, e: impl std::fmt::Display) -> TournamentError {
+    TournamentError::Io(format!("{what}: {e}"))
+}
+
+/// The columns of `matches.csv`, in order.
+pub const CSV_COLUMNS: &[&str] = &[
+    "index",
+    "team",
+    "map",
+    "seed",
+    "repetition",
+    "robots",
+    "completed",
+    "ticks",
+    "completed_tick",
+    "wall_ms",
+    "good_drops",
+    "wrong_drops",
+    "messages",
+    "late_agents",
+    "crashed_agents",
+    "end_reason",
+    "digest",
+    "replay",
+];
+
+/// Runs (or resumes) a tournament. `maps[i]` is `resolved.maps[i]` loaded; `manifest`
+/// holds what the caller knows of the program and machine.
+pub fn run_tournament(
+    resolved: &Resolved,
+    maps: &[Map],
+    manifest: Value,
+    options: &Options,
+    on_progress: &mut dyn FnMut(&Progress),
+) -> Result<Outcome, TournamentError> {
+    let out = &options.out;
+    std::fs::create_dir_all(out).map_err(|e| io(format!("cannot create {}", out.display()), e))?;
+    let jsonl = out.join("matches.jsonl");
+    let config = serde_json::to_value(resolved).map_err(|e| io("config", e))?;
+    let mut previous_elapsed = 0.0;
+    let mut rows: Vec<Row> = Vec::new();
+    if jsonl.exists() {
+        if !options.resume {
+            return Err(TournamentError::Directory(format!(
+                "{} already holds a tournament: add --resume to finish it, or choose another --out",
+                out.display()
+            )));
+        }
+        let old = read_manifest(out)?;
+        if old.get("config") != Some(&config) || old.get("shard") != Some(&shard_value(options.shard)) {
+            return Err(TournamentError::Directory(format!(
+                "{} holds a tournament with another configuration or shard; it cannot be resumed with this one",
+                out.display()
+            )));
+        }
+        previous_elapsed = old.get("elapsed_seconds").and_then(Value::as_f64).unwrap_or(0.0);
+        rows = read_rows(&jsonl)?;
+    }
+    let mut manifest = manifest;
+    manifest["config"] = config;
+    manifest["shard"] = shard_value(options.shard);
+    manifest["concurrency"] = json!(options.concurrency);
+    manifest["replays"] = json!(options.replays.name());
+    manifest["elapsed_seconds"] = json!(previous_elapsed);
+    write_json(&out.join("manifest.json"), &manifest)?;
+    // Rewrite the row files from the rows that survived (a kill can leave half a line).
+    rewrite_rows(out, &rows)?;
+
+    let done: BTreeSet<String> = rows.iter().map(|r| r.key.clone()).collect();
+    let planned: Vec<Planned> = resolved
+        .plan()
+        .into_iter()
+        .filter(|p| options.shard.is_none_or(|(i, n)| p.index % n == i - 1))
+        .filter(|p| !done.contains(&p.key))
+        .collect();
+    let skipped = rows.len();
+    let started = Instant::now();
+    let total = skipped + planned.len();
+    let mut progress = Progress {
+        done: skipped,
+        total,
+        failures: rows.iter().filter(|r| !r.completed).count(),
+        elapsed: Duration::ZERO,
+        played: 0,
+        to_play: planned.len(),
+        last: None,
+    };
+    on_progress(&progress);
+
+    let next = AtomicUsize::new(0);
+    let (tx, rx) = mpsc::channel::<(Row, Option<Vec<u8>>)>();
+    let mut files = RowFiles::open(out)?;
+    let mut write_error = None;
+    std::thread::scope(|scope| {
+        for _ in 0..options.concurrency.max(1).min(planned.len().max(1)) {
+            let tx = tx.clone();
+            let (planned, next) = (&planned, &next);
+            scope.spawn(move || {
+                while let Some(p) = planned.get(next.fetch_add(1, Ordering::SeqCst)) {
+                    if tx.send(play_one(resolved, maps, p, options)).is_err() {
+                        break;
+                    }
+                }
+            });
+        }
+        drop(tx);
+        for (mut row, replay) in rx {
+            if let Some(bytes) = replay {
+                let keep = match options.replays {
+                    ReplayPolicy::All => true,
+                    ReplayPolicy::Failed => !row.completed,
+                    ReplayPolicy::None => false,
+                };
+                if keep {
+                    let rel = format!("replays/{}.jsonl", file_safe(&row.key));
+                    let written = std::fs::create_dir_all(out.join("replays"))
+                        .and_then(|()| std::fs::write(out.join(&rel), &bytes));
+                    if written.is_ok() {
+                        row.replay = Some(rel);
+                    }
+                }
+            }
+            if let Err(e) = files.append(&row) {
+                write_error.get_or_insert(e);
+            }
+            progress.done += 1;
+            progress.played += 1;
+            progress.failures += usize::from(!row.completed);
+            progress.elapsed = started.elapsed();
+            progress.last = Some(row.clone());
+            rows.push(row);
+            on_progress(&progress);
+        }
+    });
+    if let Some(e) = write_error {
+        return Err(e);
+    }
+    rows.sort_by_key(|r| r.index);
+    let elapsed = previous_elapsed + started.elapsed().as_secs_f64();
+    manifest["elapsed_seconds"] = json!(elapsed);
+    write_json(&out.join("manifest.json"), &manifest)?;
+    let summary = write_summary(out, &rows, elapsed)?;
+    Ok(Outcome { rows, played: progress.played, skipped, summary })
+}
+
+/// Joins shard directories into `out`: the union of their rows (one per match), with
+/// their replays, and a new summary.
+pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Outcome, TournamentError> {
+    let mut config: Option<Value> = None;
+    let mut manifest = Value::Null;
+    let (mut rows, mut keys, mut elapsed) = (Vec::new(), BTreeSet::new(), 0.0);
+    std::fs::create_dir_all(out).map_err(|e| io(format!("cannot create {}", out.display()), e))?;
+    if out.join("matches.jsonl").exists() {
+        return Err(TournamentError::Directory(format!("{} already holds a tournament", out.display())));
+    }
+    for dir in dirs {
+        let m = read_manifest(dir)?;
+        match &config {
+            None => {
+                config = m.get("config").cloned();
+                manifest = m.clone();
+            }
+            Some(c) if m.get("config") != Some(c) => {
+                return Err(TournamentError::Directory(format!(
+                    "{} holds a tournament with another configuration",
+                    dir.display()
+                )));
+            }
+            Some(_) => {}
+        }
+        elapsed += m.get("elapsed_seconds").and_then(Value::as_f64).unwrap_or(0.0);
+        for mut row in read_rows(&dir.join("matches.jsonl"))? {
+            if !keys.insert(row.key.clone()) {
+                continue;
+            }
+            if let Some(rel) = row.replay.take() {
+                let target = out.join(&rel);
+                let copied = std::fs::create_dir_all(out.join("replays"))
+                    .and_then(|()| std::fs::copy(dir.join(&rel), &target));
+                row.replay = copied.ok().map(|_| rel);
+            }
+            rows.push(row);
+        }
+    }
+    rows.sort_by_key(|r| r.index);
+    manifest["shard"] = Value::Null;
+    manifest["merged_from"] = json!(dirs.iter().map(|d| d.display().to_string()).collect::<Vec<_>>());
+    manifest["elapsed_seconds"] = json!(elapsed);
+    write_json(&out.join("manifest.json"), &manifest)?;
+    rewrite_rows(out, &rows)?;
+    let summary = write_summary(out, &rows, elapsed)?;
+    Ok(Outcome { played: 0, skipped: rows.len(), rows, summary })
+}
+
+fn write_summary(out: &Path, rows: &[Row], elapsed: f64) -> Result<Summary, TournamentError> {
+    let summary = summarize(rows, elapsed);
+    let write = |name: &str, text: String| {
+        std::fs::write(out.join(name), text).map_err(|e| io(format!("cannot write {name}"), e))
+    };
+    write("summary.md", summary.to_markdown())?;
+    write("summary.json", serde_json::to_string_pretty(&summary.to_json()).unwrap_or_default() + "\n")?;
+    write("summary.svg", summary.to_svg())?;
+    Ok(summary)
+}
+
+fn shard_value(shard: Option<(u64, u64)>) -> Value {
+    shard.map_or(Value::Null, |(i, n)| json!(format!("{i}/{n}")))
+}
+
+fn read_manifest(dir: &Path) -> Result<Value, TournamentError> {
+    let path = dir.join("manifest.json");
+    let text =
+        std::fs::read_to_string(&path).map_err(|e| io(format!("cannot read {}", path.display()), e))?;
+    serde_json::from_str(&text).map_err(|e| io(format!("{} is not JSON", path.display()), e))
+}
+
+/// The rows of a `matches.jsonl`; a torn last line (from a kill) is left out.
+fn read_rows(path: &Path) -> Result<Vec<Row>, TournamentError> {
+    let text = std::fs::read_to_string(path).map_err(|e| io(format!("cannot read {}", path.display()), e))?;
+    let lines: Vec<&str> = text.lines().filter(|l| !l.trim().is_empty()).collect();
+    let mut rows = Vec::new();
+    for (i, line) in lines.iter().enumerate() {
+        match serde_json::from_str::<Row>(line) {
+            Ok(row) => rows.push(row),
+            Err(_) if i + 1 == lines.len() => {}
+            Err(e) => return Err(io(format!("{} line {}", path.display(), i + 1), e)),
+        }
+    }
+    Ok(rows)
+}
+
+fn write_json(path: &Path, value: &Value) -> Result<(), TournamentError> {
+    let text = serde_json::to_string_pretty(value).unwrap_or_default() + "\n";
+    std::fs::write(path, text).map_err(|e| io(format!("cannot write {}", path.display()), e))
+}
+
+fn rewrite_rows(out: &Path, rows: &[Row]) -> Result<(), TournamentError> {
+    let _ = std::fs::remove_file(out.join("matches.jsonl"));
+    let _ = std::fs::remove_file(out.join("matches.csv"));
+    let mut files = RowFiles::open(out)?;
+    rows.iter().try_for_each(|r| files.append(r))
+}
+
+/// `matches.jsonl` and `matches.csv`, appended and flushed row by row.
+struct RowFiles {
+    jsonl: std::fs::File,
+    csv: std::fs::File,
+}
+
+impl RowFiles {
+    fn open(out: &Path) -> Result<RowFiles, TournamentError> {
+        let open = |name: &str| {
+            std::fs::OpenOptions::new()
+                .create(true)
+                .append(true)
+                .open(out.join(name))
+                .map_err(|e| io(format!("cannot open {name}"), e))
+        };
+        let csv_new = !out.join("matches.csv").exists();
+        let mut csv = open("matches.csv")?;
+        if csv_new {
+            writeln!(csv, "{}", CSV_COLUMNS.join(",")).map_err(|e| io("matches.csv", e))?;
+        }
+        Ok(RowFiles { jsonl: open("matches.jsonl")?, csv })
+    }
+
+    fn append(&mut self, row: &Row) -> Result<(), TournamentError> {
+        let line = serde_json::to_string(row).map_err(|e| io("row", e))?;
+        writeln!(self.jsonl, "{line}")
+            .and_then(|()| self.jsonl.flush())
+            .map_err(|e| io("matches.jsonl", e))?;
+        let opt = |v: Option<u64>| v.map(|v| v.to_string()).unwrap_or_default();
+        let fields = [
+            row.index.to_string(),
+            csv_field(&row.team),
+            csv_field(&row.map),
+            row.seed.to_string(),
+            row.repetition.to_string(),
+            row.robots.to_string(),
+            row.completed.to_string(),
+            row.ticks.to_string(),
+            opt(row.completed_tick),
+            row.wall_ms.to_string(),
+            row.good_drops.to_string(),
+            row.wrong_drops.to_string(),
+            row.messages.to_string(),
+            row.late_agents.to_string(),
+            row.crashed_agents.to_string(),
+            csv_field(&row.end_reason),
+            row.digest.clone(),
+            csv_field(row.replay.as_deref().unwrap_or("")),
+        ];
+        writeln!(self.csv, "{}", fields.join(","))
+            .and_then(|()| self.csv.flush())
+            .map_err(|e| io("matches.csv", e))
+    }
+}
+
+/// A CSV field, quoted when it holds a comma, a quote or a line break.
+fn csv_field(text: &str) -> String {
+    if text.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", text.replace('"', "\"\""))
+    } else {
+        text.to_string()
+    }
+}
+
+/// A key made safe as a file name.
+fn file_safe(key: &str) -> String {
+    key.chars().map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '.' { c } else { '_' }).collect()
+}
+
+/// Plays one planned match; a match that cannot run becomes a row with end reason `error`.
+fn play_one(resolved: &Resolved, maps: &[Map], p: &Planned, options: &Options) -> (Row, Option<Vec<u8>>) {
+    let team = &resolved.teams[p.team];
+    let map = &maps[p.map];
+    let started = Instant::now();
+    let buffer = SharedBuffer::default();
+    let want_replay = options.replays != ReplayPolicy::None;
+    let played: Result<(MatchResult, Vec<AgentReport>), String> = seats(team).and_then(|seats| {
+        let external = seats.iter().any(|s| matches!(s, SeatSpec::External { .. }));
+        if external {
+            let log_dir = options.out.join("logs").join(file_safe(&p.key));
+            let replay: Option<Box<dyn Write + Send>> =
+                want_replay.then(|| Box::new(buffer.clone()) as Box<dyn Write + Send>);
+            play_served(ServedRun {
+                map,
+                game: MatchConfig::default(),
+                seed: p.seed,
+                seats,
+                max_ticks: resolved.max_ticks,
+                deadline: (resolved.deadline_ms > 0).then(|| Duration::from_millis(resolved.deadline_ms)),
+                connect_timeout: options.connect_timeout,
+                log_dir: &log_dir,
+                replay,
+            })
+            .map_err(|e| e.to_string())
+        } else {
+            headless(map, p.seed, &seats, resolved.max_ticks, want_replay.then(|| buffer.clone()))
+        }
+    });
+    let wall_ms = started.elapsed().as_millis() as u64;
+    let row = match played {
+        Ok((result, agents)) => Row {
+            key: p.key.clone(),
+            index: p.index,
+            team: team.name.clone(),
+            map: resolved.maps[p.map].clone(),
+            seed: p.seed,
+            repetition: p.repetition,
+            robots: team.robots,
+            completed: result.completed,
+            ticks: result.ticks,
+            completed_tick: result.completed_tick,
+            wall_ms,
+            good_drops: result.good_drops,
+            wrong_drops: result.wrong_drops,
+            messages: result.messages,
+            late_agents: result.per_robot.iter().filter(|r| r.late_ticks > 0).count() as u32,
+            crashed_agents: agents.iter().filter(|a| a.status != "ok").count() as u32,
+            end_reason: result.end_reason,
+            digest: result.digest,
+            replay: None,
+        },
+        Err(message) => Row {
+            key: p.key.clone(),
+            index: p.index,
+            team: team.name.clone(),
+            map: resolved.maps[p.map].clone(),
+            seed: p.seed,
+            repetition: p.repetition,
+            robots: team.robots,
+            completed: false,
+            ticks: 0,
+            completed_tick: None,
+            wall_ms,
+            good_drops: 0,
+            wrong_drops: 0,
+            messages: 0,
+            late_agents: 0,
+            crashed_agents: 0,
+            end_reason: format!("error: {message}"),
+            digest: String::new(),
+            replay: None,
+        },
+    };
+    let bytes = want_replay.then(|| buffer.take()).filter(|b| !b.is_empty());
+    (row, bytes)
+}
+
+fn headless(
+    map: &Map,
+    seed: u64,
+    seats: &[SeatSpec],
+    max_ticks: u64,
+    replay: Option<SharedBuffer>,
+) -> Result<(MatchResult, Vec<AgentReport>), String> {
+    let config = MatchConfig::default();
+    let mut recorder = match replay {
+        Some(buffer) => {
+            let blank = Match::new(map, &config, seed).map_err(|e| e.to_string())?;
+            let names = seats.iter().map(|s| s.name().to_string()).collect();
+            Some(Recorder::new(Box::new(buffer), &blank, &crate::program(), names, 100))
+        }
+        None => None,
+    };
+    let players: Vec<Seat> = seats
+        .iter()
+        .filter_map(|s| match s {
+            SeatSpec::Builtin { name, strategy } => {
+                Some(Seat { name: name.clone(), agent: strategy.agent(name) })
+            }
+            SeatSpec::External { .. } => None,
+        })
+        .collect();
+    let (game, reason) = play_headless(map, &config, seed, players, max_ticks, recorder.as_mut())
+        .map_err(|e| e.to_string())?;
+    if let Some(r) = recorder {
+        r.finish(&game, reason).map_err(|e| e.to_string())?;
+    }
+    let result = MatchResult::of(&game, None, reason, 0, |_| RobotExtra::LOCAL);
+    Ok((result, Vec::new()))
+}
+
+/// A byte buffer shared with a replay recorder.
+#[derive(Clone, Default)]
+struct SharedBuffer(Arc<Mutex<Vec<u8>>>);
+
+impl SharedBuffer {
+    fn take(&self) -> Vec<u8> {
+        self.0.lock().map(|mut b| std::mem::take(&mut *b)).unwrap_or_default()
+    }
+}
+
+impl Write for SharedBuffer {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let mut inner = self.0.lock().map_err(|_| std::io::Error::other("replay buffer poisoned"))?;
+        inner.extend_from_slice(buf);
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}

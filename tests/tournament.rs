@@ -1,0 +1,333 @@
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+use serde_json::Value;
+
+/// How long one tournament in these tests may take before it counts as hung.
+const LIMIT: Duration = Duration::from_secs(120);
+
+fn bw4t(args: &[&str]) -> Output {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_bw4t"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start bw4t");
+    let started = Instant::now();
+    while child.try_wait().expect("wait").is_none() {
+        if started.elapsed() > LIMIT {
+            let _ = child.kill();
+            panic!("bw4t {args:?} did not finish within {LIMIT:?}");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let out = child.wait_with_output().expect("output");
+    assert!(out.status.success(), "bw4t {args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    out
+}
+
+fn temp(tag: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("bw4t-tournament-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    dir
+}
+
+const CONFIG: &str = r#"
+maps = ["default", "fixed"]
+seeds = 3
+max_ticks = 20000
+
+[[team]]
+name = "coop"
+agents = "builtin"
+robots = 3
+
+[[team]]
+name = "solo"
+agents = "builtin:baseline"
+robots = 3
+"#;
+
+fn write_config(dir: &Path, text: &str) -> String {
+    let path = dir.join("tournament.toml");
+    std::fs::write(&path, text).expect("config");
+    path.to_string_lossy().into_owned()
+}
+
+/// The rows of a tournament directory in match order (the file has them in the order
+/// matches ended, which depends on the threads).
+fn rows(dir: &Path) -> Vec<Value> {
+    let text = std::fs::read_to_string(dir.join("matches.jsonl")).expect("matches.jsonl");
+    let mut rows: Vec<Value> = text.lines().map(|l| serde_json::from_str(l).expect("a row")).collect();
+    rows.sort_by_key(|r| r["index"].as_u64());
+    rows
+}
+
+/// Asserts two lists of rows are equal, naming the first difference.
+fn same_rows(a: &[Value], b: &[Value]) {
+    if let Some(i) = a.iter().zip(b).position(|(x, y)| x != y) {
+        panic!("row {i} differs:\n {}\n {}", a[i], b[i]);
+    }
+    assert_eq!(a.len(), b.len(), "different numbers of rows");
+}
+
+/// Rows without the fields that depend on the machine's speed.
+fn stable(rows: &[Value]) -> Vec<Value> {
+    rows.iter()
+        .map(|r| {
+            let mut r = r.clone();
+            r["wall_ms"] = Value::Null;
+            r
+        })
+        .collect()
+}
+
+fn run_to(config: &str, out: &Path, extra: &[&str]) -> Output {
+    let mut args = vec!["tournament", config, "--out", out.to_str().expect("utf-8")];
+    args.extend_from_slice(extra);
+    bw4t(&args)
+}
+
+#[test]
+fn a_small_tournament_writes_consistent_files_and_is_reproducible() {
+    let dir = temp("small");
+    let config = write_config(&dir, CONFIG);
+    let (first, second) = (dir.join("first"), dir.join("second"));
+    let out = run_to(&config, &first, &["--replays", "all"]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.lines().last().is_some_and(|l| l.contains("matches_per_min")), "{stdout}");
+    for file in ["manifest.json", "matches.jsonl", "matches.csv", "summary.md", "summary.json", "summary.svg"]
+    {
+        assert!(first.join(file).is_file(), "{file} missing");
+    }
+    let all = rows(&first);
+    assert_eq!(all.len(), 2 * 2 * 3);
+    let csv = std::fs::read_to_string(first.join("matches.csv")).expect("csv");
+    assert_eq!(csv.lines().count(), all.len() + 1);
+    assert!(csv.starts_with("index,team,map,seed"));
+    // Every team played the same (map, seed) pairs.
+    let pairs = |team: &str| {
+        let mut p: Vec<(String, u64)> = all
+            .iter()
+            .filter(|r| r["team"] == team)
+            .map(|r| (r["map"].as_str().unwrap_or("").to_string(), r["seed"].as_u64().unwrap_or(0)))
+            .collect();
+        p.sort();
+        p
+    };
+    assert_eq!(pairs("coop"), pairs("solo"));
+    // The summary agrees with the rows.
+    let summary: Value =
+        serde_json::from_str(&std::fs::read_to_string(first.join("summary.json")).expect("summary"))
+            .expect("json");
+    assert_eq!(summary["matches"], 12);
+    assert!(summary["matches_per_min"].as_f64().is_some_and(|m| m > 0.0));
+    for cell in summary["cells"].as_array().expect("cells") {
+        let (team, map) = (cell["team"].as_str().expect("team"), cell["map"].as_str().expect("map"));
+        let mine: Vec<&Value> = all.iter().filter(|r| r["team"] == team && r["map"] == map).collect();
+        let done: Vec<f64> = mine
+            .iter()
+            .filter(|r| r["completed"] == true)
+            .map(|r| r["completed_tick"].as_f64().expect("tick"))
+            .collect();
+        assert_eq!(cell["matches"].as_u64(), Some(mine.len() as u64), "{cell}");
+        assert_eq!(cell["completed"].as_u64(), Some(done.len() as u64), "{cell}");
+        let mean = done.iter().sum::<f64>() / done.len() as f64;
+        assert!((cell["ticks_mean"].as_f64().expect("mean") - mean).abs() < 1e-6, "{cell} vs {mean}");
+    }
+    let svg = std::fs::read_to_string(first.join("summary.svg")).expect("svg");
+    assert!(svg.starts_with("<svg") && svg.contains("coop") && svg.contains("solo"));
+    // Replays were kept and verify.
+    let replay = all[0]["replay"].as_str().expect("replay path");
+    let verify = bw4t(&["replay", "verify", first.join(replay).to_str().expect("utf-8")]);
+    assert!(String::from_utf8_lossy(&verify.stdout).starts_with("ok"));
+    // The same configuration again gives the same rows.
+    run_to(&config, &second, &["--replays", "none"]);
+    let again = rows(&second);
+    let no_replay = |rs: &[Value]| {
+        stable(rs)
+            .into_iter()
+            .map(|mut r| {
+                r["replay"] = Value::Null;
+                r
+            })
+            .collect::<Vec<_>>()
+    };
+    same_rows(&no_replay(&again), &no_replay(&all));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn resume_plays_only_what_is_missing_even_after_a_kill() {
+    let dir = temp("resume");
+    let config = write_config(&dir, &CONFIG.replace("seeds = 3", "seeds = 40"));
+    let (whole, killed) = (dir.join("whole"), dir.join("killed"));
+    run_to(&config, &whole, &["--replays", "none", "--concurrency", "1"]);
+    let expected = stable(&rows(&whole));
+    // Kill a run once some rows are on disk.
+    let mut child = Command::new(env!("CARGO_BIN_EXE_bw4t"))
+        .args([
+            "tournament",
+            &config,
+            "--out",
+            killed.to_str().expect("utf-8"),
+            "--replays",
+            "none",
+            "--concurrency",
+            "1",
+        ])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("start");
+    let started = Instant::now();
+    loop {
+        let done =
+            std::fs::read_to_string(killed.join("matches.jsonl")).map(|t| t.lines().count()).unwrap_or(0);
+        if done >= 5 || child.try_wait().expect("wait").is_some() {
+            break;
+        }
+        assert!(started.elapsed() < LIMIT, "no rows appeared");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let _ = child.kill();
+    let _ = child.wait();
+    // A kill can also leave half a line: the resume must cope.
+    let partial = rows(&killed).len();
+    let mut file = std::fs::OpenOptions::new().append(true).open(killed.join("matches.jsonl")).expect("open");
+    std::io::Write::write_all(&mut file, b"{\"key\":\"coop/def").expect("append");
+    drop(file);
+    let out = run_to(&config, &killed, &["--replays", "none", "--resume"]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.contains(&format!("({} played now, {partial} already done)", expected.len() - partial)),
+        "{stdout}"
+    );
+    same_rows(&stable(&rows(&killed)), &expected);
+    let csv = std::fs::read_to_string(killed.join("matches.csv")).expect("csv");
+    assert_eq!(csv.lines().count(), expected.len() + 1);
+    // Without --resume the directory is refused.
+    let again = Command::new(env!("CARGO_BIN_EXE_bw4t"))
+        .args(["tournament", &config, "--out", killed.to_str().expect("utf-8")])
+        .output()
+        .expect("run");
+    assert!(!again.status.success() && String::from_utf8_lossy(&again.stderr).contains("--resume"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn shards_merged_equal_the_whole_tournament() {
+    let dir = temp("shards");
+    let config = write_config(&dir, CONFIG);
+    let whole = dir.join("whole");
+    run_to(&config, &whole, &["--replays", "none"]);
+    let (a, b, merged) = (dir.join("a"), dir.join("b"), dir.join("merged"));
+    run_to(&config, &a, &["--replays", "none", "--shard", "1/2"]);
+    run_to(&config, &b, &["--replays", "none", "--shard", "2/2"]);
+    assert_eq!(rows(&a).len() + rows(&b).len(), rows(&whole).len());
+    bw4t(&[
+        "tournament",
+        "merge",
+        a.to_str().expect("utf-8"),
+        b.to_str().expect("utf-8"),
+        "-o",
+        merged.to_str().expect("utf-8"),
+    ]);
+    same_rows(&stable(&rows(&merged)), &stable(&rows(&whole)));
+    let summary = |d: &Path| {
+        let mut s: Value =
+            serde_json::from_str(&std::fs::read_to_string(d.join("summary.json")).expect("summary"))
+                .expect("json");
+        for volatile in ["matches_per_min", "wall_seconds"] {
+            s[volatile] = Value::Null;
+        }
+        s["totals"]["match_wall_ms"] = Value::Null;
+        if let Some(cells) = s["cells"].as_array_mut() {
+            cells.iter_mut().for_each(|c| c["mean_wall_ms"] = Value::Null);
+        }
+        s
+    };
+    assert_eq!(summary(&merged), summary(&whole));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_team_whose_agent_crashes_is_reported_and_the_tournament_finishes() {
+    let dir = temp("crash");
+    let config = write_config(
+        &dir,
+        r#"
+maps = ["fixed"]
+seeds = [1, 2]
+max_ticks = 300
+
+[[team]]
+name = "good"
+agents = "builtin"
+robots = 1
+
+[[team]]
+name = "broken"
+agents = "echo starting; exit 7"
+robots = 1
+"#,
+    );
+    let out_dir = dir.join("out");
+    let out = run_to(&config, &out_dir, &["--replays", "failed", "--connect-timeout-s", "5"]);
+    let all = rows(&out_dir);
+    assert_eq!(all.len(), 4);
+    for row in all.iter().filter(|r| r["team"] == "broken") {
+        assert_eq!(
+            (row["completed"].as_bool(), row["crashed_agents"].as_u64()),
+            (Some(false), Some(1)),
+            "{row}"
+        );
+    }
+    let log = out_dir.join("logs");
+    assert!(log.is_dir(), "agent logs are kept");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("broken") && stdout.contains("matches_per_min"), "{stdout}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn flags_alone_describe_a_tournament_and_mistakes_are_named() {
+    let dir = temp("flags");
+    let out_dir = dir.join("out");
+    bw4t(&[
+        "tournament",
+        "--map",
+        "fixed",
+        "--team",
+        "coop=builtin",
+        "--robots",
+        "2",
+        "--seeds",
+        "2",
+        "--out",
+        out_dir.to_str().expect("utf-8"),
+    ]);
+    assert_eq!(rows(&out_dir).len(), 2);
+    let cases: [(&[&str], &str); 4] = [
+        (&["tournament"], "give a configuration file"),
+        (&["tournament", "--map", "fixed", "--team", "coop"], "expected NAME=AGENTS"),
+        (&["tournament", "--map", "fixed", "--team", "a=builtin", "--shard", "3/2"], "not i/n"),
+        (
+            &["tournament", "--map", "fixed", "--team", "a=builtin:magic", "--seeds", "1"],
+            "unknown strategy 'magic'",
+        ),
+    ];
+    for (args, expected) in cases {
+        let out = Command::new(env!("CARGO_BIN_EXE_bw4t")).args(args).output().expect("run");
+        assert!(!out.status.success(), "{args:?} succeeded");
+        assert!(
+            String::from_utf8_lossy(&out.stderr).contains(expected),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
