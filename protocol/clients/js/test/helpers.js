@@ -1,0 +1,159 @@
+// Test support: find the real bw4t binary, start `bw4t serve` on a free port, bound
+// every wait. Not a test file itself (the runner loads it and finds no tests).
+
+import { spawn } from 'node:child_process';
+import fs from 'node:fs';
+import path from 'node:path';
+import { fileURLToPath } from 'node:url';
+
+const here = path.dirname(fileURLToPath(import.meta.url));
+/** The client's directory (protocol/clients/js). */
+export const CLIENT_DIR = path.resolve(here, '..');
+/** The repository root. */
+export const REPO = path.resolve(CLIENT_DIR, '..', '..', '..');
+
+/**
+ * The bw4t binary: `BW4T_BIN`, else the newest of target/release/bw4t and
+ * target/debug/bw4t. Throws a clear error when there is none.
+ * @returns {string}
+ */
+export function findBinary() {
+  const fromEnv = process.env.BW4T_BIN;
+  if (fromEnv) {
+    if (!fs.existsSync(fromEnv)) throw new Error(`BW4T_BIN=${fromEnv} does not exist`);
+    return fromEnv;
+  }
+  const candidates = ['release', 'debug']
+    .map((profile) => path.join(REPO, 'target', profile, 'bw4t'))
+    .filter((p) => fs.existsSync(p))
+    .sort((a, b) => fs.statSync(b).mtimeMs - fs.statSync(a).mtimeMs);
+  if (candidates.length === 0) {
+    throw new Error(
+      `no bw4t binary: set BW4T_BIN, or build one (cd ${REPO} && cargo build) so that ` +
+        `target/debug/bw4t or target/release/bw4t exists`,
+    );
+  }
+  return candidates[0];
+}
+
+/**
+ * Reject if `promise` has not settled within `ms`.
+ * @template T
+ * @param {Promise<T>} promise
+ * @param {number} ms
+ * @param {string} what named in the error
+ * @returns {Promise<T>}
+ */
+export function within(promise, ms, what) {
+  let timer;
+  return Promise.race([
+    promise,
+    new Promise((_, reject) => {
+      timer = setTimeout(() => reject(new Error(`timed out after ${ms} ms: ${what}`)), ms);
+    }),
+  ]).finally(() => clearTimeout(timer));
+}
+
+/** @type {Set<import('node:child_process').ChildProcess>} */
+const running = new Set();
+process.on('exit', () => {
+  for (const proc of running) proc.kill('SIGKILL');
+});
+
+/**
+ * A `bw4t serve` process.
+ * @typedef {object} Server
+ * @property {string} host
+ * @property {number} port
+ * @property {() => string} stderr what it printed on stderr so far
+ * @property {Promise<number|null>} exited resolves with the exit code
+ * @property {() => Promise<void>} stop SIGTERM, then SIGKILL after 2 s; resolves when it is gone
+ */
+
+/**
+ * Start `bw4t serve --port 0` with these arguments (lockstep on the fixed map with seed 1
+ * unless given) and wait (at most `timeoutMs`) for its `listening on HOST:PORT` line.
+ * @param {string[]} [args]
+ * @param {{timeoutMs?: number}} [options]
+ * @returns {Promise<Server>}
+ */
+export async function startServer(args = [], options = {}) {
+  const has = (flag) => args.includes(flag);
+  const full = ['serve', '--port', '0'];
+  if (!has('--mode')) full.push('--mode', 'lockstep');
+  if (!has('--map')) full.push('--map', 'fixed');
+  if (!has('--seed')) full.push('--seed', '1');
+  full.push(...args);
+  const proc = spawn(findBinary(), full, { stdio: ['ignore', 'pipe', 'pipe'] });
+  running.add(proc);
+  let stderr = '';
+  proc.stderr.setEncoding('utf8');
+  proc.stderr.on('data', (d) => {
+    stderr += d;
+  });
+  const exited = new Promise((resolve) => {
+    proc.on('exit', (code) => {
+      running.delete(proc);
+      resolve(code);
+    });
+  });
+  const stop = async () => {
+    if (proc.exitCode !== null || proc.signalCode !== null) return;
+    proc.kill('SIGTERM');
+    const timer = setTimeout(() => proc.kill('SIGKILL'), 2000);
+    await exited;
+    clearTimeout(timer);
+  };
+  try {
+    const address = await within(
+      new Promise((resolve, reject) => {
+        let out = '';
+        proc.stdout.setEncoding('utf8');
+        proc.stdout.on('data', (d) => {
+          out += d;
+          const m = /listening on (\S+):(\d+)/.exec(out);
+          if (m) resolve({ host: m[1], port: Number(m[2]) });
+        });
+        proc.on('error', reject);
+        proc.on('exit', (code) => reject(new Error(`bw4t serve exited (${code}) before listening: ${stderr}`)));
+      }),
+      options.timeoutMs ?? 10000,
+      'bw4t serve to print "listening on"',
+    );
+    return { ...address, stderr: () => stderr, exited, stop };
+  } catch (err) {
+    await stop();
+    throw err;
+  }
+}
+
+/**
+ * Run `bw4t run ... --json` and parse its result; kill it after `timeoutMs`.
+ * @param {string[]} args
+ * @param {{timeoutMs?: number}} [options]
+ * @returns {Promise<any>}
+ */
+export async function runMatch(args, options = {}) {
+  const timeoutMs = options.timeoutMs ?? 60000;
+  const proc = spawn(findBinary(), ['run', ...args, '--json'], { cwd: REPO, stdio: ['ignore', 'pipe', 'pipe'] });
+  running.add(proc);
+  let stdout = '';
+  let stderr = '';
+  proc.stdout.setEncoding('utf8').on('data', (d) => (stdout += d));
+  proc.stderr.setEncoding('utf8').on('data', (d) => (stderr += d));
+  let timedOut = false;
+  const timer = setTimeout(() => {
+    timedOut = true;
+    proc.kill('SIGKILL');
+  }, timeoutMs);
+  const code = await new Promise((resolve, reject) => {
+    proc.on('error', reject);
+    proc.on('exit', (c) => resolve(c));
+  }).finally(() => {
+    clearTimeout(timer);
+    running.delete(proc);
+  });
+  if (timedOut) throw new Error(`bw4t run ${args.join(' ')} took more than ${timeoutMs} ms\n${stderr}`);
+  if (code !== 0) throw new Error(`bw4t run exited with ${code}:\n${stderr}\n${stdout}`);
+  return JSON.parse(stdout);
+}
