@@ -57,8 +57,6 @@ enum Send {
     Snapshot,
     /// This tick's delta: sent if anything changed, after a `result`, or with `every_tick`.
     Tick,
-    /// A delta only if something changed.
-    News,
 }
 
 /// What a player asked for, applied at the next tick boundary.
@@ -209,11 +207,6 @@ impl Host {
             }
         }
         if self.end.is_none() {
-            // Players who joined early learn who joined after them before the first tick.
-            let ids: Vec<RobotId> = self.players.keys().copied().collect();
-            for id in ids {
-                self.send_percepts(id, Send::News);
-            }
             self.observe_locals();
             self.tick_sent_at = Instant::now();
             match self.config.mode {
@@ -450,11 +443,7 @@ impl Host {
         let Some(delta) = delta else { return false };
         // A tick's messages to a player always end with its `percepts`, even an empty one
         // after a `result`, so a player knows when it has heard everything for the tick.
-        let wanted = match what {
-            Send::News => false,
-            Send::Tick | Send::Snapshot => player.every_tick || player.awaiting,
-        };
-        if delta.is_empty() && !wanted {
+        if delta.is_empty() && !player.every_tick && !player.awaiting {
             return false;
         }
         player.awaiting = true;
