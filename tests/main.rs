@@ -30,6 +30,9 @@ mod protocol_docs;
 /// `bw4t run`: headless and served matches, external agent processes, replays.
 mod run;
 
+/// The web side: the page, the map layout, the protocol over WebSocket.
+mod web;
+
 /// `bw4t tournament`: files, statistics, resume, shards, failing agents.
 mod tournament;
 

@@ -25,6 +25,17 @@ enum ReplayCommand {
         /// The replay file.
         file: PathBuf,
     },
+    /// Serve the browser page on a replay: play, pause, speed, scrub to any tick.
+    View {
+        /// The replay file.
+        file: PathBuf,
+        /// Port for the page; 0 picks a free one.
+        #[arg(long, default_value_t = 12380)]
+        http: u16,
+        /// Address to listen on.
+        #[arg(long, default_value = "127.0.0.1")]
+        bind: std::net::IpAddr,
+    },
 }
 
 /// Runs a replay command.
@@ -32,6 +43,7 @@ pub fn run(args: &ReplayArgs) -> Result<()> {
     let (file, verify) = match &args.command {
         ReplayCommand::Verify { file } => (file, true),
         ReplayCommand::Show { file } => (file, false),
+        ReplayCommand::View { file, http, bind } => return view(file, *bind, *http),
     };
     let text = std::fs::read_to_string(file).with_context(|| format!("cannot read {}", file.display()))?;
     let (verdict, summary) =
@@ -73,4 +85,38 @@ pub fn run(args: &ReplayArgs) -> Result<()> {
         Verdict::Differs { tick, .. } => println!("NOT verified: differs at tick {tick}"),
     }
     Ok(())
+}
+
+/// Serves the page on a replay until interrupted.
+fn view(file: &std::path::Path, bind: std::net::IpAddr, port: u16) -> Result<()> {
+    let text = std::fs::read_to_string(file).with_context(|| format!("cannot read {}", file.display()))?;
+    let (header, map, frames) = bw4t_runner::replay_frames(&text)
+        .with_context(|| format!("{} is not a usable replay", file.display()))?;
+    let last = frames.len().saturating_sub(1);
+    let site = bw4t_server::Site {
+        map_json: bw4t_protocol::map_layout(&map).to_string(),
+        info_json: serde_json::json!({"mode": "replay", "protocol": bw4t_protocol::VERSION, "map": header.map}).to_string(),
+        replay: Some((
+            serde_json::json!({"ticks": last, "map": header.map, "seed": header.seed, "players": header.robots})
+                .to_string(),
+            frames,
+        )),
+    };
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .context("cannot start the runtime")?;
+    runtime.block_on(async {
+        let addr = std::net::SocketAddr::new(bind, port);
+        let listener =
+            tokio::net::TcpListener::bind(addr).await.with_context(|| format!("cannot listen on {addr}"))?;
+        println!("http on {}", listener.local_addr().context("no local address")?);
+        eprintln!("bw4t: replay of map '{}', seed {}, {last} ticks; Ctrl-C to stop", header.map, header.seed);
+        let ids = std::sync::Arc::new(std::sync::atomic::AtomicU64::new(1));
+        let served =
+            tokio::spawn(bw4t_server::serve_site(listener, std::sync::Arc::new(site), None, ids, 64));
+        let _ = tokio::signal::ctrl_c().await;
+        served.abort();
+        anyhow::Ok(())
+    })
 }

@@ -67,6 +67,13 @@ pub struct ServeArgs {
     /// Write a replay (JSON lines) of the match to this file.
     #[arg(long)]
     replay: Option<PathBuf>,
+    /// Also serve the browser page (overview, human players) on this port, bound like the
+    /// TCP port; 0 picks a free one. Off by default.
+    #[arg(long, value_name = "PORT")]
+    http: Option<u16>,
+    /// Add this many built-in agents (cooperative) to the match; they count toward --robots.
+    #[arg(long, default_value_t = 0)]
+    builtin: usize,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -115,8 +122,26 @@ pub fn run(args: &ServeArgs) -> Result<()> {
         ))),
         None => None,
     };
-    let extras =
-        bw4t_server::Extras { replay, program: bw4t_runner::program(), ..bw4t_server::Extras::default() };
+    if args.builtin > config.map.spawns().len() {
+        anyhow::bail!(
+            "--builtin {} but map '{}' has {} spawn points",
+            args.builtin,
+            config.map.name(),
+            config.map.spawns().len()
+        );
+    }
+    let seats = (1..=args.builtin)
+        .map(|i| {
+            let name = format!("Bot{i}");
+            bw4t_server::Seat::Local(name.clone(), bw4t_agents::Strategy::Cooperative.agent(&name))
+        })
+        .collect();
+    let mut extras = bw4t_server::Extras {
+        replay,
+        seats,
+        program: bw4t_runner::program(),
+        ..bw4t_server::Extras::default()
+    };
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()
@@ -127,6 +152,14 @@ pub fn run(args: &ServeArgs) -> Result<()> {
             tokio::net::TcpListener::bind(addr).await.with_context(|| format!("cannot listen on {addr}"))?;
         let local = listener.local_addr().context("no local address")?;
         println!("listening on {local}");
+        if let Some(port) = args.http {
+            let addr = SocketAddr::new(args.bind, port);
+            let http = tokio::net::TcpListener::bind(addr)
+                .await
+                .with_context(|| format!("cannot listen on {addr}"))?;
+            println!("http on {}", http.local_addr().context("no local address")?);
+            extras.http = Some(http);
+        }
         eprintln!(
             "bw4t: map '{}', seed {seed}, {} mode; waiting for {} player(s)",
             config.map.name(),

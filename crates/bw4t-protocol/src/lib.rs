@@ -9,6 +9,7 @@ mod messages;
 mod replay;
 mod result;
 mod schema;
+mod view;
 
 pub use codec::{DecodeError, LineBuffer, MAX_LINE, decode_client, decode_server, encode};
 pub use convert::{FactError, action_from_act, action_to_act, fact_to_percept, percept_to_fact, receiver};
@@ -16,6 +17,7 @@ pub use messages::*;
 pub use replay::{REPLAY_FORMAT, Recorder, ReplayEvent, ReplayHeader, ReplayLine};
 pub use result::{MatchResult, RobotExtra, RobotResult};
 pub use schema::schemas;
+pub use view::map_layout;
 
 /// The protocol's name, as sent in `hello`.
 pub const PROTOCOL: &str = "bw4t";

@@ -135,8 +135,13 @@ pub fn play_served(run: ServedRun<'_>) -> Result<(MatchResult, Vec<AgentReport>)
             })
             .collect();
         let (gone_tx, gone_rx) = tokio::sync::mpsc::channel(run.seats.len().max(1));
-        let extras =
-            Extras { seats, replay: run.replay, program: crate::program(), gone_seats: Some(gone_rx) };
+        let extras = Extras {
+            seats,
+            replay: run.replay,
+            program: crate::program(),
+            gone_seats: Some(gone_rx),
+            http: None,
+        };
         let server = tokio::spawn(bw4t_server::serve_with(listener, config, extras, std::future::pending()));
         let mut children = Vec::new();
         for seat in &run.seats {

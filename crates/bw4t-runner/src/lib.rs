@@ -10,7 +10,7 @@ pub mod tournament;
 pub use external::{AgentReport, SeatSpec, ServedError, ServedRun, play_served};
 pub use headless::{RunError, Seat, play_headless};
 pub use remote::{RemoteError, play_remote};
-pub use replay::{ReplayError, ReplaySummary, Verdict, read_replay, verify_replay};
+pub use replay::{ReplayError, ReplaySummary, Verdict, read_replay, replay_frames, verify_replay};
 
 /// The program name and version written into replays.
 pub fn program() -> String {

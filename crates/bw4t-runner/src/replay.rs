@@ -169,3 +169,62 @@ pub fn verify_replay(text: &str) -> Result<(Verdict, ReplaySummary), ReplayError
     let verdict = verdict.unwrap_or(Verdict::Matches { digests, ticks: game.tick() });
     Ok((verdict, summary))
 }
+
+/// Every tick's frame of a replay (index = tick), by re-simulating it, for the replay viewer.
+pub fn replay_frames(text: &str) -> Result<(ReplayHeader, Map, Vec<bw4t_protocol::Frame>), ReplayError> {
+    use bw4t_protocol::{Frame, FrameMessage};
+    let (header, lines) = read_replay(text)?;
+    let map = Map::from_native(&header.map_native).map_err(|e| ReplayError::Setup(e.to_string()))?;
+    let config = MatchConfig {
+        ticks_per_second: header.ticks_per_second,
+        speed: header.speed,
+        robot_collisions: header.robot_collisions,
+    };
+    let mut game = Match::new(&map, &config, header.seed).map_err(|e| ReplayError::Setup(e.to_string()))?;
+    let mut frames = Vec::new();
+    let mut said: Vec<FrameMessage> = Vec::new();
+    let mut names: Vec<String> = Vec::new();
+    for (_, line) in &lines {
+        let tick = match line {
+            ReplayLine::Header(_) => continue,
+            ReplayLine::Tick { tick, .. }
+            | ReplayLine::Digest { tick, .. }
+            | ReplayLine::End { tick, .. } => *tick,
+        };
+        while game.tick() < tick {
+            frames.push(Frame::of(&game, std::mem::take(&mut said)));
+            game.step();
+        }
+        let ReplayLine::Tick { events, .. } = line else { continue };
+        for event in events {
+            match event {
+                ReplayEvent::Join { name, .. } => {
+                    if game.join(name).is_ok() {
+                        names.push(name.clone());
+                    }
+                }
+                ReplayEvent::Leave { robot } => {
+                    let _ = game.leave(RobotId(*robot));
+                }
+                ReplayEvent::Stop { robot } => {
+                    let _ = game.stop(RobotId(*robot));
+                }
+                ReplayEvent::Act { robot, .. } => {
+                    if let Some(action) = event.action() {
+                        if let bw4t_sim::Action::SendMessage { to, text } = &action {
+                            let to = match to {
+                                bw4t_sim::Receiver::All => "all".to_string(),
+                                bw4t_sim::Receiver::Player(p) => p.clone(),
+                            };
+                            let from = names.get(*robot as usize).cloned().unwrap_or_default();
+                            said.push(FrameMessage { from, to, text: text.clone() });
+                        }
+                        let _ = game.handle_action(RobotId(*robot), action);
+                    }
+                }
+            }
+        }
+    }
+    frames.push(Frame::of(&game, said));
+    Ok((header, map, frames))
+}

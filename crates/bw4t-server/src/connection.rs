@@ -2,7 +2,7 @@
 //! (queued lines to the socket). Malformed input is answered here and never reaches the match.
 
 use std::sync::Arc;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 
 use bw4t_protocol::{ClientMessage, ErrorMessage, LineBuffer, Pong, ServerBye, ServerMessage, encode};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
@@ -50,9 +50,13 @@ pub enum Event {
 }
 
 /// Accepts connections until aborted, refusing those beyond the limit.
-pub async fn accept_loop(listener: TcpListener, config: ServerConfig, events: mpsc::Sender<Event>) {
+pub async fn accept_loop(
+    listener: TcpListener,
+    config: ServerConfig,
+    events: mpsc::Sender<Event>,
+    ids: Arc<AtomicU64>,
+) {
     let open = Arc::new(AtomicUsize::new(0));
-    let mut next_id: ConnId = 0;
     loop {
         let Ok((stream, _)) = listener.accept().await else {
             // Out of file descriptors or a reset before accept: try again shortly.
@@ -65,10 +69,10 @@ pub async fn accept_loop(listener: TcpListener, config: ServerConfig, events: mp
             continue;
         }
         open.fetch_add(1, Ordering::SeqCst);
-        next_id += 1;
+        let conn = ids.fetch_add(1, Ordering::SeqCst);
         let (events, open, config) = (events.clone(), open.clone(), config.clone());
         tokio::spawn(async move {
-            handle(stream, next_id, &config, events).await;
+            handle(stream, conn, &config, events).await;
             open.fetch_sub(1, Ordering::SeqCst);
         });
     }

@@ -8,12 +8,11 @@ use std::sync::Arc;
 
 use bw4t_agents::Driver;
 use bw4t_protocol::{
-    Ack, ActId, ActResult, ClientMessage, Frame, FrameBlock, FrameMessage, FrameRobot, Hello, MatchEnd,
-    MatchInfo, MatchResult, Mode, Percepts, Role, ServerMessage, VERSION, Welcome, action_from_act, encode,
-    percept_to_fact,
+    Ack, ActId, ActResult, ClientMessage, Frame, FrameMessage, Hello, MatchEnd, MatchInfo, MatchResult, Mode,
+    Percepts, Role, ServerMessage, VERSION, Welcome, action_from_act, encode, percept_to_fact,
 };
 use bw4t_protocol::{Recorder, ReplayEvent, RobotExtra};
-use bw4t_sim::{Accepted, Action, BlockPlace, Match, OrderId, Receiver, Rejection, RobotId};
+use bw4t_sim::{Accepted, Action, Match, OrderId, Receiver, Rejection, RobotId};
 use tokio::sync::{Notify, mpsc, watch};
 use tokio::time::{Duration, Instant};
 
@@ -482,48 +481,7 @@ impl Host {
     }
 
     fn frame(&self) -> Frame {
-        let zones = self.game.map().zones();
-        let robots: Vec<FrameRobot> = self
-            .game
-            .robots()
-            .map(|r| FrameRobot {
-                id: r.id.0,
-                name: r.name.to_string(),
-                x: r.pos.x,
-                y: r.pos.y,
-                state: r.state.name().into(),
-                holding: r.holding,
-            })
-            .collect();
-        let blocks = self
-            .game
-            .blocks()
-            .filter_map(|(id, colour, place)| {
-                let (x, y, held_by) = match place {
-                    BlockPlace::Room { pos, .. } => (pos.x, pos.y, None),
-                    BlockPlace::Held(r) => {
-                        let holder = robots.iter().find(|fr| fr.id == r.0)?;
-                        (holder.x, holder.y, Some(r.0))
-                    }
-                    BlockPlace::Gone => return None,
-                };
-                Some(FrameBlock { id, color: colour.name().into(), x, y, held_by })
-            })
-            .collect();
-        let occupied = (0..zones.len())
-            .filter(|&z| self.game.occupant(z).is_some())
-            .map(|z| zones[z].name.clone())
-            .collect();
-        Frame {
-            tick: self.game.tick(),
-            sim_seconds: self.game.config().seconds(self.game.tick()),
-            sequence: self.game.sequence().iter().map(|c| c.name().to_string()).collect(),
-            sequence_index: self.game.sequence_index(),
-            robots,
-            blocks,
-            occupied,
-            messages: self.frame_messages.clone(),
-        }
+        Frame::of(&self.game, self.frame_messages.clone())
     }
 
     fn on_event(&mut self, event: Option<Event>) {

@@ -7,8 +7,13 @@
 
 mod connection;
 mod host;
+mod http;
+
+pub use http::{Site, serve_site};
 
 use std::future::Future;
+use std::sync::Arc;
+use std::sync::atomic::AtomicU64;
 use std::time::Duration;
 
 use bw4t_map::Map;
@@ -120,6 +125,8 @@ pub struct Extras {
     /// Names of reserved seats whose player will never come (e.g. its process exited),
     /// so the match need not wait for them to start.
     pub gone_seats: Option<mpsc::Receiver<String>>,
+    /// Serve the browser page here too; `/ws` joins the match over WebSocket.
+    pub http: Option<TcpListener>,
 }
 
 /// Why a match could not be served.
@@ -147,13 +154,27 @@ pub async fn serve(
 pub async fn serve_with(
     listener: TcpListener,
     config: ServerConfig,
-    extras: Extras,
+    mut extras: Extras,
     shutdown: impl Future<Output = ()>,
 ) -> Result<MatchResult, ServerError> {
     let (events_tx, events_rx) = mpsc::channel(host::EVENT_QUEUE);
+    let http = extras.http.take();
     let host = host::Host::new(config.clone(), events_rx, extras)?;
-    let acceptor = tokio::spawn(connection::accept_loop(listener, config, events_tx));
+    let ids = Arc::new(AtomicU64::new(1));
+    let site = http.map(|listener| {
+        let site = Arc::new(Site {
+            map_json: bw4t_protocol::map_layout(&config.map).to_string(),
+            info_json: serde_json::json!({"mode": "live", "protocol": bw4t_protocol::VERSION, "map": config.map.name()})
+                .to_string(),
+            replay: None,
+        });
+        tokio::spawn(http::serve_site(listener, site, Some(events_tx.clone()), ids.clone(), config.queue))
+    });
+    let acceptor = tokio::spawn(connection::accept_loop(listener, config, events_tx, ids));
     let result = host.run(shutdown).await;
     acceptor.abort();
+    if let Some(site) = site {
+        site.abort();
+    }
     Ok(result)
 }

@@ -1,0 +1,194 @@
+//! The web side: a small HTTP server for the browser page, the map's layout and replay
+//! frames, and a WebSocket bridge that lets the page speak the protocol like a TCP client.
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Duration;
+
+use bw4t_protocol::{ClientMessage, Frame, Pong, ServerMessage, decode_client, encode};
+use futures_util::{SinkExt, StreamExt};
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::net::{TcpListener, TcpStream};
+use tokio::sync::{Notify, mpsc, watch};
+use tokio_tungstenite::tungstenite::Message;
+
+use crate::connection::{ConnId, Event, Opened, Outbound, error_line};
+
+/// The page, built into the binary.
+const INDEX_HTML: &str = include_str!("../web/index.html");
+const APP_JS: &str = include_str!("../web/app.js");
+const STYLE_CSS: &str = include_str!("../web/style.css");
+
+/// The longest request head read, in bytes.
+const MAX_HEAD: usize = 16 * 1024;
+
+/// What the web server serves besides the page.
+pub struct Site {
+    /// `GET /map.json`.
+    pub map_json: String,
+    /// `GET /info.json`.
+    pub info_json: String,
+    /// Replay mode: every tick's frame (`GET /replay/frame/T`) and `GET /replay.json`.
+    pub replay: Option<(String, Vec<Frame>)>,
+}
+
+/// Serves the page on `listener` until aborted. With `events`, `/ws` joins the live match.
+pub async fn serve_site(
+    listener: TcpListener,
+    site: Arc<Site>,
+    events: Option<mpsc::Sender<Event>>,
+    ids: Arc<AtomicU64>,
+    queue: usize,
+) {
+    loop {
+        let Ok((stream, _)) = listener.accept().await else {
+            tokio::time::sleep(Duration::from_millis(10)).await;
+            continue;
+        };
+        let _ = stream.set_nodelay(true);
+        let (site, events, ids) = (site.clone(), events.clone(), ids.clone());
+        tokio::spawn(handle(stream, site, events, ids, queue));
+    }
+}
+
+async fn handle(
+    stream: TcpStream,
+    site: Arc<Site>,
+    events: Option<mpsc::Sender<Event>>,
+    ids: Arc<AtomicU64>,
+    queue: usize,
+) {
+    // Look at the request head without taking it, so a WebSocket handshake can read it too.
+    let mut head = vec![0u8; MAX_HEAD];
+    let peeked = tokio::time::timeout(Duration::from_secs(10), async {
+        loop {
+            let n = stream.peek(&mut head).await.ok()?;
+            if n == 0 {
+                return None;
+            }
+            if head[..n].windows(4).any(|w| w == b"\r\n\r\n") || n == MAX_HEAD {
+                return Some(n);
+            }
+            tokio::time::sleep(Duration::from_millis(5)).await;
+        }
+    })
+    .await;
+    let Ok(Some(n)) = peeked else { return };
+    let text = String::from_utf8_lossy(&head[..n]).to_string();
+    let mut words = text.split_whitespace();
+    let (method, path) = (words.next().unwrap_or(""), words.next().unwrap_or("/").to_string());
+    let upgrade = text.to_ascii_lowercase().contains("upgrade: websocket");
+    if upgrade && path.starts_with("/ws") {
+        if let Some(events) = events {
+            bridge(stream, events, ids.fetch_add(1, Ordering::SeqCst), queue).await;
+        }
+        return;
+    }
+    respond(stream, n, method, &path, &site).await;
+}
+
+async fn respond(mut stream: TcpStream, head_len: usize, method: &str, path: &str, site: &Site) {
+    // Take the head off the socket (it was only peeked).
+    let mut sink = vec![0u8; head_len];
+    let _ = stream.read_exact(&mut sink).await;
+    let path = path.split('?').next().unwrap_or("/");
+    let (status, kind, body): (&str, &str, String) = match (method, path) {
+        ("GET", "/" | "/index.html") => ("200 OK", "text/html; charset=utf-8", INDEX_HTML.into()),
+        ("GET", "/app.js") => ("200 OK", "text/javascript; charset=utf-8", APP_JS.into()),
+        ("GET", "/style.css") => ("200 OK", "text/css; charset=utf-8", STYLE_CSS.into()),
+        ("GET", "/map.json") => ("200 OK", "application/json", site.map_json.clone()),
+        ("GET", "/info.json") => ("200 OK", "application/json", site.info_json.clone()),
+        ("GET", "/replay.json") => match &site.replay {
+            Some((info, _)) => ("200 OK", "application/json", info.clone()),
+            None => ("404 Not Found", "text/plain", "not a replay\n".into()),
+        },
+        ("GET", p) if p.starts_with("/replay/frame/") => {
+            let tick = p.trim_start_matches("/replay/frame/").parse::<usize>().ok();
+            match (&site.replay, tick) {
+                (Some((_, frames)), Some(t)) if t < frames.len() => {
+                    ("200 OK", "application/json", serde_json::to_string(&frames[t]).unwrap_or_default())
+                }
+                _ => ("404 Not Found", "text/plain", "no such frame\n".into()),
+            }
+        }
+        ("GET", _) => ("404 Not Found", "text/plain", "not found\n".into()),
+        _ => ("405 Method Not Allowed", "text/plain", "only GET\n".into()),
+    };
+    let response = format!(
+        "HTTP/1.1 {status}\r\nContent-Type: {kind}\r\nContent-Length: {}\r\nCache-Control: no-store\r\nConnection: close\r\n\r\n{body}",
+        body.len()
+    );
+    let _ = stream.write_all(response.as_bytes()).await;
+    let _ = stream.shutdown().await;
+}
+
+/// One WebSocket client as one protocol connection: a text frame is a line.
+async fn bridge(stream: TcpStream, events: mpsc::Sender<Event>, conn: ConnId, queue: usize) {
+    let Ok(ws) = tokio_tungstenite::accept_async(stream).await else { return };
+    let (mut write, mut read) = ws.split();
+    let (tx, mut rx) = mpsc::channel::<Outbound>(queue);
+    let kill = Arc::new(Notify::new());
+    let (done_tx, mut done) = watch::channel(false);
+    let writer_kill = kill.clone();
+    let writer = tokio::spawn(async move {
+        loop {
+            let out = tokio::select! {
+                out = rx.recv() => out,
+                () = writer_kill.notified() => None,
+            };
+            match out {
+                Some(Outbound::Line(line)) => {
+                    if write.send(Message::text(line.trim_end().to_string())).await.is_err() {
+                        break;
+                    }
+                }
+                Some(Outbound::Close) | None => break,
+            }
+        }
+        let _ = write.close().await;
+        let _ = done_tx.send(true);
+    });
+    let opened = Opened { conn, tx: tx.clone(), kill, done: done.clone() };
+    if events.send(Event::Opened(opened)).await.is_err() {
+        return;
+    }
+    loop {
+        let message = tokio::select! {
+            message = read.next() => message,
+            _ = done.wait_for(|d| *d) => break,
+        };
+        let text = match message {
+            Some(Ok(Message::Text(text))) => text.to_string(),
+            Some(Ok(Message::Binary(_))) => {
+                let _ = tx.try_send(Outbound::Line(error_line("bad_message", "send text frames", false)));
+                continue;
+            }
+            Some(Ok(Message::Close(_))) | None | Some(Err(_)) => break,
+            Some(Ok(_)) => continue,
+        };
+        if text.len() > bw4t_protocol::MAX_LINE {
+            let _ =
+                tx.try_send(Outbound::Line(error_line("line_too_long", "message longer than 64 KiB", false)));
+            continue;
+        }
+        match decode_client(&text) {
+            Err(e) => {
+                let _ = tx.try_send(Outbound::Line(error_line(e.code, &e.message, false)));
+                let _ = events.try_send(Event::BadInput { conn });
+            }
+            Ok(ClientMessage::Ping(ping)) => {
+                let _ =
+                    tx.try_send(Outbound::Line(encode(&ServerMessage::Pong(Pong { id: ping.id })).into()));
+            }
+            Ok(message) => {
+                if events.send(Event::Message { conn, message }).await.is_err() {
+                    break;
+                }
+            }
+        }
+    }
+    let _ = events.send(Event::Closed { conn }).await;
+    let _ = tx.try_send(Outbound::Close);
+    drop(tx);
+    let _ = writer.await;
+}
