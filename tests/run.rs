@@ -1,6 +1,6 @@
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
-use std::time::{Duration, Instant};
+use std::process::{Command, Output};
+use std::time::Duration;
 
 use serde_json::Value;
 
@@ -9,22 +9,7 @@ const RUN_LIMIT: Duration = Duration::from_secs(90);
 
 /// Runs `bw4t ARGS` from the repository root, failing the test if it does not end in time.
 fn bw4t(args: &[&str]) -> Output {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_bw4t"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("start bw4t");
-    let started = Instant::now();
-    while child.try_wait().expect("wait").is_none() {
-        if started.elapsed() > RUN_LIMIT {
-            let _ = child.kill();
-            panic!("bw4t {args:?} did not finish within {RUN_LIMIT:?}");
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    child.wait_with_output().expect("output")
+    crate::util::bw4t_within(args, RUN_LIMIT)
 }
 
 fn json_of(out: &Output) -> Value {

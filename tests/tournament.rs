@@ -8,22 +8,7 @@ use serde_json::Value;
 const LIMIT: Duration = Duration::from_secs(120);
 
 fn bw4t(args: &[&str]) -> Output {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_bw4t"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("start bw4t");
-    let started = Instant::now();
-    while child.try_wait().expect("wait").is_none() {
-        if started.elapsed() > LIMIT {
-            let _ = child.kill();
-            panic!("bw4t {args:?} did not finish within {LIMIT:?}");
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    let out = child.wait_with_output().expect("output");
+    let out = crate::util::bw4t_within(args, LIMIT);
     assert!(out.status.success(), "bw4t {args:?}: {}", String::from_utf8_lossy(&out.stderr));
     out
 }

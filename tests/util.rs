@@ -537,3 +537,28 @@ impl AutoPlayer {
         })
     }
 }
+
+/// Runs `bw4t ARGS` from the repository root and returns its output, failing the test if it
+/// has not ended within `limit` (the process is then killed).
+pub fn bw4t_within(args: &[&str], limit: Duration) -> std::process::Output {
+    use std::process::{Command, Stdio};
+    let child = Command::new(env!("CARGO_BIN_EXE_bw4t"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start bw4t");
+    let pid = child.id();
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let _ = tx.send(child.wait_with_output());
+    });
+    match rx.recv_timeout(limit) {
+        Ok(output) => output.expect("output"),
+        Err(_) => {
+            let _ = Command::new("kill").args(["-KILL", &pid.to_string()]).status();
+            panic!("bw4t {args:?} did not finish within {limit:?}");
+        }
+    }
+}
