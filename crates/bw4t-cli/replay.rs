@@ -95,10 +95,18 @@ fn view(file: &std::path::Path, bind: std::net::IpAddr, port: u16) -> Result<()>
     let last = frames.len().saturating_sub(1);
     let site = bw4t_server::Site {
         map_json: bw4t_protocol::map_layout(&map).to_string(),
-        info_json: serde_json::json!({"mode": "replay", "protocol": bw4t_protocol::VERSION, "map": header.map}).to_string(),
-        replay: Some((
-            serde_json::json!({"ticks": last, "map": header.map, "seed": header.seed, "players": header.robots})
+        info_json:
+            serde_json::json!({"mode": "replay", "protocol": bw4t_protocol::VERSION, "map": header.map})
                 .to_string(),
+        replay: Some((
+            serde_json::json!({
+                "ticks": last,
+                "tick_hz": header.ticks_per_second,
+                "map": header.map,
+                "seed": header.seed,
+                "players": header.robots,
+            })
+            .to_string(),
             frames,
         )),
     };
@@ -111,11 +119,14 @@ fn view(file: &std::path::Path, bind: std::net::IpAddr, port: u16) -> Result<()>
         let listener =
             tokio::net::TcpListener::bind(addr).await.with_context(|| format!("cannot listen on {addr}"))?;
         println!("http on {}", listener.local_addr().context("no local address")?);
-        eprintln!("bw4t: replay of map '{}', seed {}, {last} ticks; Ctrl-C to stop", header.map, header.seed);
+        eprintln!(
+            "bw4t: replay of map '{}', seed {}, {last} ticks; Ctrl-C (or SIGTERM) stops",
+            header.map, header.seed
+        );
         let ids = std::sync::Arc::new(std::sync::atomic::AtomicU64::new(1));
         let served =
             tokio::spawn(bw4t_server::serve_site(listener, std::sync::Arc::new(site), None, ids, 64));
-        let _ = tokio::signal::ctrl_c().await;
+        crate::serve::stop_signal().await;
         served.abort();
         anyhow::Ok(())
     })

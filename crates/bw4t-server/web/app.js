@@ -66,6 +66,9 @@ const page = {
   match: null, // welcome.match
   ended: false,
   dirty: true, // the canvas needs a redraw
+  frames: 0, // frames received (live) or shown (replay)
+  draws: 0, // pictures drawn
+  drawMs: 0, // time spent drawing them
 };
 
 function setView(view) {
@@ -92,7 +95,9 @@ function buildMap(json) {
     isRoom: z.kind === 'room',
     isDrop: z.name === json.drop_zone,
   }));
-  // Halls may reach beyond `area` (the default map's top halls do): draw everything.
+  // Halls may reach beyond `area` (the default map's top halls do): draw everything,
+  // with a small margin so that walls on the outer edges show whole.
+  const margin = 0.5;
   let [minX, minY, maxX, maxY] = [0, 0, json.area[0], json.area[1]];
   for (const z of zones) {
     minX = Math.min(minX, z.x);
@@ -100,6 +105,7 @@ function buildMap(json) {
     maxX = Math.max(maxX, z.x + z.w);
     maxY = Math.max(maxY, z.y + z.h);
   }
+  [minX, minY, maxX, maxY] = [minX - margin, minY - margin, maxX + margin, maxY + margin];
   const walls = []; // [x1, y1, x2, y2]
   const openings = new Map(); // room name -> [[x1, y1, x2, y2], ...]
   for (const z of zones.filter((zone) => zone.isRoom)) {
@@ -184,6 +190,9 @@ class Renderer {
     this.still = document.createElement('canvas');
     this.scale = 1;
     this.chipBoxes = []; // where the player's block chips were drawn, for clicks
+    // The map box the canvas shows, in map units: lets tests click a place by coordinates.
+    const { x, y, w, h } = map.bounds;
+    canvas.dataset.bounds = [x, y, w, h].join(' ');
     this.resize();
   }
 
@@ -329,7 +338,18 @@ class Renderer {
       ctx.textAlign = 'right';
       ctx.textBaseline = 'bottom';
       ctx.fillStyle = '#0b4fa0';
-      ctx.fillText(`▶ ${scene.me || 'you'}`, z.x + z.w - 0.4, z.y + z.h - 0.3, z.w - 0.8);
+      const text = `▶ ${scene.me || 'you'}`;
+      const right = z.x + z.w - 0.4;
+      ctx.fillText(text, right, z.y + z.h - 0.3, z.w - 0.8);
+      if (scene.holdingColor) {
+        // What it carries, as a block beside its name.
+        const w = Math.min(ctx.measureText(text).width, z.w - 0.8);
+        ctx.fillStyle = colourCss(scene.holdingColor);
+        ctx.fillRect(right - w - BLOCK - 0.3, z.y + z.h - 0.3 - size * 0.9, BLOCK, BLOCK);
+        ctx.strokeStyle = 'rgba(0,0,0,0.6)';
+        ctx.lineWidth = unit;
+        ctx.strokeRect(right - w - BLOCK - 0.3, z.y + z.h - 0.3 - size * 0.9, BLOCK, BLOCK);
+      }
     }
 
     // Doors: a bar across the opening while the room is occupied (closed for everyone
@@ -437,8 +457,15 @@ function animate(now) {
   if (page.view === 'replay') replay.step(now);
   if (page.dirty && page.renderer) {
     page.dirty = false;
+    const started = performance.now();
     const scene = page.view === 'player' ? playerScene() : spectatorScene();
     page.renderer.draw(scene);
+    // How many pictures were drawn and the time they took: shown to tests, which check
+    // that drawing keeps up with the frames.
+    page.draws += 1;
+    page.drawMs += performance.now() - started;
+    page.renderer.canvas.dataset.draws = String(page.draws);
+    page.renderer.canvas.dataset.drawMs = page.drawMs.toFixed(1);
   }
   requestAnimationFrame(animate);
 }
@@ -505,9 +532,12 @@ function addMessage(tick, from, to, text) {
   );
 }
 
-/** The player's event log: kind is 'sent', 'ok', 'reject', 'result', 'error' or 'info'. */
-function log(kind, text, tick) {
-  appendLog($('#log'), el('li', { class: kind, dataset: { kind } }, el('span', { class: 'when' }, `${tick ?? ''}`), text));
+/** The player's event log: kind is 'sent', 'ok', 'reject', 'result', 'error' or 'info'.
+ * `data` goes into data- attributes (action, outcome, code), for tests and styling. */
+function log(kind, text, tick, data = {}) {
+  const dataset = { kind };
+  for (const [key, value] of Object.entries(data)) if (value !== undefined) dataset[key] = String(value);
+  appendLog($('#log'), el('li', { class: kind, dataset }, el('span', { class: 'when' }, `${tick ?? ''}`), text));
 }
 
 function showBanner(text) {
@@ -521,7 +551,12 @@ function endMatch(message) {
   setStatus('ended', message.reason);
   const r = message.result || {};
   const seq = r.sequence ? `, sequence ${r.sequence_index}/${r.sequence.length}` : '';
-  showBanner(`Match over: ${message.reason} after ${r.ticks ?? '?'} ticks${seq}`);
+  let mine = '';
+  if (page.view === 'player') {
+    const me = (r.per_robot || []).find((robot) => robot.name === player.name);
+    if (me) mine = `; you delivered ${me.good_drops} in order${me.wrong_drops ? `, ${me.wrong_drops} wrong` : ''}`;
+  }
+  showBanner(`Match over: ${message.reason} after ${r.ticks ?? '?'} ticks${seq}${mine}`);
 }
 
 // Hovering a place names it (all views) and shows it can be clicked (player view).
@@ -539,8 +574,9 @@ function setupHover(canvas) {
     const text = chip ? `block ${chip.id}` : zone ? zone.name : '';
     tip.hidden = !text;
     setText(tip, text);
-    tip.style.left = `${event.offsetX + 14}px`;
-    tip.style.top = `${event.offsetY + 14}px`;
+    const stage = canvas.parentElement.getBoundingClientRect();
+    tip.style.left = `${event.clientX - stage.left + 14}px`;
+    tip.style.top = `${event.clientY - stage.top + 14}px`;
     canvas.style.cursor = page.view === 'player' && (chip || zone) ? 'pointer' : 'default';
   });
   canvas.addEventListener('mouseleave', () => {
@@ -609,9 +645,10 @@ const spectator = {
 function startSpectator() {
   setView('spectator');
   setStatus('connecting');
-  spectator.socket = openSocket(
+  const socket = openSocket(
     helloFor({ role: 'spectator' }),
     (message) => {
+      if (spectator.socket !== socket) return; // the player view took over
       switch (message.type) {
         case 'welcome':
           showMatch(message.match);
@@ -632,10 +669,11 @@ function startSpectator() {
       }
     },
     () => {
-      if (spectator.socket === null) return; // closed on purpose: the player view took over
-      if (!page.ended) setStatus('disconnected');
+      if (spectator.socket !== socket) return; // closed on purpose: the player view took over
+      if (!page.ended && $('#status').dataset.status !== 'error') setStatus('disconnected');
     },
   );
+  spectator.socket = socket;
 }
 
 function stopSpectator() {
@@ -647,6 +685,8 @@ function stopSpectator() {
 /** A frame (live or from a replay): keep it, update the panels, redraw. */
 function showFrame(frame) {
   spectator.frame = frame;
+  page.frames += 1;
+  page.renderer.canvas.dataset.frames = String(page.frames);
   setTick(frame.tick, frame.sim_seconds);
   showSequence(frame.sequence || [], frame.sequence_index ?? 0);
   showRobotList(frame);
@@ -671,6 +711,9 @@ function showRobotList(frame) {
     }
     row.dataset.robot = String(r.id);
     row.dataset.name = r.name;
+    row.dataset.x = r.x.toFixed(2);
+    row.dataset.y = r.y.toFixed(2);
+    row.dataset.state = r.state;
     const zone = zoneAt(page.map, r.x, r.y);
     const held = r.holding !== undefined && r.holding !== null ? colourOf.get(r.holding) : null;
     setText(row.children[0], r.name);
@@ -755,7 +798,7 @@ const player = {
   beliefs: new Beliefs(),
   remembered: new Map(), // block id -> colour, from every `color` fact seen
   nextId: 1,
-  pending: new Map(), // act id -> words describing it, for the log
+  pending: new Map(), // request id -> {words, durative, say}: for the log until answered
   retriedWithName: false,
 };
 
@@ -770,6 +813,8 @@ function joinAsPlayer(name) {
   setText($('#me'), name);
   setStatus('joining');
   $('#banner').hidden = true;
+  $('#join-error').hidden = true;
+  $('#log').replaceChildren();
   $('#messages').replaceChildren();
   // After a reload, take the robot back with the session the server gave this tab.
   const session = sessionStorage.getItem(sessionKey(name));
@@ -778,12 +823,14 @@ function joinAsPlayer(name) {
 
 function connectPlayer(identity) {
   player.beliefs = new Beliefs();
-  player.socket = openSocket(helloFor(identity), onPlayerMessage, () => {
-    if (!page.ended && player.socket) {
-      setStatus('disconnected');
-      log('error', 'connection closed');
-    }
+  // Messages from a socket that was replaced (its trailing `bye`) are not this player's.
+  const onMessage = (message) => player.socket === socket && onPlayerMessage(message);
+  const socket = openSocket(helloFor(identity), onMessage, () => {
+    if (player.socket !== socket) return; // replaced on purpose (a new join, a retry)
+    if (!page.ended && $('#status').dataset.status !== 'error') setStatus('disconnected');
+    if (!page.ended) log('error', 'connection closed');
   });
+  player.socket = socket;
 }
 
 function onPlayerMessage(message) {
@@ -801,25 +848,35 @@ function onPlayerMessage(message) {
       onPercepts(message);
       break;
     case 'ack': {
-      const what = player.pending.get(message.id) || (message.id === undefined ? 'say' : `#${message.id}`);
+      const request = player.pending.get(message.id) || { words: `#${message.id ?? '?'}` };
       if (message.ok) {
-        log('ok', `${what}: accepted`, message.tick);
-        // Non-durative actions are done with their ack; durative ones wait for a result.
-        if (!/^goTo/.test(what)) player.pending.delete(message.id);
+        log('ok', `${request.words}: accepted`, message.tick, { action: request.action });
+        // Players are not sent their own messages: show an accepted one in the chat here.
+        if (request.say) addMessage(message.tick, player.name, request.say.to, request.say.text);
+        // A durative order stays pending until its result; anything else is done.
+        if (!request.durative) player.pending.delete(message.id);
       } else {
-        log('reject', `${what}: rejected, ${message.code}: ${message.reason || ''}`, message.tick);
+        log('reject', `${request.words}: rejected, ${message.code}: ${message.reason || ''}`, message.tick, {
+          action: request.action,
+          code: message.code,
+        });
         player.pending.delete(message.id);
       }
       break;
     }
     case 'result': {
-      const what = player.pending.get(message.id) || `#${message.id}`;
+      const request = player.pending.get(message.id) || { words: `#${message.id}` };
       player.pending.delete(message.id);
-      log('result', `${what}: ${message.outcome}`, message.tick);
+      log('result', `${request.words}: ${message.outcome}`, message.tick, {
+        action: request.action,
+        outcome: message.outcome,
+      });
       break;
     }
     case 'error':
-      log('error', `error ${message.code}: ${message.message}${message.fatal ? ' (fatal)' : ''}`);
+      log('error', `error ${message.code}: ${message.message}${message.fatal ? ' (fatal)' : ''}`, undefined, {
+        code: message.code,
+      });
       onPlayerError(message);
       break;
     case 'match_end':
@@ -893,8 +950,14 @@ function showPlayerPanel() {
   const heldColour = held !== undefined ? player.remembered.get(held) : undefined;
   holding.dataset.blockId = held !== undefined ? String(held) : '';
   holding.dataset.color = heldColour || '';
-  if (held === undefined) setText(holding, 'nothing');
-  else holding.replaceChildren(el('span', { class: 'swatch', style: `--chip:${colourCss(heldColour)}` }, `${heldColour || '?'} (block ${held})`));
+  if (held === undefined) {
+    setText(holding, 'nothing');
+  } else {
+    const label = `${heldColour || '?'} (block ${held})`;
+    if (holding.textContent !== label) {
+      holding.replaceChildren(el('span', { class: 'swatch', style: `--chip:${colourCss(heldColour)}` }, label));
+    }
+  }
 
   // Visible blocks as buttons (rebuilt only when the set changes).
   const blocks = visibleBlocks();
@@ -963,6 +1026,7 @@ function playerScene() {
     inRoom: map.byName.get(inName) || null,
     chips: visibleBlocks(),
     atBlock: b.one('atBlock'),
+    holdingColor: b.one('holding') !== undefined ? player.remembered.get(b.one('holding')) || '?' : null,
     me: player.name,
     hover: page.hover,
   };
@@ -974,18 +1038,18 @@ function act(action, args = []) {
   const id = player.nextId++;
   let words = [action, ...args].join(' ');
   if (action === 'goToBlock' && player.remembered.has(args[0])) words += ` (${player.remembered.get(args[0])})`;
-  player.pending.set(id, words);
+  player.pending.set(id, { words, action, durative: action === 'goTo' || action === 'goToBlock' });
   player.socket.send({ type: 'act', id, action, args });
-  log('sent', words);
+  log('sent', words, undefined, { action });
 }
 
 function say(to, text) {
   if (!player.socket || page.ended) return;
   const id = player.nextId++;
   const words = `say to ${to}: ${text}`;
-  player.pending.set(id, words);
+  player.pending.set(id, { words, action: 'say', say: { to, text } });
   player.socket.send({ type: 'say', id, to, text });
-  log('sent', words);
+  log('sent', words, undefined, { action: 'say' });
 }
 
 function setupPlayerControls(canvas) {
@@ -1043,6 +1107,7 @@ const replay = {
   playing: false,
   speed: 1,
   last: null, // time of the previous step
+  seeking: null, // the tick sought and not yet on screen
   scrubbing: false,
 
   MAX_LOADING: 6,
@@ -1097,13 +1162,20 @@ const replay = {
 
   pause() {
     this.playing = false;
-    this.position = Math.max(this.shown, 0);
+    if (this.seeking === null) this.position = Math.max(this.shown, 0);
     this.showButtons();
   },
 
   seek(tick) {
     this.position = Math.min(this.ticks, Math.max(0, Math.round(tick)));
-    if (this.position < this.shown) $('#messages').replaceChildren(); // messages are per frame
+    if (this.position === this.shown) {
+      this.seeking = null;
+      return;
+    }
+    // Frames carry the messages since the previous frame: after a jump the list would
+    // have a gap, so it starts again.
+    $('#messages').replaceChildren();
+    this.seeking = this.position;
     this.fetch(this.position); // first, before the frames ahead
     this.fetchAhead();
     this.showCached();
@@ -1117,7 +1189,8 @@ const replay = {
 
   /** Called from the drawing loop. */
   step(now) {
-    if (this.playing) {
+    // After a seek, the clock waits until the frame sought is on screen.
+    if (this.playing && this.seeking === null) {
       const dt = this.last === null ? 0 : Math.min(0.25, (now - this.last) / 1000);
       // Never run more than a quarter second of frames ahead of what is on screen.
       const lead = Math.max(2, this.tickHz * this.speed * 0.25);
@@ -1129,12 +1202,17 @@ const replay = {
     this.fetchAhead();
   },
 
-  /** Shows the newest cached frame at or before the position (and after the one shown). */
+  /** Shows the frame for the position if it is fetched. While playing forwards, any
+   * fetched frame between the one shown and the position will do; after a seek, only the
+   * frame sought. */
   showCached() {
+    if (this.seeking !== null) {
+      if (this.cache.has(this.seeking)) this.display(this.seeking);
+      return;
+    }
     const want = Math.floor(this.position);
     if (want === this.shown) return;
     let t = want;
-    // Going forwards, any fetched frame between the shown one and the position will do.
     const floor = want > this.shown ? this.shown : want - 1;
     while (t > floor && !this.cache.has(t)) t--;
     if (t > floor && t !== this.shown) this.display(t);
@@ -1142,6 +1220,7 @@ const replay = {
 
   display(tick) {
     this.shown = tick;
+    this.seeking = null;
     showFrame(this.cache.get(tick));
     if (!this.scrubbing) $('#scrub').value = String(tick);
     setText($('#replay-position'), `${tick} / ${this.ticks}`);

@@ -1,0 +1,102 @@
+// The replay viewer: record a match with `bw4t run --replay`, serve it with
+// `bw4t replay view FILE --http 0`, then seek, play and pause on the page.
+
+import assert from 'node:assert/strict';
+import fs from 'node:fs';
+import path from 'node:path';
+import { test } from 'node:test';
+
+import {
+  canvasPicture,
+  number,
+  openBrowser,
+  runBw4t,
+  screenshot,
+  sleep,
+  startBw4t,
+  stop,
+  tempDir,
+  text,
+  waitForNumber,
+} from './helpers.js';
+
+test('the replay viewer seeks, plays and pauses', { timeout: 180_000 }, async (t) => {
+  const dir = tempDir('replay');
+  t.after(() => fs.rmSync(dir, { recursive: true, force: true }));
+  const file = path.join(dir, 'match.jsonl');
+  await runBw4t(['run', '--map', 'fixed', '--seed', '3', '--replay', file]);
+  const server = await startBw4t(['replay', 'view', file, '--http', '0']);
+  t.after(() => stop(server.proc));
+  const info = await (await fetch(new URL('replay.json', server.url))).json();
+  assert.ok(info.ticks > 100, `a replay of ${info.ticks} ticks`);
+
+  const browser = await openBrowser();
+  t.after(() => browser.close());
+  const { page } = browser;
+  try {
+    await page.goto(server.url);
+    await page.waitForSelector('#status[data-status="replay"]');
+    assert.equal(await page.isVisible('#join-form'), false, 'no joining a replay');
+    assert.equal(await page.getAttribute('#scrub', 'max'), String(info.ticks));
+    await waitForNumber(page, '#tick', { equals: 0 });
+    await waitForNumber(page, '#robots', { equals: 3 });
+    const atStart = await canvasPicture(page);
+
+    // Set the slider to a tick: that tick's frame is shown, and the picture changed.
+    const middle = Math.floor(info.ticks / 2);
+    await page.locator('#scrub').fill(String(middle));
+    await waitForNumber(page, '#tick', { equals: middle });
+    const atMiddle = await canvasPicture(page);
+    assert.notEqual(atMiddle, atStart, 'the picture changed');
+    // The page shows the server's frame of that tick.
+    const frame = await (await fetch(new URL(`replay/frame/${middle}`, server.url))).json();
+    assert.equal(await number(page, '#sequence-index'), frame.sequence_index);
+    assert.equal(await number(page, '#robots'), frame.robots.length);
+
+    // Drag the slider with the mouse to about three quarters.
+    const slider = await page.locator('#scrub').boundingBox();
+    const y = slider.y + slider.height / 2;
+    await page.mouse.move(slider.x + slider.width / 2, y);
+    await page.mouse.down();
+    await page.mouse.move(slider.x + slider.width * 0.75, y, { steps: 8 });
+    await page.mouse.up();
+    const dragged = Number(await page.inputValue('#scrub'));
+    assert.ok(dragged > middle + info.ticks * 0.1, `the slider moved to ${dragged}`);
+    await waitForNumber(page, '#tick', { equals: dragged });
+    assert.notEqual(await canvasPicture(page), atMiddle);
+
+    // Back to the middle, then play: the tick advances.
+    await page.locator('#scrub').fill(String(middle));
+    await waitForNumber(page, '#tick', { equals: middle });
+    await page.click('#play');
+    assert.equal(await page.isDisabled('#play'), true);
+    const playing = await waitForNumber(page, '#tick', { above: middle + 5 });
+    // Pause: it stays put.
+    await page.click('#pause');
+    const paused = await number(page, '#tick');
+    assert.ok(paused >= playing);
+    await sleep(600);
+    assert.equal(await number(page, '#tick'), paused, 'paused stays put');
+    assert.equal(await page.inputValue('#scrub'), String(paused), 'the slider follows playback');
+
+    // Faster: at 8x a second of playback covers many more ticks than at 1x.
+    await page.selectOption('#speed', '8');
+    await page.click('#play');
+    const fastFrom = await number(page, '#tick');
+    await sleep(1000);
+    await page.click('#pause');
+    const fastTicks = (await number(page, '#tick')) - fastFrom;
+    assert.ok(fastTicks > 50 || (await number(page, '#tick')) === info.ticks, `8x moved ${fastTicks} ticks in 1 s`);
+
+    // To the end: playback stops there.
+    await page.locator('#scrub').fill(String(info.ticks - 10));
+    await waitForNumber(page, '#tick', { equals: info.ticks - 10 });
+    await page.click('#play');
+    await waitForNumber(page, '#tick', { equals: info.ticks }, 15_000);
+    await page.waitForSelector('#play:not([disabled])');
+    assert.match(await text(page, '#replay-position'), new RegExp(`^${info.ticks} / ${info.ticks}$`));
+    assert.deepEqual(browser.errors, []);
+  } finally {
+    await screenshot(page, 'replay');
+  }
+});
