@@ -4,8 +4,13 @@
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 
-use bw4t_protocol::{ClientMessage, ErrorMessage, LineBuffer, Pong, ServerBye, ServerMessage, encode};
+use std::future::Future;
+
+use bw4t_protocol::{
+    ClientMessage, DecodeError, ErrorMessage, LineBuffer, Pong, ServerBye, ServerMessage, encode,
+};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::net::tcp::OwnedWriteHalf;
 use tokio::net::{TcpListener, TcpStream};
 use tokio::sync::{Notify, mpsc, watch};
 
@@ -95,14 +100,50 @@ pub fn bye_line(reason: &str) -> Arc<str> {
     encode(&ServerMessage::Bye(ServerBye { reason: reason.into() })).into()
 }
 
-async fn handle(stream: TcpStream, conn: ConnId, config: &ServerConfig, events: mpsc::Sender<Event>) {
-    let (mut reader, mut writer) = stream.into_split();
-    let (tx, mut rx) = mpsc::channel::<Outbound>(config.queue);
-    // The writer ends on `Close`, a kill or a dead socket; the reader then stops too.
+/// Where a connection's outgoing lines go: a TCP socket or a WebSocket.
+pub trait LineSink: Send + 'static {
+    /// Sends one encoded line; false when the peer is gone.
+    fn send_line(&mut self, line: Arc<str>) -> impl Future<Output = bool> + Send;
+    /// Ends the connection's sending side.
+    fn close(&mut self) -> impl Future<Output = ()> + Send;
+}
+
+impl LineSink for OwnedWriteHalf {
+    async fn send_line(&mut self, line: Arc<str>) -> bool {
+        self.write_all(line.as_bytes()).await.is_ok()
+    }
+
+    async fn close(&mut self) {
+        let _ = self.shutdown().await;
+    }
+}
+
+/// A connection's outgoing side: its queue, the handles the match task keeps, and the
+/// writer task behind them.
+pub struct Outgoing {
+    conn: ConnId,
+    /// The queue of lines to send.
+    pub tx: mpsc::Sender<Outbound>,
+    kill: Arc<Notify>,
+    /// Becomes true when the writer has finished; the reader stops then.
+    pub done: watch::Receiver<bool>,
+    task: tokio::task::JoinHandle<()>,
+}
+
+impl Outgoing {
+    /// The handles the match task gets in [`Event::Opened`].
+    pub fn opened(&self) -> Opened {
+        Opened { conn: self.conn, tx: self.tx.clone(), kill: self.kill.clone(), done: self.done.clone() }
+    }
+}
+
+/// Starts the writer: queued lines go to `sink` until `Close`, a kill or a dead peer.
+pub fn start_writer(conn: ConnId, queue: usize, mut sink: impl LineSink) -> Outgoing {
+    let (tx, mut rx) = mpsc::channel::<Outbound>(queue);
     let kill = Arc::new(Notify::new());
-    let (done_tx, mut done) = watch::channel(false);
+    let (done_tx, done) = watch::channel(false);
     let writer_kill = kill.clone();
-    let writer_task = tokio::spawn(async move {
+    let task = tokio::spawn(async move {
         loop {
             let out = tokio::select! {
                 out = rx.recv() => out,
@@ -110,18 +151,73 @@ async fn handle(stream: TcpStream, conn: ConnId, config: &ServerConfig, events: 
             };
             match out {
                 Some(Outbound::Line(line)) => {
-                    if writer.write_all(line.as_bytes()).await.is_err() {
+                    if !sink.send_line(line).await {
                         break;
                     }
                 }
                 Some(Outbound::Close) | None => break,
             }
         }
-        let _ = writer.shutdown().await;
+        sink.close().await;
         let _ = done_tx.send(true);
     });
-    let opened = Opened { conn, tx: tx.clone(), kill, done: done.clone() };
-    if events.send(Event::Opened(opened)).await.is_err() {
+    Outgoing { conn, tx, kill, done, task }
+}
+
+/// What became of one incoming line.
+pub enum Forwarded {
+    /// Answered here or passed on.
+    Handled,
+    /// A `hello` was passed on.
+    Hello,
+    /// The match task is gone.
+    Stop,
+}
+
+/// Handles one incoming line: bad input and `ping` are answered here (best effort: a
+/// client that sends garbage and does not read loses only its own replies), everything
+/// else goes to the match task.
+pub async fn forward(
+    conn: ConnId,
+    line: Result<String, DecodeError>,
+    tx: &mpsc::Sender<Outbound>,
+    events: &mpsc::Sender<Event>,
+) -> Forwarded {
+    match line.and_then(|l| bw4t_protocol::decode_client(&l)) {
+        Err(e) => {
+            let _ = tx.try_send(Outbound::Line(error_line(e.code, &e.message, false)));
+            let _ = events.try_send(Event::BadInput { conn });
+            Forwarded::Handled
+        }
+        Ok(ClientMessage::Ping(ping)) => {
+            let _ = tx.try_send(Outbound::Line(encode(&ServerMessage::Pong(Pong { id: ping.id })).into()));
+            Forwarded::Handled
+        }
+        Ok(message) => {
+            let hello = matches!(message, ClientMessage::Hello(_));
+            match events.send(Event::Message { conn, message }).await {
+                Err(_) => Forwarded::Stop,
+                Ok(()) if hello => Forwarded::Hello,
+                Ok(()) => Forwarded::Handled,
+            }
+        }
+    }
+}
+
+/// Tells the match task the connection is gone and lets the writer flush.
+pub async fn finish(conn: ConnId, outgoing: Outgoing, events: &mpsc::Sender<Event>) {
+    let _ = events.send(Event::Closed { conn }).await;
+    let _ = outgoing.tx.try_send(Outbound::Close);
+    drop(outgoing.tx);
+    let _ = outgoing.task.await;
+}
+
+async fn handle(stream: TcpStream, conn: ConnId, config: &ServerConfig, events: mpsc::Sender<Event>) {
+    let (mut reader, writer) = stream.into_split();
+    // The writer ends on `Close`, a kill or a dead socket; the reader then stops too.
+    let outgoing = start_writer(conn, config.queue, writer);
+    let (tx, mut done) = (outgoing.tx.clone(), outgoing.done.clone());
+    if events.send(Event::Opened(outgoing.opened())).await.is_err() {
         return;
     }
     let mut lines = LineBuffer::new();
@@ -143,29 +239,13 @@ async fn handle(stream: TcpStream, conn: ConnId, config: &ServerConfig, events: 
             Ok(n) => n,
         };
         for line in lines.push(&buf[..n]) {
-            let message = line.and_then(|l| bw4t_protocol::decode_client(&l));
-            match message {
-                Err(e) => {
-                    // Replies to bad input are best effort: a client that sends garbage
-                    // and does not read loses only its own error messages.
-                    let _ = tx.try_send(Outbound::Line(error_line(e.code, &e.message, false)));
-                    let _ = events.try_send(Event::BadInput { conn });
-                }
-                Ok(ClientMessage::Ping(ping)) => {
-                    let _ = tx
-                        .try_send(Outbound::Line(encode(&ServerMessage::Pong(Pong { id: ping.id })).into()));
-                }
-                Ok(message) => {
-                    greeted |= matches!(message, ClientMessage::Hello(_));
-                    if events.send(Event::Message { conn, message }).await.is_err() {
-                        break 'read;
-                    }
-                }
+            match forward(conn, line, &tx, &events).await {
+                Forwarded::Handled => {}
+                Forwarded::Hello => greeted = true,
+                Forwarded::Stop => break 'read,
             }
         }
     }
-    let _ = events.send(Event::Closed { conn }).await;
-    let _ = tx.try_send(Outbound::Close);
     drop(tx);
-    let _ = writer_task.await;
+    finish(conn, outgoing, &events).await;
 }

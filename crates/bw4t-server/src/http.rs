@@ -5,14 +5,14 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
 
-use bw4t_protocol::{ClientMessage, Frame, Pong, ServerMessage, decode_client, encode};
+use bw4t_protocol::{DecodeError, Frame};
 use futures_util::{SinkExt, StreamExt};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpStream};
-use tokio::sync::{Notify, mpsc, watch};
+use tokio::sync::mpsc;
 use tokio_tungstenite::tungstenite::Message;
 
-use crate::connection::{ConnId, Event, Opened, Outbound, error_line};
+use crate::connection::{ConnId, Event, Forwarded, LineSink, finish, forward, start_writer};
 
 /// The page, built into the binary.
 const INDEX_HTML: &str = include_str!("../web/index.html");
@@ -122,34 +122,26 @@ async fn respond(mut stream: TcpStream, head_len: usize, method: &str, path: &st
     let _ = stream.shutdown().await;
 }
 
+/// The sending half of a WebSocket, as a line sink: a line is a text frame.
+struct WsSink(futures_util::stream::SplitSink<tokio_tungstenite::WebSocketStream<TcpStream>, Message>);
+
+impl LineSink for WsSink {
+    async fn send_line(&mut self, line: Arc<str>) -> bool {
+        self.0.send(Message::text(line.trim_end().to_string())).await.is_ok()
+    }
+
+    async fn close(&mut self) {
+        let _ = self.0.close().await;
+    }
+}
+
 /// One WebSocket client as one protocol connection: a text frame is a line.
 async fn bridge(stream: TcpStream, events: mpsc::Sender<Event>, conn: ConnId, queue: usize) {
     let Ok(ws) = tokio_tungstenite::accept_async(stream).await else { return };
-    let (mut write, mut read) = ws.split();
-    let (tx, mut rx) = mpsc::channel::<Outbound>(queue);
-    let kill = Arc::new(Notify::new());
-    let (done_tx, mut done) = watch::channel(false);
-    let writer_kill = kill.clone();
-    let writer = tokio::spawn(async move {
-        loop {
-            let out = tokio::select! {
-                out = rx.recv() => out,
-                () = writer_kill.notified() => None,
-            };
-            match out {
-                Some(Outbound::Line(line)) => {
-                    if write.send(Message::text(line.trim_end().to_string())).await.is_err() {
-                        break;
-                    }
-                }
-                Some(Outbound::Close) | None => break,
-            }
-        }
-        let _ = write.close().await;
-        let _ = done_tx.send(true);
-    });
-    let opened = Opened { conn, tx: tx.clone(), kill, done: done.clone() };
-    if events.send(Event::Opened(opened)).await.is_err() {
+    let (write, mut read) = ws.split();
+    let outgoing = start_writer(conn, queue, WsSink(write));
+    let (tx, mut done) = (outgoing.tx.clone(), outgoing.done.clone());
+    if events.send(Event::Opened(outgoing.opened())).await.is_err() {
         return;
     }
     loop {
@@ -157,38 +149,22 @@ async fn bridge(stream: TcpStream, events: mpsc::Sender<Event>, conn: ConnId, qu
             message = read.next() => message,
             _ = done.wait_for(|d| *d) => break,
         };
-        let text = match message {
-            Some(Ok(Message::Text(text))) => text.to_string(),
+        let line = match message {
+            Some(Ok(Message::Text(text))) if text.len() > bw4t_protocol::MAX_LINE => Err(DecodeError {
+                code: "line_too_long",
+                message: format!("message longer than {} bytes", bw4t_protocol::MAX_LINE),
+            }),
+            Some(Ok(Message::Text(text))) => Ok(text.to_string()),
             Some(Ok(Message::Binary(_))) => {
-                let _ = tx.try_send(Outbound::Line(error_line("bad_message", "send text frames", false)));
-                continue;
+                Err(DecodeError { code: "bad_message", message: "send text frames".into() })
             }
-            Some(Ok(Message::Close(_))) | None | Some(Err(_)) => break,
+            Some(Ok(Message::Close(_)) | Err(_)) | None => break,
             Some(Ok(_)) => continue,
         };
-        if text.len() > bw4t_protocol::MAX_LINE {
-            let _ =
-                tx.try_send(Outbound::Line(error_line("line_too_long", "message longer than 64 KiB", false)));
-            continue;
-        }
-        match decode_client(&text) {
-            Err(e) => {
-                let _ = tx.try_send(Outbound::Line(error_line(e.code, &e.message, false)));
-                let _ = events.try_send(Event::BadInput { conn });
-            }
-            Ok(ClientMessage::Ping(ping)) => {
-                let _ =
-                    tx.try_send(Outbound::Line(encode(&ServerMessage::Pong(Pong { id: ping.id })).into()));
-            }
-            Ok(message) => {
-                if events.send(Event::Message { conn, message }).await.is_err() {
-                    break;
-                }
-            }
+        if let Forwarded::Stop = forward(conn, line, &tx, &events).await {
+            break;
         }
     }
-    let _ = events.send(Event::Closed { conn }).await;
-    let _ = tx.try_send(Outbound::Close);
     drop(tx);
-    let _ = writer.await;
+    finish(conn, outgoing, &events).await;
 }
