@@ -24,88 +24,46 @@ from __future__ import annotations
 
 import asyncio
 import time
-from typing import Any, AsyncIterator, Callable, Dict, Generator, List, Optional, Tuple
+from typing import Any, AsyncIterator, Callable, Dict, Generator, List, Optional
 
+from ._base import ActionBase, ClientBase
 from .beliefs import BeliefBase
-from .core import ActionRecord, ProtocolCore, decode, encode, resolve_address
-from .data import Ack, MatchEnd, MatchInfo, Result, Update, Welcome
-from .errors import ActionRejected, Bw4tError, FatalServerError, ServerError, Timeout
+from .core import ActionRecord, deadline_after, decode, encode, resolve_address, time_left
+from .data import Ack, Result, Update, Welcome
+from .errors import Bw4tError, FatalServerError, Timeout
 
 _LINE_LIMIT = 64 * 1024 * 1024
 
 
-class AsyncAction:
+class AsyncAction(ActionBase["AsyncClient"]):
     """A handle on one ``act`` (or ``say``) sent by an :class:`AsyncClient`.
 
     ``await action`` is ``await action.result()`` (the ack only, for actions that are not
     durative).
     """
 
-    def __init__(self, client: "AsyncClient", record: ActionRecord) -> None:
-        self._client = client
-        self._record = record
-
-    @property
-    def id(self) -> Any:
-        """The id sent in the ``act``."""
-        return self._record.id
-
-    @property
-    def action(self) -> str:
-        """The action's name."""
-        return self._record.action
-
-    @property
-    def args(self) -> Tuple[Any, ...]:
-        """The action's arguments."""
-        return self._record.args
-
-    @property
-    def acked(self) -> bool:
-        """Whether the ``ack`` arrived (no waiting)."""
-        return self._record.ack is not None
-
-    @property
-    def done(self) -> bool:
-        """Whether nothing more will arrive for this action (no waiting)."""
-        return self._record.done
-
     async def ack(self, timeout: Optional[float] = None) -> Ack:
         """Wait for the ``ack`` and return it. See :meth:`bw4t.client.Action.ack`."""
         record = self._record
-        if record.ack is None and record.lost is None:
+        if not record.acked:
             await self._client._wait(lambda: record.acked, timeout, blocking=True)
-        if record.ack is None:
-            assert record.lost is not None
-            raise record.lost
-        return record.ack
+        return record.answered_ack()
 
     async def result(self, timeout: Optional[float] = None) -> Optional[Result]:
         """Wait until a durative order ended; see :meth:`bw4t.client.Action.result`."""
-        start = time.monotonic()
-        ack = await self.ack(timeout)
-        if not ack.ok:
-            raise ActionRejected(self._record.action, ack)
+        deadline = deadline_after(timeout)
         record = self._record
-        if not record.durative:
+        if not record.expects_result(await self.ack(timeout)):
             return None
         if not record.done:
-            remaining = None if timeout is None else max(0.0, timeout - (time.monotonic() - start))
-            await self._client._wait(lambda: record.done, remaining, blocking=True)
-        if record.result is None or not record.settled:
-            assert record.lost is not None
-            raise record.lost
-        return record.result
+            await self._client._wait(lambda: record.done, time_left(deadline), blocking=True)
+        return record.settled_result()
 
     def __await__(self) -> Generator[Any, None, Optional[Result]]:
         return self.result().__await__()
 
-    def __repr__(self) -> str:
-        r = self._record
-        return f"<AsyncAction {r.id} {r.action}{list(r.args)} ack={r.ack} result={r.result}>"
 
-
-class AsyncClient:
+class AsyncClient(ClientBase[AsyncAction]):
     """A player connected to a bw4t server, with an asyncio API.
 
     Create it with ``await AsyncClient.connect(...)`` (same arguments as
@@ -120,12 +78,7 @@ class AsyncClient:
         token: Optional[str],
         every_tick: bool,
     ) -> None:
-        self.host = host
-        self.port = port
-        self._name = name
-        self._token = token
-        self._every_tick = every_tick
-        self._core = ProtocolCore()
+        super().__init__(host, port, name, token, every_tick)
         self._reader: Optional[asyncio.StreamReader] = None
         self._writer: Optional[asyncio.StreamWriter] = None
         self._task: Optional["asyncio.Task[None]"] = None
@@ -155,140 +108,45 @@ class AsyncClient:
         return client
 
     async def _handshake(self, session: Optional[str], timeout: Optional[float]) -> None:
-        start = time.monotonic()
+        deadline = deadline_after(timeout)
         opening = asyncio.open_connection(self.host, self.port, limit=_LINE_LIMIT)
         reader, self._writer = await asyncio.wait_for(opening, timeout)
         self._reader = reader
         self._open = True
         self._failure = None
-        core = self._core
-        core.welcome = None
-        core.fatal = None
-        first = len(core.queue)
         self._task = asyncio.ensure_future(self._read_loop(reader))
-        self._send(core.hello(self._name, self._token, session, self._every_tick))
-        remaining = None if timeout is None else max(0.0, timeout - (time.monotonic() - start))
+        joined = self._send_hello(session)  # before the read task first runs
         try:
-            await self._wait(lambda: core.welcome is not None and len(core.queue) > first, remaining, False)
+            await self._wait(joined, time_left(deadline), False)
         except BaseException:
             await self._close_transport()
             raise
 
     async def reconnect(self, timeout: Optional[float] = 30.0) -> Welcome:
         """Take the robot back after a drop; see :meth:`bw4t.Client.reconnect`."""
-        session = self.session
-        if session is None:
-            raise Bw4tError("no session to reconnect with")
+        session = self._session_to_resume()
         await self._close_transport()
-        self._core.connection_lost("the connection was replaced before the action's answer")
-        self._core.bye_reason = None
+        self._core.connection_replaced()
         await self._handshake(session, timeout)
-        assert self._core.welcome is not None
-        return self._core.welcome
+        return self.welcome
 
     async def close(self, bye: bool = True, timeout: float = 5.0) -> None:
         """Leave (``bye``) and close; ``bye=False`` keeps the robot for the grace period."""
-        if self._open and bye and not self._core.finished:
+        core = self._core
+        if self._is_open and bye and not core.finished:
             try:
-                self._send({"type": "bye"})
-                await self._wait(lambda: self._core.bye_reason is not None, timeout, False)
+                self._send(core.bye())
+                await self._wait(lambda: core.bye_reason is not None, timeout, False)
             except Bw4tError:
                 pass
         await self._close_transport()
-        self._core.connection_lost("the client closed the connection")
+        core.client_closed()
 
     async def __aenter__(self) -> "AsyncClient":
         return self
 
     async def __aexit__(self, *exc: Any) -> None:
         await self.close()
-
-    # ------------------------------------------------------------------ info
-
-    @property
-    def welcome(self) -> Welcome:
-        """The ``welcome`` of the current connection."""
-        assert self._core.welcome is not None
-        return self._core.welcome
-
-    @property
-    def name(self) -> Optional[str]:
-        """This player's name."""
-        return self.welcome.name
-
-    @property
-    def robot(self) -> Optional[int]:
-        """This robot's id."""
-        return self.welcome.robot
-
-    @property
-    def session(self) -> Optional[str]:
-        """The session token to take the robot back after a drop."""
-        return None if self._core.welcome is None else self._core.welcome.session
-
-    @property
-    def match(self) -> MatchInfo:
-        """About the match (map, seed, mode, ...)."""
-        return self.welcome.match
-
-    @property
-    def beliefs(self) -> BeliefBase:
-        """The belief base (latest state received)."""
-        return self._core.beliefs
-
-    @property
-    def errors(self) -> List[ServerError]:
-        """Non-fatal ``error`` messages received so far."""
-        return self._core.errors
-
-    @property
-    def match_end(self) -> Optional[MatchEnd]:
-        """The ``match_end`` once the match is over, else ``None``."""
-        return self._core.match_end
-
-    @property
-    def result(self) -> Optional[Dict[str, Any]]:
-        """The match result object once the match is over, else ``None``."""
-        return None if self._core.match_end is None else self._core.match_end.result
-
-    @property
-    def finished(self) -> bool:
-        """Whether the match is over."""
-        return self._core.finished
-
-    # --------------------------------------------------------------- actions
-
-    def act(self, action: str, *args: Any) -> AsyncAction:
-        """Send ``act`` now and return its handle (await it, or its ``ack()``/``result()``)."""
-        msg, record = self._core.act(action, args)
-        self._send(msg)
-        return AsyncAction(self, record)
-
-    def go_to(self, place: str) -> AsyncAction:
-        """``goTo(place)`` (durative)."""
-        return self.act("goTo", place)
-
-    def go_to_block(self, block: int) -> AsyncAction:
-        """``goToBlock(block)`` (durative)."""
-        return self.act("goToBlock", block)
-
-    def pick_up(self, block: Optional[int] = None) -> AsyncAction:
-        """``pickUp`` the block the robot is at, or the named one."""
-        return self.act("pickUp") if block is None else self.act("pickUp", block)
-
-    def put_down(self) -> AsyncAction:
-        """``putDown`` the held block."""
-        return self.act("putDown")
-
-    def say(self, to: str, text: str) -> AsyncAction:
-        """Send a message to a player's name or ``"all"`` (a ``say``)."""
-        msg, record = self._core.say(to, text)
-        self._send(msg)
-        return AsyncAction(self, record)
-
-    def send_message(self, to: str, text: str) -> AsyncAction:
-        """``act`` ``sendMessage(to, text)``."""
-        return self.act("sendMessage", to, text)
 
     # --------------------------------------------------------------- updates
 
@@ -299,10 +157,7 @@ class AsyncClient:
         if not core.queue:
             self._flush_ready()
             await self._wait(lambda: bool(core.queue), timeout, False, stop_at_end=True)
-        if core.queue:
-            core.forget_done()
-            return core.queue.popleft()
-        return None
+        return core.pop_update()
 
     async def updates(self, timeout: Optional[float] = None) -> AsyncIterator[Update]:
         """``async for update in client.updates(): ...`` until the match ends."""
@@ -315,15 +170,9 @@ class AsyncClient:
     async def resync(self, timeout: Optional[float] = None) -> BeliefBase:
         """Ask for a full snapshot and rebuild the belief base; see :meth:`bw4t.Client.resync`."""
         core = self._core
-        core.awaiting_snapshot = True
-        self._send({"type": "resync"})
+        self._send(core.resync())
         await self._wait(lambda: not core.awaiting_snapshot, timeout, False)
         return core.beliefs
-
-    @property
-    def last_snapshot(self) -> Optional[Update]:
-        """The full snapshot that answered the last :meth:`resync`."""
-        return self._core.last_snapshot
 
     async def ping(self, timeout: Optional[float] = 10.0) -> float:
         """Send ``ping`` and wait for the ``pong``; returns the round trip in seconds."""
@@ -335,15 +184,18 @@ class AsyncClient:
 
     # --------------------------------------------------------------- plumbing
 
-    def _send(self, msg: Dict[str, Any]) -> None:
-        if not self._open or self._writer is None:
-            raise self._failure if isinstance(self._failure, Bw4tError) else self._core.closed_error()
-        self._writer.write(encode(msg))
+    def _action_handle(self, record: ActionRecord) -> AsyncAction:
+        return AsyncAction(self, record)
 
-    def _flush_ready(self) -> None:
-        msg = self._core.take_ready()
-        if msg is not None and self._open and self._writer is not None:
-            self._writer.write(encode(msg))
+    @property
+    def _is_open(self) -> bool:
+        return self._open and self._writer is not None
+
+    def _send(self, msg: Dict[str, Any]) -> None:
+        if not self._is_open:
+            raise self._failure if isinstance(self._failure, Bw4tError) else self._core.closed_error()
+        assert self._writer is not None
+        self._writer.write(encode(msg))
 
     async def _close_transport(self) -> None:
         self._open = False
@@ -426,12 +278,4 @@ class AsyncClient:
         finally:
             if blocking:
                 self._waiters.remove(done)
-        if done():
-            return
-        if core.fatal is not None:
-            raise core.fatal
-        if self._failure is not None:
-            raise self._failure
-        if stop_at_end and (core.finished or core.bye_reason == "goodbye"):
-            return
-        raise core.closed_error()
+        core.end_wait(done, stop_at_end, self._failure)

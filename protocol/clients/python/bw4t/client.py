@@ -15,26 +15,16 @@ from __future__ import annotations
 
 import socket
 import time
-from typing import Any, Callable, Dict, Iterator, List, Optional, Tuple
+from typing import Any, Callable, Dict, Iterator, Optional
 
+from ._base import ActionBase, ClientBase
 from .beliefs import BeliefBase
-from .core import ActionRecord, ProtocolCore, decode, encode, resolve_address
-from .data import Ack, MatchEnd, MatchInfo, Result, Update, Welcome
-from .errors import (
-    ActionRejected,
-    Bw4tError,
-    ConnectionClosed,
-    FatalServerError,
-    ServerError,
-    Timeout,
-)
+from .core import ActionRecord, deadline_after, decode, encode, resolve_address, time_left
+from .data import Ack, Result, Update, Welcome
+from .errors import Bw4tError, ConnectionClosed, FatalServerError, Timeout
 
 
-def _deadline(timeout: Optional[float]) -> Optional[float]:
-    return None if timeout is None else time.monotonic() + timeout
-
-
-class Action:
+class Action(ActionBase["Client"]):
     """A handle on one ``act`` (or ``say``) sent by a :class:`Client`.
 
     ``ack()`` waits for the server's ``ack``; ``result()`` waits for the ``result`` of a
@@ -43,35 +33,6 @@ class Action:
     ticks that arrive while it waits (they are still delivered by ``updates()``).
     """
 
-    def __init__(self, client: "Client", record: ActionRecord) -> None:
-        self._client = client
-        self._record = record
-
-    @property
-    def id(self) -> Any:
-        """The id sent in the ``act``."""
-        return self._record.id
-
-    @property
-    def action(self) -> str:
-        """The action's name (``goTo``, ``pickUp``, ``sendMessage``, ...)."""
-        return self._record.action
-
-    @property
-    def args(self) -> Tuple[Any, ...]:
-        """The action's arguments."""
-        return self._record.args
-
-    @property
-    def acked(self) -> bool:
-        """Whether the ``ack`` arrived (no waiting)."""
-        return self._record.ack is not None
-
-    @property
-    def done(self) -> bool:
-        """Whether nothing more will arrive for this action (no waiting)."""
-        return self._record.done
-
     def ack(self, timeout: Optional[float] = None) -> Ack:
         """Wait for the ``ack`` and return it (``ok``, ``code``, ``reason``, ``tick``).
 
@@ -79,12 +40,9 @@ class Action:
         :class:`~bw4t.errors.Timeout` if ``timeout`` seconds pass first.
         """
         record = self._record
-        if record.ack is None and record.lost is None:
+        if not record.acked:
             self._client._wait(lambda: record.acked, timeout, blocking=True)
-        if record.ack is None:
-            assert record.lost is not None
-            raise record.lost
-        return record.ack
+        return record.answered_ack()
 
     def result(self, timeout: Optional[float] = None) -> Optional[Result]:
         """Wait until a durative order ended; return its ``result``.
@@ -94,31 +52,20 @@ class Action:
         still act at it. Returns ``None`` at once (after the ack) for actions that are not
         durative. Raises :class:`~bw4t.errors.ActionRejected` if the ack refused it.
         """
-        deadline = _deadline(timeout)
-        ack = self.ack(timeout)
-        if not ack.ok:
-            raise ActionRejected(self._record.action, ack)
+        deadline = deadline_after(timeout)
         record = self._record
-        if not record.durative:
+        if not record.expects_result(self.ack(timeout)):
             return None
         if not record.done:
-            remaining = None if deadline is None else max(0.0, deadline - time.monotonic())
-            self._client._wait(lambda: record.done, remaining, blocking=True)
-        if record.result is None or not record.settled:
-            assert record.lost is not None
-            raise record.lost
-        return record.result
+            self._client._wait(lambda: record.done, time_left(deadline), blocking=True)
+        return record.settled_result()
 
     def wait(self, timeout: Optional[float] = None) -> Optional[Result]:
         """``result()`` for durative actions; for others, the ack (raising if refused)."""
         return self.result(timeout)
 
-    def __repr__(self) -> str:
-        r = self._record
-        return f"<Action {r.id} {r.action}{list(r.args)} ack={r.ack} result={r.result}>"
 
-
-class Client:
+class Client(ClientBase[Action]):
     """A player connected to a bw4t server, with a blocking API.
 
     Create it with :meth:`connect`. Attributes: ``welcome``, ``beliefs``, ``errors``
@@ -134,13 +81,8 @@ class Client:
         every_tick: bool,
         timeout: Optional[float],
     ) -> None:
-        self.host = host
-        self.port = port
-        self._name = name
-        self._token = token
-        self._every_tick = every_tick
+        super().__init__(host, port, name, token, every_tick)
         self._timeout = timeout
-        self._core = ProtocolCore()
         self._sock: Optional[socket.socket] = None
         self._buffer = b""
 
@@ -173,21 +115,13 @@ class Client:
         return client
 
     def _handshake(self, session: Optional[str], timeout: Optional[float]) -> None:
-        deadline = _deadline(timeout)
+        deadline = deadline_after(timeout)
         self._buffer = b""
         self._sock = socket.create_connection((self.host, self.port), timeout=timeout)
         self._sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-        self._core.welcome = None
-        self._core.fatal = None
-        self._send(self._core.hello(self._name, self._token, session, self._every_tick))
-        core = self._core
-        first = len(core.queue)
-
-        def joined() -> bool:
-            return core.welcome is not None and len(core.queue) > first
-
+        joined = self._send_hello(session)
         try:
-            self._wait(joined, None if deadline is None else deadline - time.monotonic(), False)
+            self._wait(joined, time_left(deadline), False)
         except BaseException:
             self._close_socket()
             raise
@@ -201,15 +135,11 @@ class Client:
         (:class:`~bw4t.errors.ActionLost`). Raises :class:`~bw4t.errors.FatalServerError`
         with ``bad_session`` when the grace period has passed.
         """
-        session = self.session
-        if session is None:
-            raise Bw4tError("no session to reconnect with")
+        session = self._session_to_resume()
         self._close_socket()
-        self._core.connection_lost("the connection was replaced before the action's answer")
-        self._core.bye_reason = None
+        self._core.connection_replaced()
         self._handshake(session, timeout)
-        assert self._core.welcome is not None
-        return self._core.welcome
+        return self.welcome
 
     def close(self, bye: bool = True, timeout: float = 5.0) -> None:
         """Leave: send ``bye`` (the robot leaves the match) and close the connection.
@@ -217,111 +147,21 @@ class Client:
         ``bye=False`` only closes the socket: the server keeps the robot for its grace
         period, to be taken back with :meth:`reconnect` or ``connect(session=...)``.
         """
-        if self._sock is not None and bye and not self._core.finished:
+        core = self._core
+        if self._is_open and bye and not core.finished:
             try:
-                self._send({"type": "bye"})
-                self._wait(lambda: self._core.bye_reason is not None, timeout, False)
+                self._send(core.bye())
+                self._wait(lambda: core.bye_reason is not None, timeout, False)
             except Bw4tError:
                 pass
         self._close_socket()
-        self._core.connection_lost("the client closed the connection")
+        core.client_closed()
 
     def __enter__(self) -> "Client":
         return self
 
     def __exit__(self, *exc: Any) -> None:
         self.close()
-
-    # ------------------------------------------------------------------ info
-
-    @property
-    def welcome(self) -> Welcome:
-        """The ``welcome`` of the current connection."""
-        assert self._core.welcome is not None
-        return self._core.welcome
-
-    @property
-    def name(self) -> Optional[str]:
-        """This player's name."""
-        return self.welcome.name
-
-    @property
-    def robot(self) -> Optional[int]:
-        """This robot's id."""
-        return self.welcome.robot
-
-    @property
-    def session(self) -> Optional[str]:
-        """The session token to take the robot back after a drop."""
-        return None if self._core.welcome is None else self._core.welcome.session
-
-    @property
-    def match(self) -> MatchInfo:
-        """About the match: map, seed, mode, tick_hz, deadline_ms, players_needed, ..."""
-        return self.welcome.match
-
-    @property
-    def beliefs(self) -> BeliefBase:
-        """The belief base, updated as ``percepts`` arrive (latest state received)."""
-        return self._core.beliefs
-
-    @property
-    def errors(self) -> List[ServerError]:
-        """Non-fatal ``error`` messages received so far."""
-        return self._core.errors
-
-    @property
-    def match_end(self) -> Optional[MatchEnd]:
-        """The ``match_end`` (reason and result) once the match is over, else ``None``."""
-        return self._core.match_end
-
-    @property
-    def result(self) -> Optional[Dict[str, Any]]:
-        """The match result object once the match is over, else ``None``."""
-        return None if self._core.match_end is None else self._core.match_end.result
-
-    @property
-    def finished(self) -> bool:
-        """Whether the match is over."""
-        return self._core.finished
-
-    # --------------------------------------------------------------- actions
-
-    def act(self, action: str, *args: Any) -> Action:
-        """Send ``act`` and return its :class:`Action` handle (no waiting).
-
-        ``client.act("goTo", "RoomA1")``. In lockstep, acts sent before the tick's
-        ``ready`` are applied at that tick's boundary.
-        """
-        msg, record = self._core.act(action, args)
-        self._send(msg)
-        return Action(self, record)
-
-    def go_to(self, place: str) -> Action:
-        """``goTo(place)``: travel to a place (durative)."""
-        return self.act("goTo", place)
-
-    def go_to_block(self, block: int) -> Action:
-        """``goToBlock(block)``: travel to a block in the robot's room (durative)."""
-        return self.act("goToBlock", block)
-
-    def pick_up(self, block: Optional[int] = None) -> Action:
-        """``pickUp`` the block the robot is at, or the named block within reach."""
-        return self.act("pickUp") if block is None else self.act("pickUp", block)
-
-    def put_down(self) -> Action:
-        """``putDown`` the held block (delivered in the ``DropZone``)."""
-        return self.act("putDown")
-
-    def say(self, to: str, text: str) -> Action:
-        """Send a message to a player's name or ``"all"`` (a ``say``); acked as an action."""
-        msg, record = self._core.say(to, text)
-        self._send(msg)
-        return Action(self, record)
-
-    def send_message(self, to: str, text: str) -> Action:
-        """``act`` ``sendMessage(to, text)``: the same as :meth:`say`."""
-        return self.act("sendMessage", to, text)
 
     # --------------------------------------------------------------- updates
 
@@ -336,10 +176,7 @@ class Client:
         if not core.queue:
             self._flush_ready()
             self._wait(lambda: bool(core.queue), timeout, False, stop_at_end=True)
-        if core.queue:
-            core.forget_done()
-            return core.queue.popleft()
-        return None
+        return core.pop_update()
 
     def updates(self, timeout: Optional[float] = None) -> Iterator[Update]:
         """Iterate over updates, one per tick the server sent something for, until the
@@ -358,15 +195,9 @@ class Client:
         update. Returns the belief base.
         """
         core = self._core
-        core.awaiting_snapshot = True
-        self._send({"type": "resync"})
+        self._send(core.resync())
         self._wait(lambda: not core.awaiting_snapshot, timeout, False)
         return core.beliefs
-
-    @property
-    def last_snapshot(self) -> Optional[Update]:
-        """The full snapshot that answered the last :meth:`resync`."""
-        return self._core.last_snapshot
 
     def ping(self, timeout: Optional[float] = 10.0) -> float:
         """Send ``ping`` and wait for the ``pong``; returns the round trip in seconds."""
@@ -378,6 +209,13 @@ class Client:
 
     # --------------------------------------------------------------- plumbing
 
+    def _action_handle(self, record: ActionRecord) -> Action:
+        return Action(self, record)
+
+    @property
+    def _is_open(self) -> bool:
+        return self._sock is not None
+
     def _send(self, msg: Dict[str, Any]) -> None:
         if self._sock is None:
             raise self._core.closed_error()
@@ -387,14 +225,6 @@ class Client:
             self._close_socket()
             self._core.connection_lost()
             raise ConnectionClosed(f"sending failed: {exc}") from exc
-
-    def _flush_ready(self) -> None:
-        msg = self._core.take_ready()
-        if msg is not None and self._sock is not None:
-            try:
-                self._send(msg)
-            except ConnectionClosed:
-                pass  # noticed by the next read
 
     def _close_socket(self) -> None:
         if self._sock is not None:
@@ -451,7 +281,7 @@ class Client:
         closed the connection normally; otherwise that raises.
         """
         core = self._core
-        deadline = _deadline(timeout)
+        deadline = deadline_after(timeout)
         if blocking:
             self._flush_ready()
         while not done():
@@ -462,11 +292,8 @@ class Client:
             msg = self._read_message(deadline)
             if msg is None:  # the connection closed
                 core.connection_lost()
-                if stop_at_end and (core.finished or core.bye_reason == "goodbye"):
-                    return
-                if done():
-                    return
-                raise core.closed_error()
+                core.end_wait(done, stop_at_end)
+                return
             try:
                 update = core.handle(msg)
             except FatalServerError:

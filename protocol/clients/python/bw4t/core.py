@@ -10,14 +10,16 @@ from __future__ import annotations
 
 import json
 import os
+import time
 from collections import deque
 from dataclasses import dataclass
-from typing import Any, Deque, Dict, List, Optional, Tuple
+from typing import Any, Callable, Deque, Dict, List, Optional, Tuple
 
 from .beliefs import BeliefBase
 from .data import Ack, ActId, MatchEnd, Message, Result, Update, Welcome
 from .errors import (
     ActionLost,
+    ActionRejected,
     Bw4tError,
     ConnectionClosed,
     FatalServerError,
@@ -47,6 +49,16 @@ def resolve_address(
     name = name or os.environ.get("BW4T_NAME") or None
     token = token or os.environ.get("BW4T_TOKEN") or None
     return host, int(port), name, token
+
+
+def deadline_after(timeout: Optional[float]) -> Optional[float]:
+    """The :func:`time.monotonic` instant ``timeout`` seconds from now (``None``: never)."""
+    return None if timeout is None else time.monotonic() + timeout
+
+
+def time_left(deadline: Optional[float]) -> Optional[float]:
+    """Seconds until ``deadline`` (at least 0), ``None`` without one."""
+    return None if deadline is None else max(0.0, deadline - time.monotonic())
 
 
 def encode(msg: Dict[str, Any]) -> bytes:
@@ -102,6 +114,32 @@ class ActionRecord:
         if not self.ack.ok or not self.durative:
             return True
         return self.settled
+
+    # The answers for the action handles, once the client waited for them.
+
+    def answered_ack(self) -> Ack:
+        """The ``ack``; raises the :class:`~bw4t.errors.ActionLost` if it never came."""
+        if self.ack is None:
+            assert self.lost is not None
+            raise self.lost
+        return self.ack
+
+    def expects_result(self, ack: Ack) -> bool:
+        """After ``ack``: whether a ``result`` is to be waited for (durative actions).
+
+        Raises :class:`~bw4t.errors.ActionRejected` if the ack refused the action.
+        """
+        if not ack.ok:
+            raise ActionRejected(self.action, ack)
+        return self.durative
+
+    def settled_result(self) -> Result:
+        """The ``result`` of a finished durative order (its tick's ``percepts`` applied);
+        raises the :class:`~bw4t.errors.ActionLost` if it never came."""
+        if self.result is None or not self.settled:
+            assert self.lost is not None
+            raise self.lost
+        return self.result
 
 
 class ProtocolCore:
@@ -166,6 +204,24 @@ class ProtocolCore:
             msg["every_tick"] = True
         return msg
 
+    def begin_handshake(
+        self,
+        name: Optional[str] = None,
+        token: Optional[str] = None,
+        session: Optional[str] = None,
+        every_tick: bool = False,
+    ) -> Tuple[Dict[str, Any], Callable[[], bool]]:
+        """Start over on a new connection: the ``hello`` to send, and the condition the
+        handshake waits for (``welcome`` and the first full snapshot received)."""
+        self.welcome = None
+        self.fatal = None
+        first = len(self.queue)
+
+        def joined() -> bool:
+            return self.welcome is not None and len(self.queue) > first
+
+        return self.hello(name, token, session, every_tick), joined
+
     def _new_id(self) -> int:
         action_id = self._next_id
         self._next_id += 1
@@ -188,6 +244,15 @@ class ProtocolCore:
         """A ``ping`` message with a fresh id, and that id."""
         ping_id = f"ping-{self._new_id()}"
         return {"type": "ping", "id": ping_id}, ping_id
+
+    def resync(self) -> Dict[str, Any]:
+        """The ``resync`` message; :attr:`awaiting_snapshot` is true until its answer."""
+        self.awaiting_snapshot = True
+        return {"type": "resync"}
+
+    def bye(self) -> Dict[str, Any]:
+        """The ``bye`` message (the robot leaves the match)."""
+        return {"type": "bye"}
 
     def take_ready(self) -> Optional[Dict[str, Any]]:
         """The ``ready`` still owed to the server, if any (then it counts as sent).
@@ -303,6 +368,15 @@ class ProtocolCore:
         self.awaiting_snapshot = False
         self._lose_all(ActionLost(reason or "the connection closed before the action's answer"))
 
+    def connection_replaced(self) -> None:
+        """The client drops its connection to connect again (``reconnect``)."""
+        self.connection_lost("the connection was replaced before the action's answer")
+        self.bye_reason = None
+
+    def client_closed(self) -> None:
+        """The client closed the connection (``close``)."""
+        self.connection_lost("the client closed the connection")
+
     def closed_error(self) -> Bw4tError:
         """The exception describing why the connection is gone."""
         if self.fatal is not None:
@@ -311,7 +385,34 @@ class ProtocolCore:
             return ConnectionClosed(f"the server said bye ({self.bye_reason})", self.bye_reason)
         return ConnectionClosed("the connection to the server dropped")
 
+    def end_wait(
+        self,
+        done: Callable[[], bool],
+        stop_at_end: bool,
+        failure: Optional[BaseException] = None,
+    ) -> None:
+        """A client's wait for ``done()`` stopped: return if ``done()`` holds, raise the
+        fatal error or the transport's ``failure`` if any, return quietly with
+        ``stop_at_end`` when the match is over or the server said ``goodbye``, and raise
+        :meth:`closed_error` otherwise (the connection is gone)."""
+        if done():
+            return
+        if self.fatal is not None:
+            raise self.fatal
+        if failure is not None:
+            raise failure
+        if stop_at_end and (self.finished or self.bye_reason == "goodbye"):
+            return
+        raise self.closed_error()
+
     def forget_done(self) -> None:
         """Drop finished action records (called now and then to bound memory)."""
         if len(self._actions) > 256:
             self._actions = {k: r for k, r in self._actions.items() if not r.done}
+
+    def pop_update(self) -> Optional[Update]:
+        """Hand out the oldest queued update (``None`` if there is none)."""
+        if not self.queue:
+            return None
+        self.forget_done()
+        return self.queue.popleft()
