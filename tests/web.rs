@@ -6,14 +6,20 @@ use tokio_tungstenite::tungstenite::Message;
 
 use crate::util::{TestServer, WAIT, lockstep};
 
-/// A plain HTTP GET: (status line, body).
-async fn get(addr: std::net::SocketAddr, path: &str) -> (String, String) {
+/// A plain HTTP GET: (status line, body), or `None` when the server closed the connection
+/// without answering.
+async fn try_get(addr: std::net::SocketAddr, path: &str) -> Option<(String, String)> {
     let mut stream = tokio::net::TcpStream::connect(addr).await.expect("connect");
-    stream.write_all(format!("GET {path} HTTP/1.1\r\nHost: test\r\n\r\n").as_bytes()).await.expect("request");
+    let _ = stream.write_all(format!("GET {path} HTTP/1.1\r\nHost: test\r\n\r\n").as_bytes()).await;
     let mut response = String::new();
-    tokio::time::timeout(WAIT, stream.read_to_string(&mut response)).await.expect("in time").expect("read");
-    let (head, body) = response.split_once("\r\n\r\n").expect("head and body");
-    (head.lines().next().unwrap_or("").to_string(), body.to_string())
+    let _ = tokio::time::timeout(WAIT, stream.read_to_string(&mut response)).await.expect("in time");
+    let (head, body) = response.split_once("\r\n\r\n")?;
+    Some((head.lines().next().unwrap_or("").to_string(), body.to_string()))
+}
+
+/// A plain HTTP GET that must be answered.
+async fn get(addr: std::net::SocketAddr, path: &str) -> (String, String) {
+    try_get(addr, path).await.expect("an answer")
 }
 
 type Ws = tokio_tungstenite::WebSocketStream<tokio::net::TcpStream>;
@@ -175,11 +181,34 @@ async fn the_replay_viewer_serves_every_ticks_frame() {
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.expect("bind");
     let addr = listener.local_addr().expect("addr");
     let ids = std::sync::Arc::new(std::sync::atomic::AtomicU64::new(1));
-    let task = tokio::spawn(bw4t_server::serve_site(listener, std::sync::Arc::new(site), None, ids, 8));
+    let task = tokio::spawn(bw4t_server::serve_site(listener, std::sync::Arc::new(site), None, ids, 8, 16));
     let (_, frame) = get(addr, "/replay/frame/100").await;
     let frame: Value = serde_json::from_str(&frame).expect("json");
     assert_eq!(frame["tick"], 100);
     assert!(get(addr, "/replay/frame/99999").await.0.contains("404"));
     assert!(get(addr, "/replay.json").await.1.contains("\"ticks\""));
     task.abort();
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_web_port_has_a_connection_limit() {
+    let mut config = lockstep("fixed", 4, 1);
+    config.max_connections = 2;
+    let http = tokio::net::TcpListener::bind("127.0.0.1:0").await.expect("bind");
+    let addr = http.local_addr().expect("addr");
+    let server =
+        TestServer::start_with(config, bw4t_server::Extras { http: Some(http), ..Default::default() }).await;
+    // Two connections that never finish their request hold both places.
+    let _a = tokio::net::TcpStream::connect(addr).await.expect("connect");
+    let _b = tokio::net::TcpStream::connect(addr).await.expect("connect");
+    // Once the server has taken both, a third request is closed unanswered.
+    let refused = async { while try_get(addr, "/info.json").await.is_some() {} };
+    tokio::time::timeout(WAIT, refused).await.expect("a refusal in time");
+    drop((_a, _b));
+    // With the places free again, requests are served.
+    let served = async {
+        while !try_get(addr, "/info.json").await.is_some_and(|(status, _)| status.contains("200")) {}
+    };
+    tokio::time::timeout(WAIT, served).await.expect("served again");
+    server.stop().await;
 }

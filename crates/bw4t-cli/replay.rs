@@ -125,7 +125,7 @@ fn view(file: &std::path::Path, bind: std::net::IpAddr, port: u16) -> Result<()>
         );
         let ids = std::sync::Arc::new(std::sync::atomic::AtomicU64::new(1));
         let served =
-            tokio::spawn(bw4t_server::serve_site(listener, std::sync::Arc::new(site), None, ids, 64));
+            tokio::spawn(bw4t_server::serve_site(listener, std::sync::Arc::new(site), None, ids, 64, 256));
         crate::serve::stop_signal().await;
         served.abort();
         anyhow::Ok(())

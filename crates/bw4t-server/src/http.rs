@@ -32,22 +32,34 @@ pub struct Site {
     pub replay: Option<(String, Vec<Frame>)>,
 }
 
-/// Serves the page on `listener` until aborted. With `events`, `/ws` joins the live match.
+/// Serves the page on `listener` until aborted, at most `max_connections` at once. With
+/// `events`, `/ws` joins the live match.
 pub async fn serve_site(
     listener: TcpListener,
     site: Arc<Site>,
     events: Option<mpsc::Sender<Event>>,
     ids: Arc<AtomicU64>,
     queue: usize,
+    max_connections: usize,
 ) {
+    let open = Arc::new(std::sync::atomic::AtomicUsize::new(0));
     loop {
         let Ok((stream, _)) = listener.accept().await else {
             tokio::time::sleep(Duration::from_millis(10)).await;
             continue;
         };
+        // Beyond the limit a connection is simply closed: page loads retry, sockets reconnect.
+        if open.load(Ordering::SeqCst) >= max_connections {
+            drop(stream);
+            continue;
+        }
         let _ = stream.set_nodelay(true);
-        let (site, events, ids) = (site.clone(), events.clone(), ids.clone());
-        tokio::spawn(handle(stream, site, events, ids, queue));
+        open.fetch_add(1, Ordering::SeqCst);
+        let (site, events, ids, open) = (site.clone(), events.clone(), ids.clone(), open.clone());
+        tokio::spawn(async move {
+            handle(stream, site, events, ids, queue).await;
+            open.fetch_sub(1, Ordering::SeqCst);
+        });
     }
 }
 

@@ -168,7 +168,14 @@ pub async fn serve_with(
                 .to_string(),
             replay: None,
         });
-        tokio::spawn(http::serve_site(listener, site, Some(events_tx.clone()), ids.clone(), config.queue))
+        tokio::spawn(http::serve_site(
+            listener,
+            site,
+            Some(events_tx.clone()),
+            ids.clone(),
+            config.queue,
+            config.max_connections,
+        ))
     });
     let acceptor = tokio::spawn(connection::accept_loop(listener, config, events_tx, ids));
     let result = host.run(shutdown).await;
