@@ -131,3 +131,11 @@ fn view(file: &std::path::Path, bind: std::net::IpAddr, port: u16) -> Result<()>
         anyhow::Ok(())
     })
 }
+
+/// A buffered file for a replay, or none without a path.
+pub fn writer(path: Option<&std::path::Path>) -> Result<Option<Box<dyn std::io::Write + Send>>> {
+    let Some(path) = path else { return Ok(None) };
+    let file = std::fs::File::create(path)
+        .with_context(|| format!("cannot create replay file {}", path.display()))?;
+    Ok(Some(Box::new(std::io::BufWriter::new(file))))
+}

@@ -1,13 +1,12 @@
 //! `bw4t run`: one whole match as fast as possible, with built-in and external agents.
 
-use std::io::Write;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
 use bw4t_agents::Strategy;
-use bw4t_protocol::{MatchResult, RobotExtra};
-use bw4t_runner::{AgentReport, Seat, SeatSpec, ServedRun, play_headless, play_served};
+use bw4t_protocol::MatchResult;
+use bw4t_runner::{AgentReport, SeatSpec, ServedRun, play_builtin, play_served};
 use bw4t_sim::MatchConfig;
 use clap::Args;
 
@@ -72,13 +71,7 @@ pub fn run(args: &RunArgs) -> Result<()> {
             seats.len()
         );
     }
-    let replay: Option<Box<dyn Write + Send>> = match &args.replay {
-        Some(path) => Some(Box::new(std::io::BufWriter::new(
-            std::fs::File::create(path)
-                .with_context(|| format!("cannot create replay file {}", path.display()))?,
-        ))),
-        None => None,
-    };
+    let replay = crate::replay::writer(args.replay.as_deref())?;
     let started = Instant::now();
     let external = seats.iter().any(|s| matches!(s, SeatSpec::External { .. }));
     let (mut result, agents) = if external {
@@ -98,7 +91,7 @@ pub fn run(args: &RunArgs) -> Result<()> {
             replay,
         })?
     } else {
-        headless(args, &map, seed, &seats, replay)?
+        play_builtin(&map, seed, &seats, args.max_ticks, replay)?
     };
     result.wall_ms = started.elapsed().as_millis() as u64;
     let mut json = serde_json::to_value(&result)?;
@@ -113,55 +106,6 @@ pub fn run(args: &RunArgs) -> Result<()> {
         print!("{}", summary(&result, &agents));
     }
     Ok(())
-}
-
-fn headless(
-    args: &RunArgs,
-    map: &bw4t_map::Map,
-    seed: u64,
-    seats: &[SeatSpec],
-    replay: Option<Box<dyn Write + Send>>,
-) -> Result<(MatchResult, Vec<AgentReport>)> {
-    let config = MatchConfig::default();
-    let mut recorder = match replay {
-        Some(out) => {
-            // The recorder is given the match to describe; a blank one has the same header.
-            let blank = bw4t_sim::Match::new(map, &config, seed)?;
-            let names = seats.iter().map(|s| s.name().to_string()).collect();
-            Some(bw4t_protocol::Recorder::new(out, &blank, &bw4t_runner::program(), names, 100))
-        }
-        None => None,
-    };
-    let players = seats
-        .iter()
-        .map(|s| match s {
-            SeatSpec::Builtin { name, strategy } => {
-                Ok(Seat { name: name.clone(), agent: strategy.agent(name) })
-            }
-            SeatSpec::External { .. } => bail!("external agents need the served path"),
-        })
-        .collect::<Result<Vec<_>>>()?;
-    let (game, reason) = play_headless(map, &config, seed, players, args.max_ticks, recorder.as_mut())?;
-    if let Some(recorder) = recorder {
-        recorder.finish(&game, reason).context("cannot write the replay")?;
-    }
-    let result = MatchResult::of(&game, None, reason, 0, |_| RobotExtra::LOCAL);
-    let agents = seats
-        .iter()
-        .map(|s| AgentReport {
-            name: s.name().to_string(),
-            kind: match s {
-                SeatSpec::Builtin { strategy, .. } => format!("builtin:{}", strategy.name()),
-                SeatSpec::External { .. } => "external".into(),
-            },
-            command: None,
-            status: "ok".into(),
-            detail: "played in-process".into(),
-            exit_code: None,
-            log: None,
-        })
-        .collect();
-    Ok((result, agents))
 }
 
 /// The seats a run's options describe: external agents first, the built-in team after.

@@ -115,13 +115,7 @@ pub fn run(args: &ServeArgs) -> Result<()> {
             config.map.spawns().len()
         );
     }
-    let replay: Option<Box<dyn std::io::Write + Send>> = match &args.replay {
-        Some(path) => Some(Box::new(std::io::BufWriter::new(
-            std::fs::File::create(path)
-                .with_context(|| format!("cannot create replay file {}", path.display()))?,
-        ))),
-        None => None,
-    };
+    let replay = crate::replay::writer(args.replay.as_deref())?;
     if args.builtin > config.map.spawns().len() {
         anyhow::bail!(
             "--builtin {} but map '{}' has {} spawn points",

@@ -62,6 +62,21 @@ pub struct AgentReport {
     pub log: Option<PathBuf>,
 }
 
+impl AgentReport {
+    /// The report of a built-in seat: it always plays.
+    pub fn builtin(name: &str, strategy: Strategy) -> AgentReport {
+        AgentReport {
+            name: name.to_string(),
+            kind: format!("builtin:{}", strategy.name()),
+            command: None,
+            status: "ok".into(),
+            detail: "played in-process".into(),
+            exit_code: None,
+            log: None,
+        }
+    }
+}
+
 /// Everything a served run needs.
 pub struct ServedRun<'a> {
     /// The map.
@@ -251,15 +266,7 @@ fn spawn(
 fn report(seat: &SeatSpec, result: &MatchResult, children: &[Running]) -> AgentReport {
     let robot = result.per_robot.iter().find(|r| r.name == seat.name());
     match seat {
-        SeatSpec::Builtin { name, strategy } => AgentReport {
-            name: name.clone(),
-            kind: format!("builtin:{}", strategy.name()),
-            command: None,
-            status: "ok".into(),
-            detail: "played in-process".into(),
-            exit_code: None,
-            log: None,
-        },
+        SeatSpec::Builtin { name, strategy } => AgentReport::builtin(name, *strategy),
         SeatSpec::External { name, command } => {
             let running = children.iter().find(|c| &c.name == name);
             let exited = running.and_then(|c| c.exited.clone());

@@ -1,9 +1,13 @@
 //! A whole match in-process, as fast as the machine allows.
 
+use std::io::Write;
+
 use bw4t_agents::{Agent, Driver};
 use bw4t_map::Map;
-use bw4t_protocol::{Recorder, ReplayEvent};
+use bw4t_protocol::{MatchResult, Recorder, ReplayEvent, RobotExtra};
 use bw4t_sim::{JoinError, Match, MatchConfig, MatchError};
+
+use crate::external::{AgentReport, SeatSpec};
 
 /// A player of a headless match.
 pub struct Seat {
@@ -22,6 +26,55 @@ pub enum RunError {
     /// A seat could not join.
     #[error("player cannot join: {0}")]
     Join(#[from] JoinError),
+    /// An external seat was given to an in-process match.
+    #[error("external agent '{0}' needs a served match")]
+    External(String),
+    /// The replay could not be written.
+    #[error("cannot write the replay: {0}")]
+    Replay(#[from] std::io::Error),
+}
+
+/// Plays a match of built-in seats in-process, recording a replay to `replay` if given;
+/// returns the result and a report per seat.
+pub fn play_builtin(
+    map: &Map,
+    seed: u64,
+    seats: &[SeatSpec],
+    max_ticks: u64,
+    replay: Option<Box<dyn Write + Send>>,
+) -> Result<(MatchResult, Vec<AgentReport>), RunError> {
+    let config = MatchConfig::default();
+    let mut recorder = match replay {
+        Some(out) => {
+            // The recorder describes the match before anyone joins; a fresh one is that.
+            let blank = Match::new(map, &config, seed)?;
+            let names = seats.iter().map(|s| s.name().to_string()).collect();
+            Some(Recorder::new(out, &blank, &crate::program(), names, 100))
+        }
+        None => None,
+    };
+    let players = seats
+        .iter()
+        .map(|s| match s {
+            SeatSpec::Builtin { name, strategy } => {
+                Ok(Seat { name: name.clone(), agent: strategy.agent(name) })
+            }
+            SeatSpec::External { name, .. } => Err(RunError::External(name.clone())),
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let (game, reason) = play_headless(map, &config, seed, players, max_ticks, recorder.as_mut())?;
+    if let Some(recorder) = recorder {
+        recorder.finish(&game, reason)?;
+    }
+    let result = MatchResult::of(&game, None, reason, 0, |_| RobotExtra::LOCAL);
+    let reports = seats
+        .iter()
+        .filter_map(|s| match s {
+            SeatSpec::Builtin { name, strategy } => Some(AgentReport::builtin(name, *strategy)),
+            SeatSpec::External { .. } => None,
+        })
+        .collect();
+    Ok((result, reports))
 }
 
 /// Plays a match to completion or `max_ticks`: each tick every agent that was told

@@ -8,7 +8,7 @@ mod replay;
 pub mod tournament;
 
 pub use external::{AgentReport, SeatSpec, ServedError, ServedRun, play_served};
-pub use headless::{RunError, Seat, play_headless};
+pub use headless::{RunError, Seat, play_builtin, play_headless};
 pub use remote::{RemoteError, play_remote};
 pub use replay::{ReplayError, ReplaySummary, Verdict, read_replay, replay_frames, verify_replay};
 

@@ -43,6 +43,18 @@ pub fn read_replay(text: &str) -> Result<(ReplayHeader, Vec<(usize, ReplayLine)>
     Ok((header, lines.into_iter().skip(1).collect()))
 }
 
+/// The replay's map, and its match before anything happened.
+fn start(header: &ReplayHeader) -> Result<(Map, Match), ReplayError> {
+    let map = Map::from_native(&header.map_native).map_err(|e| ReplayError::Setup(e.to_string()))?;
+    let config = MatchConfig {
+        ticks_per_second: header.ticks_per_second,
+        speed: header.speed,
+        robot_collisions: header.robot_collisions,
+    };
+    let game = Match::new(&map, &config, header.seed).map_err(|e| ReplayError::Setup(e.to_string()))?;
+    Ok((map, game))
+}
+
 /// The outcome of re-simulating a replay.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum Verdict {
@@ -86,13 +98,7 @@ pub struct ReplaySummary {
 /// Re-simulates a replay, comparing every recorded digest.
 pub fn verify_replay(text: &str) -> Result<(Verdict, ReplaySummary), ReplayError> {
     let (header, lines) = read_replay(text)?;
-    let map = Map::from_native(&header.map_native).map_err(|e| ReplayError::Setup(e.to_string()))?;
-    let config = MatchConfig {
-        ticks_per_second: header.ticks_per_second,
-        speed: header.speed,
-        robot_collisions: header.robot_collisions,
-    };
-    let mut game = Match::new(&map, &config, header.seed).map_err(|e| ReplayError::Setup(e.to_string()))?;
+    let (_, mut game) = start(&header)?;
     let (mut digests, mut actions, mut reason, mut players) = (0, 0, None, Vec::new());
     let differs = |tick, expected: &str, found: String| Verdict::Differs {
         tick,
@@ -174,13 +180,7 @@ pub fn verify_replay(text: &str) -> Result<(Verdict, ReplaySummary), ReplayError
 pub fn replay_frames(text: &str) -> Result<(ReplayHeader, Map, Vec<bw4t_protocol::Frame>), ReplayError> {
     use bw4t_protocol::{Frame, FrameMessage};
     let (header, lines) = read_replay(text)?;
-    let map = Map::from_native(&header.map_native).map_err(|e| ReplayError::Setup(e.to_string()))?;
-    let config = MatchConfig {
-        ticks_per_second: header.ticks_per_second,
-        speed: header.speed,
-        robot_collisions: header.robot_collisions,
-    };
-    let mut game = Match::new(&map, &config, header.seed).map_err(|e| ReplayError::Setup(e.to_string()))?;
+    let (map, mut game) = start(&header)?;
     let mut frames = Vec::new();
     let mut said: Vec<FrameMessage> = Vec::new();
     let mut names: Vec<String> = Vec::new();

@@ -9,15 +9,15 @@ use std::sync::{Arc, Mutex, mpsc};
 use std::time::{Duration, Instant};
 
 use bw4t_map::Map;
-use bw4t_protocol::{MatchResult, Recorder, RobotExtra};
-use bw4t_sim::{Match, MatchConfig};
+use bw4t_protocol::MatchResult;
+use bw4t_sim::MatchConfig;
 use serde_json::{Value, json};
 
 use super::config::{Planned, Resolved, seats};
 use super::row::Row;
 use super::stats::{Summary, summarize};
 use crate::external::{AgentReport, SeatSpec, ServedRun, play_served};
-use crate::headless::{Seat, play_headless};
+use crate::headless::play_builtin;
 
 /// Which replays to keep.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -439,90 +439,50 @@ fn play_one(resolved: &Resolved, maps: &[Map], p: &Planned, options: &Options) -
             })
             .map_err(|e| e.to_string())
         } else {
-            headless(map, p.seed, &seats, resolved.max_ticks, want_replay.then(|| buffer.clone()))
+            let replay = want_replay.then(|| Box::new(buffer.clone()) as Box<dyn Write + Send>);
+            play_builtin(map, p.seed, &seats, resolved.max_ticks, replay).map_err(|e| e.to_string())
         }
     });
     let wall_ms = started.elapsed().as_millis() as u64;
-    let row = match played {
-        Ok((result, agents)) => Row {
-            key: p.key.clone(),
-            index: p.index,
-            team: team.name.clone(),
-            map: resolved.maps[p.map].clone(),
-            seed: p.seed,
-            repetition: p.repetition,
-            robots: team.robots,
-            completed: result.completed,
-            ticks: result.ticks,
-            completed_tick: result.completed_tick,
-            wall_ms,
-            good_drops: result.good_drops,
-            wrong_drops: result.wrong_drops,
-            messages: result.messages,
-            late_agents: result.per_robot.iter().filter(|r| r.late_ticks > 0).count() as u32,
-            crashed_agents: agents.iter().filter(|a| a.status != "ok").count() as u32,
-            end_reason: result.end_reason,
-            digest: result.digest,
-            replay: None,
-        },
-        Err(message) => Row {
-            key: p.key.clone(),
-            index: p.index,
-            team: team.name.clone(),
-            map: resolved.maps[p.map].clone(),
-            seed: p.seed,
-            repetition: p.repetition,
-            robots: team.robots,
-            completed: false,
-            ticks: 0,
-            completed_tick: None,
-            wall_ms,
-            good_drops: 0,
-            wrong_drops: 0,
-            messages: 0,
-            late_agents: 0,
-            crashed_agents: 0,
-            end_reason: format!("error: {message}"),
-            digest: String::new(),
-            replay: None,
-        },
+    // A match that could not run is a row too, with end reason `error`.
+    let mut row = Row {
+        key: p.key.clone(),
+        index: p.index,
+        team: team.name.clone(),
+        map: resolved.maps[p.map].clone(),
+        seed: p.seed,
+        repetition: p.repetition,
+        robots: team.robots,
+        completed: false,
+        ticks: 0,
+        completed_tick: None,
+        wall_ms,
+        good_drops: 0,
+        wrong_drops: 0,
+        messages: 0,
+        late_agents: 0,
+        crashed_agents: 0,
+        end_reason: String::new(),
+        digest: String::new(),
+        replay: None,
     };
+    match played {
+        Ok((result, agents)) => {
+            row.completed = result.completed;
+            row.ticks = result.ticks;
+            row.completed_tick = result.completed_tick;
+            row.good_drops = result.good_drops;
+            row.wrong_drops = result.wrong_drops;
+            row.messages = result.messages;
+            row.late_agents = result.per_robot.iter().filter(|r| r.late_ticks > 0).count() as u32;
+            row.crashed_agents = agents.iter().filter(|a| a.status != "ok").count() as u32;
+            row.end_reason = result.end_reason;
+            row.digest = result.digest;
+        }
+        Err(message) => row.end_reason = format!("error: {message}"),
+    }
     let bytes = want_replay.then(|| buffer.take()).filter(|b| !b.is_empty());
     (row, bytes)
-}
-
-fn headless(
-    map: &Map,
-    seed: u64,
-    seats: &[SeatSpec],
-    max_ticks: u64,
-    replay: Option<SharedBuffer>,
-) -> Result<(MatchResult, Vec<AgentReport>), String> {
-    let config = MatchConfig::default();
-    let mut recorder = match replay {
-        Some(buffer) => {
-            let blank = Match::new(map, &config, seed).map_err(|e| e.to_string())?;
-            let names = seats.iter().map(|s| s.name().to_string()).collect();
-            Some(Recorder::new(Box::new(buffer), &blank, &crate::program(), names, 100))
-        }
-        None => None,
-    };
-    let players: Vec<Seat> = seats
-        .iter()
-        .filter_map(|s| match s {
-            SeatSpec::Builtin { name, strategy } => {
-                Some(Seat { name: name.clone(), agent: strategy.agent(name) })
-            }
-            SeatSpec::External { .. } => None,
-        })
-        .collect();
-    let (game, reason) = play_headless(map, &config, seed, players, max_ticks, recorder.as_mut())
-        .map_err(|e| e.to_string())?;
-    if let Some(r) = recorder {
-        r.finish(&game, reason).map_err(|e| e.to_string())?;
-    }
-    let result = MatchResult::of(&game, None, reason, 0, |_| RobotExtra::LOCAL);
-    Ok((result, Vec::new()))
 }
 
 /// A byte buffer shared with a replay recorder.
