@@ -5,22 +5,9 @@ use std::process::{Command, Output};
 
 use bw4t_map::{Map, Problem, Severity, check_parts, check_text, parse_parts, render_svg};
 
-/// Every original map file, by path under `shared/bw4t-maps`.
-const ORIGINALS: [&str; 7] = [
-    "Banana",
-    "Dutch Flag",
-    "Rainbow",
-    "Random",
-    "SuperRandom",
-    "test-variants/Rainbow-with-blockade",
-    "test-variants/red.map",
-];
+use crate::util::{fixture_path, fixture_text};
 
-fn original_path(file: &str) -> String {
-    format!("{}/../shared/bw4t-maps/{file}", env!("CARGO_MANIFEST_DIR"))
-}
-
-fn read(path: &str) -> String {
+pub fn read(path: &str) -> String {
     std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{path}: {e}"))
 }
 
@@ -28,26 +15,26 @@ fn fixed_text() -> String {
     read(&format!("{}/maps/fixed.toml", env!("CARGO_MANIFEST_DIR")))
 }
 
-fn bw4t(args: &[&str]) -> Output {
+pub fn bw4t(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_bw4t")).args(args).output().expect("run bw4t")
 }
 
-fn stdout(out: &Output) -> String {
+pub fn stdout(out: &Output) -> String {
     String::from_utf8_lossy(&out.stdout).into_owned()
 }
 
-fn stderr(out: &Output) -> String {
+pub fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
 }
 
-fn temp_dir(tag: &str) -> PathBuf {
+pub fn temp_dir(tag: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("bw4t-map-tools-{tag}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).expect("temp dir");
     dir
 }
 
-fn path_str(path: &Path) -> &str {
+pub fn path_str(path: &Path) -> &str {
     path.to_str().expect("utf-8 path")
 }
 
@@ -68,7 +55,7 @@ fn without_spawns() -> String {
     format!("{}{}", &text[..start], &text[end..])
 }
 
-fn problems(text: &str, robots: Option<usize>) -> Vec<Problem> {
+pub fn problems(text: &str, robots: Option<usize>) -> Vec<Problem> {
     check_text(text, "edited", robots).unwrap_or_else(|e| panic!("{e}\n{text}"))
 }
 
@@ -76,19 +63,23 @@ fn listed(problems: &[Problem]) -> String {
     problems.iter().map(|p| format!("\n  {p}")).collect()
 }
 
+/// The well-formed map fixtures in the original BW4T format.
+pub const XML_FIXTURES: [&str; 4] = [
+    "bw4t-xml/fixed-content.xml",
+    "bw4t-xml/fixed-content-lenient.xml",
+    "bw4t-xml/random-content.xml",
+    "bw4t-xml/small.xml",
+];
+
+/// The one problem of the lenient fixture: a neighbour that names no zone (it is dropped).
+const LENIENT_WARNING: &str =
+    "warning: zone 'MidHall': neighbour 'EastHall' (line 50) is not a zone; it is ignored";
+
 #[test]
-fn every_original_and_shipped_map_checks_without_errors() {
-    for file in ORIGINALS {
-        let found = problems(&read(&original_path(file)), None);
-        let expected: &[&str] = match file {
-            // The variant renamed RightHallA to BlockadeA but two lists still name it.
-            "test-variants/Rainbow-with-blockade" => &[
-                "warning: zone 'FrontRoomA3': neighbour 'RightHallA' (line 160) is not a zone; it is ignored",
-                "warning: zone 'RightHallB': neighbour 'RightHallA' (line 185) is not a zone; it is ignored",
-            ],
-            _ => &[],
-        };
-        let found: Vec<String> = found.iter().map(Problem::to_string).collect();
+fn every_fixture_and_shipped_map_checks_as_expected() {
+    for file in XML_FIXTURES {
+        let found: Vec<String> = problems(&fixture_text(file), None).iter().map(Problem::to_string).collect();
+        let expected: &[&str] = if file.ends_with("-lenient.xml") { &[LENIENT_WARNING] } else { &[] };
         assert_eq!(found, expected, "{file}");
     }
     for name in ["default", "fixed"] {
@@ -96,6 +87,39 @@ fn every_original_and_shipped_map_checks_without_errors() {
         let found = problems(&text, Some(12));
         assert!(found.is_empty(), "{name}:{}", listed(&found));
     }
+}
+
+#[test]
+fn map_check_names_the_problem_of_every_broken_fixture() {
+    let dir = fixture_path("bw4t-xml/broken");
+    let mut files: Vec<String> = std::fs::read_dir(&dir)
+        .expect("broken fixtures")
+        .map(|e| path_str(&e.expect("entry").path()).to_string())
+        .collect();
+    files.sort();
+    assert!(files.len() >= 30, "{} broken fixtures", files.len());
+    let mut args = vec!["map", "check"];
+    args.extend(files.iter().map(String::as_str));
+    let out = bw4t(&args);
+    assert!(!out.status.success(), "{}", stdout(&out));
+    let text = stdout(&out);
+    for file in &files {
+        assert!(text.contains(&format!("{file}: error: ")), "no error for {file} in:\n{text}");
+    }
+    assert!(
+        stderr(&out).contains(&format!("{0} of {0} maps failed the check", files.len())),
+        "{}",
+        stderr(&out)
+    );
+    // Read to report everything, a door at a corner without orientation is one problem
+    // among others rather than the end of the file.
+    let corner = path_str(&dir.join("door-at-corner-without-orientation.xml")).to_string();
+    assert!(
+        text.contains(&format!(
+            "{corner}: error: zone 'RoomA', door 1: door at (10, 0) is at a corner of the room: its orientation must be given"
+        )),
+        "{text}"
+    );
 }
 
 /// One broken (or odd) copy of `maps/fixed.toml` per check: the edits, the robots asked
@@ -358,11 +382,12 @@ fn a_map_with_several_problems_reports_all_of_them_errors_first() {
 #[test]
 fn parts_come_back_unvalidated_with_the_readers_warnings() {
     let (parts, warnings) =
-        parse_parts(&read(&original_path("test-variants/Rainbow-with-blockade")), "blockade").expect("parts");
-    assert_eq!(parts.name, "blockade");
-    assert_eq!(warnings.len(), 2);
-    // The dropped names are gone from the parts, as on import.
-    assert!(parts.zones.iter().all(|z| !z.neighbours.iter().any(|n| n == "RightHallA")));
+        parse_parts(&fixture_text("bw4t-xml/fixed-content-lenient.xml"), "lenient").expect("parts");
+    assert_eq!(parts.name, "lenient");
+    let warnings: Vec<String> = warnings.iter().map(Problem::to_string).collect();
+    assert_eq!(warnings, [LENIENT_WARNING]);
+    // The dropped name is gone from the parts, as on import.
+    assert!(parts.zones.iter().all(|z| !z.neighbours.iter().any(|n| n == "EastHall")));
     // Parts that Map::new refuses are still checked.
     let (mut parts, _) = parse_parts(&fixed_text(), "fixed").expect("parts");
     parts.spawns.clear();
@@ -539,14 +564,15 @@ fn the_committed_default_picture_is_up_to_date() {
 #[test]
 fn map_import_writes_native_maps_that_check_clean_and_equal_the_original() {
     let dir = temp_dir("import");
-    for file in ORIGINALS {
-        let source = original_path(file);
-        let stem = Path::new(&source).file_stem().and_then(|s| s.to_str()).expect("stem").to_string();
+    for file in XML_FIXTURES {
+        let source = fixture_path(file);
+        let source = path_str(&source);
+        let stem = Path::new(source).file_stem().and_then(|s| s.to_str()).expect("stem").to_string();
         let out_path = dir.join(format!("{stem}.toml"));
-        let out = bw4t(&["map", "import", &source, "-o", path_str(&out_path)]);
+        let out = bw4t(&["map", "import", source, "-o", path_str(&out_path)]);
         assert!(out.status.success(), "{file}: {}", stderr(&out));
-        if file.ends_with("Rainbow-with-blockade") {
-            assert!(stderr(&out).contains("neighbour 'RightHallA' (line 160) is not a zone; it is ignored"));
+        if file.ends_with("-lenient.xml") {
+            assert_eq!(stderr(&out), format!("{source}: {LENIENT_WARNING}\n"), "{file}");
         } else {
             assert_eq!(stderr(&out), "", "{file}");
         }
@@ -554,14 +580,14 @@ fn map_import_writes_native_maps_that_check_clean_and_equal_the_original() {
         assert!(check.status.success(), "{file}: {}", stdout(&check));
         assert_eq!(stdout(&check), format!("{}: ok\n", path_str(&out_path)), "{file}");
         let imported = Map::from_native(&read(path_str(&out_path))).expect("native map");
-        let original = Map::parse(&read(&source), &stem).expect("original");
+        let original = Map::parse(&read(source), &stem).expect("original");
         assert_eq!(imported, original, "{file}");
     }
     // Without -o the native text goes to standard output.
-    let out = bw4t(&["map", "import", &original_path("Banana")]);
+    let out = bw4t(&["map", "import", path_str(&fixture_path("bw4t-xml/fixed-content.xml"))]);
     assert!(out.status.success());
-    let banana = Map::from_native(&stdout(&out)).expect("native map on stdout");
-    assert_eq!(banana.name(), "Banana");
+    let imported = Map::from_native(&stdout(&out)).expect("native map on stdout");
+    assert_eq!(imported.name(), "fixed-content");
     let out = bw4t(&["map", "import", path_str(&dir.join("nowhere.xml"))]);
     assert!(!out.status.success() && stderr(&out).contains("nowhere.xml"), "{}", stderr(&out));
     let _ = std::fs::remove_dir_all(&dir);

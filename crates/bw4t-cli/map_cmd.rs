@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use bw4t_map::{Content, Map, ZoneKind, check_text, parse_parts, render_svg};
+use bw4t_runner::plural;
 use clap::{Args, Subcommand};
 
 use crate::maps;
@@ -79,16 +80,16 @@ pub fn run(args: &MapArgs) -> Result<()> {
     match &args.command {
         MapCommand::Check { files, robots } => check(files, *robots),
         MapCommand::Show { map, seed } => {
-            let map = maps::load(map)?;
+            let map = maps::load_as_is(map)?;
             let content = match seed {
                 Some(seed) => Some((content(&map, *seed)?, map.seed().unwrap_or(*seed))),
                 None => None,
             };
-            print!("{}", summary(&map, content.as_ref().map(|(c, s)| (c, *s))));
+            out!("{}", summary(&map, content.as_ref().map(|(c, s)| (c, *s))));
             Ok(())
         }
         MapCommand::Render { map: spec, out, seed } => {
-            let map = maps::load(spec)?;
+            let map = maps::load_as_is(spec)?;
             let content = content(&map, *seed).with_context(|| format!("cannot render {spec}"))?;
             write_out(out.as_deref(), &render_svg(&map, Some((&content, map.seed().unwrap_or(*seed)))))
         }
@@ -122,22 +123,21 @@ fn check(files: &[String], robots: Option<usize>) -> Result<()> {
                 .with_context(|| format!("{file} cannot be read as a map"))
         });
         match problems {
-            Ok(problems) if problems.is_empty() => println!("{file}: ok"),
+            Ok(problems) if problems.is_empty() => outln!("{file}: ok"),
             Ok(problems) => {
                 for problem in &problems {
-                    println!("{file}: {problem}");
+                    outln!("{file}: {problem}");
                 }
                 failed += usize::from(problems.iter().any(|p| p.is_error()));
             }
             Err(e) => {
-                println!("{file}: error: {e:#}");
+                outln!("{file}: error: {e:#}");
                 failed += 1;
             }
         }
     }
     if failed > 0 {
-        let maps = if files.len() == 1 { "map" } else { "maps" };
-        bail!("{failed} of {} {maps} failed the check", files.len());
+        bail!("{failed} of {} failed the check", plural(files.len(), "map"));
     }
     Ok(())
 }
@@ -225,11 +225,6 @@ fn summary(map: &Map, content: Option<(&Content, u64)>) -> String {
     out
 }
 
-/// `1 room`, `2 rooms`.
-fn plural(n: usize, word: &str) -> String {
-    if n == 1 { format!("1 {word}") } else { format!("{n} {word}s") }
-}
-
 /// Items separated by spaces.
 fn words<T: std::fmt::Display>(items: impl Iterator<Item = T>) -> String {
     items.map(|c| c.to_string()).collect::<Vec<_>>().join(" ")
@@ -250,7 +245,7 @@ fn write_out(path: Option<&Path>, text: &str) -> Result<()> {
     match path {
         Some(p) => std::fs::write(p, text).with_context(|| format!("cannot write {}", p.display())),
         None => {
-            print!("{text}");
+            out!("{text}");
             Ok(())
         }
     }

@@ -16,6 +16,7 @@ use roxmltree::{Document, Node};
 use crate::check::{Problem, guess_orientation};
 use crate::colour::{Colour, UnknownColour};
 use crate::geometry::{Door, Orientation, Rect, Vec2};
+use crate::limits::coordinate_problem;
 use crate::model::{Map, MapError, MapParts, Spawn, Zone, ZoneKind, infer_orientation};
 use crate::native::NativeError;
 
@@ -86,6 +87,16 @@ pub enum XmlError {
         text: String,
         /// What was expected, e.g. `a finite number`.
         expected: &'static str,
+    },
+    /// A coordinate or size out of range, e.g. `1e300`.
+    #[error("{place}: <{element}>: {problem}")]
+    Range {
+        /// The element holding it.
+        place: XmlPlace,
+        /// The element's name.
+        element: &'static str,
+        /// What is wrong, with the allowed range.
+        problem: String,
     },
     /// A zone `<type>` other than ROOM, CORRIDOR, CHARGINGZONE and BLOCKADE.
     #[error("{place}: unknown zone type '{found}' (expected ROOM, CORRIDOR, CHARGINGZONE or BLOCKADE)")]
@@ -352,12 +363,17 @@ fn point(node: Node, what: &str) -> Result<Vec2, XmlError> {
     Ok(Vec2::new(number(node, "x", what)?, number(node, "y", what)?))
 }
 
-/// The required child `element` of `node` as a finite number (`50` and `50.0` both parse).
+/// The required child `element` of `node` as a number within the limits (`50` and `50.0`
+/// both parse; see [`coordinate_problem`]).
 fn number(node: Node, element: &'static str, what: &str) -> Result<f32, XmlError> {
     let child = required(node, element, what)?;
     let s = text(child);
-    match s.parse::<f32>() {
-        Ok(x) if x.is_finite() => Ok(x),
+    match s.parse::<f64>() {
+        Ok(x) if !x.is_nan() => match coordinate_problem(x) {
+            // In range, so the narrowing only rounds.
+            None => Ok(x as f32),
+            Some(problem) => Err(XmlError::Range { place: place(child, what), element, problem }),
+        },
         _ => {
             Err(XmlError::Number { place: place(child, what), element, text: s, expected: "a finite number" })
         }
@@ -372,7 +388,7 @@ fn optional_count(root: Node, element: &'static str) -> Result<u32, XmlError> {
         place: place(node, MAP_PLACE),
         element,
         text: s,
-        expected: "a whole number of at least 0",
+        expected: "a whole number from 0 to 4294967295",
     })
 }
 

@@ -14,6 +14,7 @@ use crate::bw4t_xml::MapLoadError;
 use crate::colour::Colour;
 use crate::content::MAX_BLOCKS_PER_ROOM;
 use crate::geometry::{Door, Orientation, Rect, Vec2};
+use crate::limits::{MAX_SPAWNS, MAX_ZONES, in_range, limit_problems};
 use crate::model::{DROP_ZONE, MapParts, Zone, ZoneKind, door_on_edge};
 
 /// How bad a [`Problem`] is; errors sort before warnings.
@@ -108,16 +109,63 @@ pub fn check_text(text: &str, name: &str, robots: Option<usize>) -> Result<Vec<P
     Ok(problems)
 }
 
+/// A map file refused for play by [`Map::parse_checked`].
+///
+/// [`Map::parse_checked`]: crate::Map::parse_checked
+#[derive(Debug, thiserror::Error)]
+pub enum CheckError {
+    /// The text cannot be read as a map at all.
+    #[error(transparent)]
+    Unreadable(#[from] MapLoadError),
+    /// The map check finds errors: all of them, in the order `map check` lists them.
+    #[error("{}", failed(.0))]
+    Failed(Vec<Problem>),
+}
+
+fn failed(errors: &[Problem]) -> String {
+    let listed: Vec<String> = errors.iter().map(Problem::to_string).collect();
+    format!("the map check finds {} error(s): {}", errors.len(), listed.join("; "))
+}
+
+impl crate::Map {
+    /// Reads a map file in either format, as [`Map::parse`] does, for a match: first it is
+    /// checked as `bw4t map check` checks it ([`check_text`]), and any error refuses it with
+    /// every error; otherwise the map comes with the check's warnings. `robots`, when
+    /// given, is the number of robots the map must take.
+    ///
+    /// [`Map::parse`]: crate::Map::parse
+    pub fn parse_checked(
+        text: &str,
+        name: &str,
+        robots: Option<usize>,
+    ) -> Result<(crate::Map, Vec<Problem>), CheckError> {
+        let problems = check_text(text, name, robots)?;
+        if problems.iter().any(Problem::is_error) {
+            return Err(CheckError::Failed(problems.into_iter().filter(Problem::is_error).collect()));
+        }
+        Ok((crate::Map::parse(text, name)?, problems))
+    }
+}
+
 /// Every problem of `parts`, errors first, each group in the order checked.
 ///
 /// Whatever [`Map::new`] refuses is an error here, and so is a map that cannot be
-/// played: a room or the drop zone no robot reaches, a fixed sequence without the
-/// blocks for it, random blocks with no room to go to, or (with `robots`) too few
-/// spawn points. Warnings name things that load but look unintended.
+/// played: overlapping zones, a room or the drop zone no robot reaches, a fixed sequence
+/// without the blocks for it, or (with `robots`) too few spawn points. Warnings name
+/// things that load but look unintended. A map with more zones or spawn points than
+/// allowed ([`MAX_ZONES`], [`MAX_SPAWNS`]) gets only the limits' errors: the other checks
+/// would take time with the counts.
 ///
 /// [`Map::new`]: crate::Map::new
 pub fn check_parts(parts: &MapParts, robots: Option<usize>) -> Vec<Problem> {
-    let mut checker = Checker { parts, out: Vec::new() };
+    let mut first = BTreeMap::new();
+    for (i, z) in parts.zones.iter().enumerate() {
+        first.entry(z.name.as_str()).or_insert(i);
+    }
+    let mut checker = Checker { parts, index: first, out: limit_problems(parts) };
+    if parts.zones.len() > MAX_ZONES || parts.spawns.len() > MAX_SPAWNS {
+        return checker.out;
+    }
     checker.area();
     checker.names();
     for (idx, zone) in parts.zones.iter().enumerate() {
@@ -128,7 +176,6 @@ pub fn check_parts(parts: &MapParts, robots: Option<usize>) -> Vec<Problem> {
     checker.spawns(robots);
     checker.reachability();
     checker.sequence();
-    checker.random_content();
     checker.edges();
     let mut out = checker.out;
     out.sort_by_key(|p| p.severity);
@@ -180,6 +227,8 @@ const SLACK: f32 = 1e-3;
 
 struct Checker<'a> {
     parts: &'a MapParts,
+    /// The first zone of each name.
+    index: BTreeMap<&'a str, usize>,
     out: Vec<Problem>,
 }
 
@@ -195,22 +244,12 @@ impl<'a> Checker<'a> {
     /// The area as a box from the origin, when it is a real one.
     fn area_rect(&self) -> Option<Rect> {
         let a = self.parts.area;
-        (a.is_finite() && a.x > 0.0 && a.y > 0.0).then(|| Rect::new(a / 2.0, a))
-    }
-
-    /// The first zone of each name.
-    fn index(&self) -> BTreeMap<&'a str, usize> {
-        let parts: &'a MapParts = self.parts;
-        let mut index = BTreeMap::new();
-        for (i, z) in parts.zones.iter().enumerate() {
-            index.entry(z.name.as_str()).or_insert(i);
-        }
-        index
+        (in_range(a) && a.x > 0.0 && a.y > 0.0).then(|| Rect::new(a / 2.0, a))
     }
 
     /// Undirected edges (each once, as first named) between zones that exist, without loops.
     fn edges_list(&self) -> Vec<(usize, usize)> {
-        let index = self.index();
+        let index = &self.index;
         let mut seen = BTreeSet::new();
         let mut edges = Vec::new();
         for (i, zone) in self.parts.zones.iter().enumerate() {
@@ -225,11 +264,10 @@ impl<'a> Checker<'a> {
         edges
     }
 
+    /// A size out of range is reported by the limits.
     fn area(&mut self) {
         let a = self.parts.area;
-        if !a.is_finite() {
-            self.error("area", format!("{} x {} is not a pair of finite numbers", a.x, a.y));
-        } else if !(a.x > 0.0 && a.y > 0.0) {
+        if in_range(a) && !(a.x > 0.0 && a.y > 0.0) {
             self.error("area", format!("{} x {} is not positive", a.x, a.y));
         }
     }
@@ -256,14 +294,13 @@ impl<'a> Checker<'a> {
     fn zone(&mut self, idx: usize, zone: &Zone) {
         let place = zone_place(idx, zone);
         let (centre, size) = (zone.rect.centre, zone.rect.size);
-        if !centre.is_finite() || !size.is_finite() {
-            self.error(&place, format!("centre {} or size {} is not finite", point(centre), point(size)));
-        } else if !(size.x > 0.0 && size.y > 0.0) {
+        // Numbers out of range are reported by the limits.
+        let measurable = in_range(centre) && in_range(size);
+        if measurable && !(size.x > 0.0 && size.y > 0.0) {
             self.error(&place, format!("size {} x {} is not positive", size.x, size.y));
         }
-        let index = self.index();
         for n in &zone.neighbours {
-            if !index.contains_key(n.as_str()) {
+            if !self.index.contains_key(n.as_str()) {
                 self.error(&place, format!("neighbour '{n}' is not a zone"));
             } else if *n == zone.name {
                 self.warning(&place, "names itself as a neighbour");
@@ -289,7 +326,7 @@ impl<'a> Checker<'a> {
             }
         }
         if let Some(area) = self.area_rect() {
-            if size.x > 0.0 && size.y > 0.0 && centre.is_finite() && size.is_finite() {
+            if size.x > 0.0 && size.y > 0.0 && measurable {
                 let inside =
                     zone.rect.min().cmpge(area.min()).all() && zone.rect.max().cmple(area.max()).all();
                 if !zone.rect.overlaps(&area) {
@@ -309,9 +346,8 @@ impl<'a> Checker<'a> {
 
     fn door(&mut self, place: &str, door: &Door, room: &Rect) {
         let at = point(door.centre);
-        if !door.centre.is_finite() {
-            self.error(place, format!("door at {at} is not finite"));
-            return;
+        if !in_range(door.centre) {
+            return; // reported by the limits
         }
         if door_on_edge(door, room) {
             // The opening is 4 wide; past the corner it would cut the next wall.
@@ -388,9 +424,8 @@ impl<'a> Checker<'a> {
         for (i, spawn) in spawns.iter().enumerate() {
             let place = spawn_place(i, &spawn.name);
             let at = point(spawn.pos);
-            if !spawn.pos.is_finite() {
-                self.error(&place, format!("position {at} is not finite"));
-                continue;
+            if !in_range(spawn.pos) {
+                continue; // reported by the limits
             }
             let walled = zones.iter().find(|z| z.kind.is_walled() && z.rect.contains(spawn.pos));
             match walled {
@@ -496,29 +531,6 @@ impl<'a> Checker<'a> {
                 let s = if need == 1 { "" } else { "s" };
                 self.error("sequence", format!("needs {need} {colour} block{s}, the map has {got}"));
             }
-        }
-    }
-
-    /// Random blocks go to rooms other than the drop zone with fewer than 10 blocks.
-    fn random_content(&mut self) {
-        let parts = self.parts;
-        let need = u64::from(parts.random_sequence) + u64::from(parts.random_blocks);
-        if need == 0 {
-            return;
-        }
-        let space: usize = parts
-            .zones
-            .iter()
-            .filter(|z| z.kind == ZoneKind::Room && z.name != DROP_ZONE)
-            .map(|z| MAX_BLOCKS_PER_ROOM.saturating_sub(z.blocks.len()))
-            .sum();
-        if need > space as u64 {
-            self.error(
-                "random content",
-                format!(
-                    "{need} random blocks, but the rooms (other than the drop zone) have space for {space}"
-                ),
-            );
         }
     }
 

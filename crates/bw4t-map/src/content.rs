@@ -65,6 +65,11 @@ impl Map {
             .collect();
         let mut counts = vec![0usize; self.zones().len()];
         owners.iter().for_each(|&(_, z)| counts[z] += 1);
+        // Fail as `pick_room` would, before drawing (and holding) a colour per random block.
+        let free: u64 = eligible.iter().map(|&z| MAX_BLOCKS_PER_ROOM.saturating_sub(counts[z]) as u64).sum();
+        if u64::from(self.random_sequence()) + u64::from(self.random_blocks()) > free {
+            return Err(ContentError::NoRoomWithSpace);
+        }
 
         let random_colours = (0..self.random_sequence()).map(|_| Colour::ALL[rng.index(9)]);
         let random_colours: Vec<Colour> = random_colours.collect();
@@ -122,11 +127,15 @@ fn random_spot(room: &Rect, others: &[Vec2], rng: &mut SeededRng) -> Option<Vec2
             return Some(p);
         }
     }
-    // A crowded room: scan a fine grid so a free spot is found whenever one exists.
-    let steps = |lo: f32, hi: f32| ((hi - lo) / 0.5).floor() as u32 + 1;
+    // A crowded room: scan a fine grid so a free spot is found whenever one exists. A block
+    // rules out fewer than 10 x 10 of its points, so the first `limit` points hold a free one
+    // unless the room is too large for its coordinates to step by 0.5 (or not finite).
+    let steps = |lo: f32, hi: f32| (((hi - lo) / 0.5).floor() as u32).saturating_add(1);
+    let limit = (others.len() + 1) * 100;
     (0..steps(min.y, max.y))
         .flat_map(|j| {
             (0..steps(min.x, max.x)).map(move |i| Vec2::new(min.x + 0.5 * i as f32, min.y + 0.5 * j as f32))
         })
+        .take(limit)
         .find(|p| spot_is_clear(*p, others))
 }

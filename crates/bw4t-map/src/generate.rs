@@ -6,8 +6,9 @@ use crate::colour::Colour;
 use crate::geometry::{Door, Orientation, Rect, Vec2};
 use crate::model::{DROP_ZONE, Map, MapError, MapParts, Spawn, Zone, ZoneKind};
 
-/// Rows are named by letter, so at most this many.
-pub const MAX_ROWS: usize = 26;
+/// Rows, at most; with the columns, this keeps a generated map within
+/// [`MAX_ZONES`](crate::MAX_ZONES).
+pub const MAX_ROWS: usize = 40;
 /// Columns per row, at most.
 pub const MAX_COLUMNS: usize = 40;
 
@@ -26,16 +27,15 @@ pub fn generate(cols: usize, rows: usize, robots: usize, seed: u64) -> Result<Ma
     let (c, r) = (cols as f32, rows as f32);
     let width = 20.0 + 10.0 * c;
     let bottom = 20.0 * r + 5.0; // top of FrontDropZone
-    let letter = |i: usize| char::from(b'A' + i as u8);
     let box_at = |x: f32, y: f32, w: f32, h: f32| Rect::new(Vec2::new(x, y), Vec2::new(w, h));
     let mut zones: Vec<Zone> = Vec::new();
     let mut zone = |name: String, kind, rect, doors: Vec<Door>, neighbours: Vec<String>| {
         zones.push(Zone { name, kind, rect, doors, neighbours, blocks: Vec::new() });
     };
     for row in 0..rows {
-        let l = letter(row);
+        let l = row_name(row);
         let y = 20.0 * row as f32;
-        let below = letter(row + 1);
+        let below = row_name(row + 1);
         zone(
             format!("LeftHall{l}"),
             ZoneKind::Corridor,
@@ -73,7 +73,7 @@ pub fn generate(cols: usize, rows: usize, robots: usize, seed: u64) -> Result<Ma
             );
         }
     }
-    let end = letter(rows);
+    let end = row_name(rows);
     let front = box_at(10.0 + 5.0 * c, bottom + 5.0, 10.0 * c, 10.0);
     zone(
         format!("LeftHall{end}"),
@@ -131,6 +131,20 @@ pub fn generate(cols: usize, rows: usize, robots: usize, seed: u64) -> Result<Ma
     Map::new(parts)
 }
 
+/// The name of row `i` (from 0), as in spreadsheet columns: `A` to `Z`, then `AA`, `AB`, ...
+/// The halls below the last row take the next name.
+fn row_name(i: usize) -> String {
+    let mut name = Vec::new();
+    let mut n = i + 1;
+    while n > 0 {
+        n -= 1;
+        name.push(b'A' + (n % 26) as u8);
+        n /= 26;
+    }
+    name.reverse();
+    String::from_utf8_lossy(&name).into_owned()
+}
+
 /// Up to `n` points on a grid, in FrontDropZone first and then in the halls beside it,
 /// nearest to the drop zone's door first.
 fn spawn_points(zones: &[Zone], front: &Rect, n: usize) -> Option<Vec<Spawn>> {
@@ -185,6 +199,13 @@ mod tests {
             );
         }
         assert!(generate(0, 3, 3, 1).is_err());
+        assert!(generate(1, MAX_ROWS + 1, 1, 1).is_err());
         assert!(generate(1, 1, 500, 1).is_err());
+    }
+
+    #[test]
+    fn rows_are_named_like_spreadsheet_columns() {
+        let names: Vec<String> = [0, 1, 25, 26, 27, 51, 52, 701, 702].into_iter().map(row_name).collect();
+        assert_eq!(names, ["A", "B", "Z", "AA", "AB", "AZ", "BA", "ZZ", "AAA"]);
     }
 }

@@ -8,19 +8,21 @@ mod colour;
 mod content;
 mod generate;
 mod geometry;
+mod limits;
 mod model;
 mod native;
 mod render;
 mod rng;
 
 pub use bw4t_xml::{MapLoadError, XmlError, XmlPlace};
-pub use check::{Problem, Severity, check_parts, check_text, parse_parts};
+pub use check::{CheckError, Problem, Severity, check_parts, check_text, parse_parts};
 pub use colour::{Colour, UnknownColour};
 pub use content::{
     BLOCK_SPACING, Content, ContentError, MAX_BLOCKS_PER_ROOM, PlacedBlock, block_area, spot_is_clear,
 };
 pub use generate::generate;
 pub use geometry::{Door, Orientation, Rect, Vec2};
+pub use limits::{MAX_COORDINATE, MAX_MAP_BYTES, MAX_SPAWNS, MAX_ZONES, coordinate_problem};
 pub use model::{DROP_ZONE, Map, MapError, MapParts, Spawn, Zone, ZoneIdx, ZoneKind};
 pub use native::NativeError;
 pub use render::render_svg;

@@ -6,6 +6,7 @@ use std::fmt;
 use crate::colour::Colour;
 use crate::content::MAX_BLOCKS_PER_ROOM;
 use crate::geometry::{Door, Orientation, Rect, Vec2};
+use crate::limits::{MAX_SPAWNS, MAX_ZONES, limit_problems};
 
 /// Index of a zone in [`Map::zones`].
 pub type ZoneIdx = usize;
@@ -117,14 +118,16 @@ impl Map {
             for n in &zone.neighbours {
                 let j = index[n.as_str()];
                 // Neighbour lists are undirected edges, whichever side names them.
-                for (a, b) in [(i, j), (j, i)] {
-                    if a != b && !adjacency[a].contains(&b) {
-                        adjacency[a].push(b);
-                    }
+                if i != j {
+                    adjacency[i].push(j);
+                    adjacency[j].push(i);
                 }
             }
         }
-        adjacency.iter_mut().for_each(|list| list.sort_unstable());
+        for list in &mut adjacency {
+            list.sort_unstable();
+            list.dedup();
+        }
         let drop_zone = index[DROP_ZONE];
         Ok(Map { parts, adjacency, drop_zone })
     }
@@ -210,8 +213,14 @@ impl fmt::Display for MapError {
 
 const EDGE_TOLERANCE: f32 = 1e-3;
 
+/// What [`Map::new`] refuses: the limits (as `map check` words them), then the structure.
 fn problems(parts: &MapParts) -> Vec<String> {
-    let mut out = Vec::new();
+    let mut out: Vec<String> =
+        limit_problems(parts).iter().map(|p| format!("{}: {}", p.place, p.message)).collect();
+    if parts.zones.len() > MAX_ZONES || parts.spawns.len() > MAX_SPAWNS {
+        // Past a count limit the rest may be costly to look at, and the map is refused anyway.
+        return out;
+    }
     if !(parts.area.x > 0.0 && parts.area.y > 0.0) {
         out.push(format!("area {} x {} is not positive", parts.area.x, parts.area.y));
     }

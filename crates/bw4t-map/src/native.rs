@@ -7,10 +7,15 @@ use serde::Deserialize;
 use crate::check::{Problem, guess_orientation};
 use crate::colour::{Colour, UnknownColour};
 use crate::geometry::{Door, Orientation, Rect, Vec2};
+use crate::limits::coordinate_problem;
 use crate::model::{Map, MapError, MapParts, Spawn, Zone, ZoneKind, infer_orientation};
 
 /// The format version this code reads and writes.
 const FORMAT_VERSION: u32 = 1;
+
+/// How errors name the numbers of a point and of a size.
+const POINT: [&str; 2] = ["x", "y"];
+const SIZE: [&str; 2] = ["width", "height"];
 
 /// Why a native map file could not be loaded.
 #[derive(Debug, thiserror::Error)]
@@ -28,6 +33,14 @@ pub enum NativeError {
         place: String,
         /// The bad name.
         colour: UnknownColour,
+    },
+    /// A coordinate or size out of range (or NaN).
+    #[error("{place}: {problem}")]
+    Range {
+        /// The field, e.g. `zone 'RoomA1': centre x`.
+        place: String,
+        /// What is wrong, with the allowed range.
+        problem: String,
     },
     /// A door given without orientation whose centre does not pick one edge.
     #[error("zone '{zone}': door at ({x}, {y}) needs an explicit orientation (horizontal or vertical)")]
@@ -51,7 +64,7 @@ struct MapFile {
     version: Option<u32>,
     #[serde(default)]
     name: String,
-    area: [f32; 2],
+    area: [f64; 2],
     #[serde(default)]
     sequence: Vec<String>,
     #[serde(default)]
@@ -70,7 +83,7 @@ struct MapFile {
 #[serde(deny_unknown_fields)]
 struct SpawnFile {
     name: String,
-    at: [f32; 2],
+    at: [f64; 2],
 }
 
 #[derive(Deserialize)]
@@ -79,8 +92,8 @@ struct ZoneFile {
     name: String,
     #[serde(rename = "type")]
     kind: KindFile,
-    centre: [f32; 2],
-    size: [f32; 2],
+    centre: [f64; 2],
+    size: [f64; 2],
     #[serde(default)]
     doors: Vec<DoorFile>,
     #[serde(default)]
@@ -101,8 +114,8 @@ enum KindFile {
 #[derive(Deserialize)]
 #[serde(untagged)]
 enum DoorFile {
-    At([f32; 2]),
-    Full { at: [f32; 2], orientation: OrientationFile },
+    At([f64; 2]),
+    Full { at: [f64; 2], orientation: OrientationFile },
 }
 
 #[derive(Deserialize, Clone, Copy)]
@@ -163,15 +176,20 @@ pub(crate) fn native_parts(
     if let Some(v) = file.version.filter(|&v| v > FORMAT_VERSION) {
         return Err(NativeError::Version(v));
     }
+    let area = file_pair(file.area, "area", SIZE)?;
     let sequence = colours(&file.sequence, "sequence")?;
-    let spawns = file.spawn.into_iter().map(|s| Spawn { name: s.name, pos: s.at.into() }).collect();
+    let mut spawns = Vec::with_capacity(file.spawn.len());
+    for (i, s) in file.spawn.into_iter().enumerate() {
+        let pos = file_pair(s.at, &format!("spawn {} '{}': at", i + 1, s.name), POINT)?;
+        spawns.push(Spawn { name: s.name, pos });
+    }
     let mut zones = Vec::with_capacity(file.zone.len());
     for z in file.zone {
         zones.push(zone_from_file(z, lenient.as_deref_mut())?);
     }
     Ok(MapParts {
         name: file.name,
-        area: file.area.into(),
+        area,
         zones,
         spawns,
         sequence,
@@ -182,13 +200,16 @@ pub(crate) fn native_parts(
 }
 
 fn zone_from_file(z: ZoneFile, mut lenient: Option<&mut Vec<Problem>>) -> Result<Zone, NativeError> {
-    let rect = Rect::new(z.centre.into(), z.size.into());
+    let place = format!("zone '{}'", z.name);
+    let centre = file_pair(z.centre, &format!("{place}: centre"), POINT)?;
+    let rect = Rect::new(centre, file_pair(z.size, &format!("{place}: size"), SIZE)?);
     let mut doors = Vec::with_capacity(z.doors.len());
-    for d in &z.doors {
+    for (i, d) in z.doors.iter().enumerate() {
         let (at, given) = match d {
-            DoorFile::At(at) => (Vec2::from(*at), None),
-            DoorFile::Full { at, orientation } => (Vec2::from(*at), Some(*orientation)),
+            DoorFile::At(at) => (*at, None),
+            DoorFile::Full { at, orientation } => (*at, Some(*orientation)),
         };
+        let at = file_pair(at, &format!("{place}: door {}", i + 1), POINT)?;
         let orientation = match (given, infer_orientation(at, &rect), lenient.as_deref_mut()) {
             (Some(OrientationFile::Horizontal), ..) => Orientation::Horizontal,
             (Some(OrientationFile::Vertical), ..) => Orientation::Vertical,
@@ -210,6 +231,18 @@ fn zone_from_file(z: ZoneFile, mut lenient: Option<&mut Vec<Problem>>) -> Result
     };
     let blocks = colours(&z.blocks, &format!("zone '{}': blocks", z.name))?;
     Ok(Zone { name: z.name, kind, rect, doors, neighbours: z.neighbours, blocks })
+}
+
+/// A point or size from the file, each number within the limits (see [`coordinate_problem`]);
+/// `axes` name its two numbers in errors.
+fn file_pair(v: [f64; 2], place: &str, axes: [&str; 2]) -> Result<Vec2, NativeError> {
+    for (axis, x) in axes.into_iter().zip(v) {
+        if let Some(problem) = coordinate_problem(x) {
+            return Err(NativeError::Range { place: format!("{place} {axis}"), problem });
+        }
+    }
+    // In range, so the narrowing only rounds.
+    Ok(Vec2::new(v[0] as f32, v[1] as f32))
 }
 
 fn colours(names: &[String], place: &str) -> Result<Vec<Colour>, NativeError> {
@@ -236,9 +269,13 @@ fn names<'a>(items: impl Iterator<Item = &'a str>) -> String {
     format!("[{}]", quoted.join(", "))
 }
 
-/// Whole numbers without a fraction, so written maps read like hand-written ones.
+/// Whole numbers without a fraction, so written maps read like hand-written ones. Others in
+/// Rust's debug form, which always has a `.` or an exponent: TOML reads digits alone as an
+/// integer, and those above 2^63 not at all. Negative zero stays `-0.0`, so a written map
+/// reads back bit for bit.
 fn number(x: f32) -> String {
-    if x.fract() == 0.0 && x.abs() < 1e7 { format!("{}", x as i64) } else { format!("{x}") }
+    let whole = x.fract() == 0.0 && x.abs() < 1e7 && !(x == 0.0 && x.is_sign_negative());
+    if whole { format!("{}", x as i64) } else { format!("{x:?}") }
 }
 
 fn pair(v: Vec2) -> String {

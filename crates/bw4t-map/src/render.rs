@@ -76,8 +76,8 @@ pub fn render_svg(map: &Map, content: Option<(&Content, u64)>) -> String {
         num(SCALE)
     ));
     draw_map(&mut svg, map);
-    // Labels go below blocks and spawn points, which matter more where they meet.
-    draw_labels(&mut svg, map);
+    // Labels go below blocks and spawn points, and are moved out from under them.
+    draw_labels(&mut svg, map, content.map(|(c, _)| c));
     if let Some((c, _)) = content {
         draw_blocks(&mut svg, c);
     }
@@ -253,21 +253,90 @@ fn draw_spawns(svg: &mut Svg, map: &Map) {
 }
 
 /// Zone names, sized to fit and outlined in the zone's colour so walls do not hide them.
-fn draw_labels(svg: &mut Svg, map: &Map) {
+/// Each sits at its zone's centre, or, where spawn points or blocks cover that, at the
+/// clear spot of the zone nearest its centre, in a smaller type if only that fits.
+fn draw_labels(svg: &mut Svg, map: &Map, content: Option<&Content>) {
+    // Spawn points (2 x 2) and blocks (1 x 1) with their outlines, as drawn below.
+    let mut marks: Vec<Rect> = map.spawns().iter().map(|s| Rect::new(s.pos, Vec2::splat(2.12))).collect();
+    if let Some(c) = content {
+        marks.extend(c.blocks.iter().map(|b| Rect::new(b.pos, Vec2::splat(1.08))));
+    }
     for (idx, zone) in map.zones().iter().enumerate() {
         let (_, fill) = zone_style(zone, idx == map.drop_zone());
         let text_colour = if zone.kind == ZoneKind::Blockade { "#ffffff" } else { "#555555" };
         // About 0.6 em per character: keep the name within 90% of the zone's width.
         let chars = zone.name.chars().count().max(1) as f32;
-        let size = LABEL_SIZE.min(0.9 * zone.rect.size.x / (0.6 * chars)).max(0.3);
+        let full = LABEL_SIZE.min(0.9 * zone.rect.size.x / (0.6 * chars)).max(0.3);
+        let here: Vec<Rect> = marks.iter().copied().filter(|m| m.overlaps(&zone.rect)).collect();
+        let (at, size) = LABEL_SHRINK
+            .iter()
+            .map(|scale| (full * scale).max(0.3))
+            .find_map(|size| label_spot(&zone.rect, label_size(chars, size), &here).map(|at| (at, size)))
+            .unwrap_or((zone.rect.centre, full));
         svg.line(&format!(
-            r#"<text class="label" x="{}" y="{}" font-size="{}" text-anchor="middle" fill="{text_colour}" stroke="{fill}" stroke-width="0.3" paint-order="stroke">{}</text>"#,
-            num(zone.rect.centre.x),
-            num(zone.rect.centre.y + 0.35 * size),
+            r#"<text class="label" x="{}" y="{}" font-size="{}" text-anchor="middle" fill="{text_colour}" stroke="{fill}" stroke-width="{}" paint-order="stroke">{}</text>"#,
+            num(at.x),
+            num(at.y + 0.35 * size),
             num(size),
+            num(LABEL_OUTLINE),
             escape(&zone.name)
         ));
     }
+}
+
+/// Width of the outline drawn around label letters, in map units.
+const LABEL_OUTLINE: f32 = 0.3;
+
+/// The type sizes tried for a label that marks crowd, as fractions of its full size.
+const LABEL_SHRINK: [f32; 4] = [1.0, 0.85, 0.7, 0.55];
+
+/// Marks whose edges give the spots tried for one label, at most (the nearest).
+const LABEL_MARKS: usize = 64;
+
+/// The box a label of `chars` characters at font size `size` covers, outline included:
+/// about 0.65 em per character (a little more than the fitting above assumes), one em high.
+fn label_size(chars: f32, size: f32) -> Vec2 {
+    Vec2::new(0.65 * size * chars, size) + LABEL_OUTLINE
+}
+
+/// Where to centre a label of `label` size in `zone`, clear of every mark and of the
+/// zone's walls: the zone's centre if clear, else the clear spot nearest it among those
+/// where the label touches a mark or the zone's edge on each axis, or lies on a grid.
+/// `None` when nothing is clear.
+fn label_spot(zone: &Rect, label: Vec2, marks: &[Rect]) -> Option<Vec2> {
+    let clear = |at: Vec2| !marks.iter().any(|m| m.overlaps(&Rect::new(at, label)));
+    let centre = zone.centre;
+    if clear(centre) {
+        return Some(centre);
+    }
+    // The centres that keep the label inside the zone, off its walls' inner half.
+    let (lo, hi) = (zone.min() + (label + WALL) / 2.0, zone.max() - (label + WALL) / 2.0);
+    let (lo, hi) = (lo.min(centre), hi.max(centre));
+    let mut near: Vec<&Rect> = marks.iter().collect();
+    near.sort_by(|a, b| a.distance(centre).total_cmp(&b.distance(centre)));
+    near.truncate(LABEL_MARKS);
+    // Candidate positions on one axis: centre, the ends, a grid, and just past each mark.
+    let axis = |c: f32, lo: f32, hi: f32, half: f32, edges: &dyn Fn(&Rect) -> (f32, f32)| {
+        let mut out = vec![c, lo, hi];
+        out.extend((0..=16).map(|i| lo + (hi - lo) * i as f32 / 16.0));
+        for m in &near {
+            let (min, max) = edges(m);
+            out.extend([min - half - 0.01, max + half + 0.01]);
+        }
+        out.retain(|v| (lo..=hi).contains(v));
+        out.sort_by(f32::total_cmp);
+        out.dedup();
+        out
+    };
+    let xs = axis(centre.x, lo.x, hi.x, label.x / 2.0, &|m| (m.min().x, m.max().x));
+    let ys = axis(centre.y, lo.y, hi.y, label.y / 2.0, &|m| (m.min().y, m.max().y));
+    let mut spots: Vec<Vec2> = ys.iter().flat_map(|&y| xs.iter().map(move |&x| Vec2::new(x, y))).collect();
+    // Nearest first; ties above before below, then left before right.
+    spots.sort_by(|a, b| {
+        let (da, db) = (a.distance_squared(centre), b.distance_squared(centre));
+        da.total_cmp(&db).then(a.y.total_cmp(&b.y)).then(a.x.total_cmp(&b.x))
+    });
+    spots.into_iter().find(|&at| clear(at))
 }
 
 /// The sequence as a row of coloured squares below the map, in pixels.
