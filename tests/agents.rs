@@ -3,7 +3,7 @@ use bw4t_map::Map;
 use bw4t_runner::{Seat, play_headless};
 use bw4t_sim::MatchConfig;
 
-use crate::util::shipped_map;
+use crate::util::{fixture_text, shipped_map};
 
 /// Every match of the built-in team must end within this many ticks.
 const TICK_LIMIT: u64 = 20_000;
@@ -28,28 +28,26 @@ pub fn shipped_maps() -> Vec<(String, Map)> {
     names.into_iter().map(|n| (n.clone(), shipped_map(&n))).collect()
 }
 
-/// The original BW4T maps (read from the shared test data) and two shipped ones.
+/// Two shipped maps and the playable map fixtures in the original BW4T format (the original
+/// files themselves are played in `original_maps`).
 pub fn all_maps() -> Vec<(String, Map)> {
-    let shared = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/bw4t-maps");
     let mut maps: Vec<(String, Map)> =
         ["default", "fixed"].iter().map(|n| (n.to_string(), shipped_map(n))).collect();
-    for name in [
-        "Banana",
-        "Dutch Flag",
-        "Rainbow",
-        "Random",
-        "SuperRandom",
-        "test-variants/Rainbow-with-blockade",
-        "test-variants/red.map",
-    ] {
-        let text = std::fs::read_to_string(shared.join(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
-        maps.push((name.to_string(), Map::parse(&text, name).unwrap_or_else(|e| panic!("{name}: {e}"))));
+    for file in ["bw4t-xml/fixed-content.xml", "bw4t-xml/random-content.xml", "bw4t-xml/small.xml"] {
+        let map = Map::parse(&fixture_text(file), file).unwrap_or_else(|e| panic!("{file}: {e}"));
+        maps.push((file.to_string(), map));
     }
     maps
 }
 
 /// Ticks to complete, per team size, for `seeds` seeds; panics naming any match that did not complete.
-fn ticks_to_complete(map_name: &str, map: &Map, strategy: Strategy, sizes: &[usize], seeds: u64) -> Vec<u64> {
+pub fn ticks_to_complete(
+    map_name: &str,
+    map: &Map,
+    strategy: Strategy,
+    sizes: &[usize],
+    seeds: u64,
+) -> Vec<u64> {
     let mut all = Vec::new();
     for &n in sizes.iter().filter(|&&n| n <= map.spawns().len()) {
         for seed in 0..seeds {

@@ -1,16 +1,21 @@
 """A tiny BW4T agent in plain Python, for the tests: explores rooms, remembers blocks,
-fetches the colour needed now and delivers it. Connects to the address `bw4t run` gives."""
+fetches the colour needed now and delivers it. Connects to the address `bw4t run` gives.
+With TINY_AGENT_RECORD set to a file name, it writes there what it saw: each percepts tick
+with the sequence index it then believed, and the `match_end` result."""
 import json
 import os
 import socket
 
 sock = socket.create_connection((os.environ["BW4T_HOST"], int(os.environ["BW4T_PORT"])))
-stream = sock.makefile("rw", encoding="utf-8", newline="\n")
+# One file to read and one to write: a text file that does both drops the lines it has
+# read ahead whenever it is written to.
+incoming = sock.makefile("r", encoding="utf-8", newline="\n")
+outgoing = sock.makefile("w", encoding="utf-8", newline="\n")
 
 
 def send(message):
-    stream.write(json.dumps(message) + "\n")
-    stream.flush()
+    outgoing.write(json.dumps(message) + "\n")
+    outgoing.flush()
 
 
 send({"type": "hello", "protocol": "bw4t", "versions": [1],
@@ -22,6 +27,7 @@ known = {}           # block id -> (room, colour)
 explored = set()
 next_id = 0
 busy = False         # a goTo/goToBlock is under way
+seen = []            # [tick, sequenceIndex] per percepts, for TINY_AGENT_RECORD
 
 
 def holds(*fact):
@@ -79,7 +85,7 @@ def decide():
     act("goTo", todo[0])
 
 
-for line in stream:
+for line in incoming:
     message = json.loads(line)
     kind = message["type"]
     if kind == "percepts":
@@ -92,6 +98,7 @@ for line in stream:
                 single[fact[0]] = fact[1]
             elif fact[0] != "message":
                 facts.add(json.dumps(fact))
+        seen.append([message["tick"], single.get("sequenceIndex", 0)])
         decide()
         send({"type": "ready", "tick": message["tick"]})
     elif kind == "result":
@@ -99,4 +106,7 @@ for line in stream:
     elif kind == "ack" and not message["ok"]:
         busy = False
     elif kind in ("match_end", "bye"):
+        if kind == "match_end" and os.environ.get("TINY_AGENT_RECORD"):
+            with open(os.environ["TINY_AGENT_RECORD"], "w", encoding="utf-8") as out:
+                json.dump({"percepts": seen, "result": message["result"]}, out)
         break

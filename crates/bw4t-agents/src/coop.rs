@@ -3,8 +3,26 @@
 //! order, and wait for one's turn outside the drop zone.
 //!
 //! Messages, all to `all`: `explore ROOM`, `room ROOM ID:COLOUR...` (what a room holds now),
-//! `claim POS BLOCK`, `release POS`. When two players claim the same thing in the same
-//! tick, every player lets the lexically smaller name win, so all agree without a leader.
+//! `claim POS BLOCK`, `release POS`. A claim replaces the claimer's previous one. When two
+//! players claim the same position in the same tick, every player lets the lexically
+//! smaller name win, so all agree without a leader.
+//!
+//! The progress rule, which makes the team deliver every position (no deadlock): with `n`
+//! robots on the team, a robot
+//! - holds at most one claim, and only on a position in the window `[index, index + n)`,
+//!   whether to fetch a block or for a block it already holds;
+//! - holds a block only under such a claim, or on its way to put the block back into a
+//!   room (a loser of a collision, or a holder whose position was filled or left the
+//!   window, first re-claims an open position of its colour in the window, else puts the
+//!   block back);
+//! - moves its claim to an earlier open position of its block's colour.
+//!
+//! Claims name distinct positions, so while nobody has claimed `index` at most `n - 1`
+//! robots have claims, and at least one robot is free (after at most one trip to put a
+//! block back) to fetch for `index` or look for its colour, unless a holder of that colour
+//! moves its claim there first. Whoever claims `index` delivers it, so the sequence advances.
+//! The guarantee is for a team that follows this rule; players that do not claim count as
+//! free in `n`.
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -18,9 +36,16 @@ use crate::{Agent, Observation};
 enum Task {
     Idle,
     Explore(String),
-    Fetch { pos: usize, block: u32, room: String },
-    Deliver { pos: usize },
-    PutBack(String),
+    Fetch {
+        pos: usize,
+        block: u32,
+        room: String,
+    },
+    Deliver {
+        pos: usize,
+    },
+    /// Take the held block back into a room: no position in the window is open for it.
+    PutBack,
 }
 
 /// A cooperative player.
@@ -106,33 +131,53 @@ impl Cooperative {
         }
     }
 
-    /// Records `from`'s claim; where it collides with another claim the smaller name wins.
+    /// Records `from`'s claim, which replaces its previous one. Where it collides with
+    /// another claim on the same position the smaller name wins; every player resolves
+    /// the same messages the same way, so all keep the same claims.
     fn resolve_claim(&mut self, from: &str, pos: usize, block: u32) {
-        let rivals: Vec<(usize, String)> = self
-            .claims
-            .iter()
-            .filter(|(p, (who, b))| (**p == pos || *b == block) && who != from)
-            .map(|(p, (who, _))| (*p, who.clone()))
-            .collect();
-        if rivals.iter().any(|(_, who)| who.as_str() < from) {
-            return;
-        }
-        for (p, who) in rivals {
-            self.claims.remove(&p);
-            if who == self.name {
-                // Lost to a smaller name: give up unless the block is already in hand.
-                let holding_it = matches!(self.task, Task::Deliver { .. });
-                if !holding_it {
-                    self.task = Task::Idle;
-                }
+        self.claims.retain(|_, (who, _)| who != from);
+        if let Some((rival, _)) = self.claims.get(&pos) {
+            if rival.as_str() < from {
+                return;
+            }
+            if *rival == self.name {
+                // Lost the position, even with the block in hand: Idle re-claims within
+                // the window or puts the block back, so no robot holds a block unclaimed.
+                self.task = Task::Idle;
             }
         }
         self.claims.insert(pos, (from.to_string(), block));
+        // Two players going for one block: the later name looks for another (a block in
+        // hand is kept; whoever goes for it will find it gone).
+        if let Task::Fetch { pos: mine, block: wanted, .. } = self.task {
+            if wanted == block && from < self.name.as_str() && mine != pos {
+                self.release(mine);
+                self.task = Task::Idle;
+            }
+        }
     }
 
+    /// Claims `pos`, replacing this player's previous claim.
     fn claim(&mut self, pos: usize, block: u32) {
+        self.claims.retain(|_, (who, _)| *who != self.name);
         self.claims.insert(pos, (self.name.clone(), block));
         self.say(format!("claim {pos} {block}"));
+    }
+
+    fn holds_claim(&self, pos: usize) -> bool {
+        self.claims.get(&pos).is_some_and(|(who, _)| *who == self.name)
+    }
+
+    /// The positions a robot may claim: one ahead per teammate, so while the next position
+    /// is not claimed somebody is free to fetch it (the progress rule in the module docs).
+    fn window(v: &View) -> std::ops::Range<usize> {
+        let team = v.players.len() + 1;
+        v.index..(v.index + team).min(v.sequence.len())
+    }
+
+    /// The first open position in the window for a block of `colour`.
+    fn open_position(&self, v: &View, colour: Option<Colour>) -> Option<usize> {
+        Self::window(v).find(|p| Some(v.sequence[*p]) == colour && !self.claims.contains_key(p))
     }
 
     fn release(&mut self, pos: usize) {
@@ -196,7 +241,10 @@ impl Cooperative {
                     }
                 }
                 Task::Fetch { pos, block, room } => {
-                    if v.holding == Some(block) {
+                    if !self.holds_claim(pos) || !Self::window(v).contains(&pos) {
+                        self.release(pos);
+                        self.task = Task::Idle;
+                    } else if v.holding == Some(block) {
                         self.task = Task::Deliver { pos };
                     } else if v.holding.is_some() || !self.known.contains_key(&block) {
                         self.release(pos);
@@ -219,13 +267,14 @@ impl Cooperative {
                 }
                 Task::Deliver { pos } => {
                     let Some(held) = v.holding else {
-                        self.claims.remove(&pos);
+                        self.release(pos);
                         self.task = Task::Idle;
                         continue;
                     };
-                    if v.index > pos {
-                        // The position was filled some other way: find another use for the block.
-                        self.claims.remove(&pos);
+                    if !self.holds_claim(pos) || !Self::window(v).contains(&pos) {
+                        // Lost, filled some other way, or out of the window (the team
+                        // shrank): Idle re-claims within the window or puts the block back.
+                        self.release(pos);
                         self.task = Task::Idle;
                         continue;
                     }
@@ -260,13 +309,20 @@ impl Cooperative {
                     }
                     return;
                 }
-                Task::PutBack(room) => {
-                    if v.holding.is_none() {
+                Task::PutBack => {
+                    let Some(held) = v.holding else {
                         self.task = Task::Idle;
+                        continue;
+                    };
+                    if let Some(pos) = self.open_position(v, self.colours.get(&held).copied()) {
+                        // Needed again on the way: keep it.
+                        self.claim(pos, held);
+                        self.task = Task::Deliver { pos };
                     } else if v.room.is_some() && !v.in_drop_zone() {
                         self.task = Task::Idle;
                         return actions.push(Action::PutDown);
                     } else {
+                        let room = self.put_back_room(v);
                         return self.go(actions, Action::GoTo(room));
                     }
                 }
@@ -285,6 +341,13 @@ impl Cooperative {
             };
             self.go(actions, Action::GoTo(place));
         }
+    }
+
+    /// A room to put a block back into: the first of this robot's rooms nobody is in.
+    fn put_back_room(&self, v: &View) -> String {
+        let rooms: Vec<String> = v.rooms().into_iter().filter(|r| r != DROP_ZONE).collect();
+        let rooms = rotated(&rooms, &self.name, &v.players);
+        rooms.iter().find(|r| !v.occupied.contains(*r)).or(rooms.first()).cloned().unwrap_or_default()
     }
 
     fn choose_other_than(&mut self, v: &View, skip: &str, actions: &mut Vec<Action>) {
@@ -307,24 +370,19 @@ impl Cooperative {
             &v.players,
         );
         if let Some(held) = v.holding {
-            let colour = self.colours.get(&held).copied();
-            let open = (v.index..v.sequence.len())
-                .find(|p| Some(v.sequence[*p]) == colour && !self.claims.contains_key(p));
-            self.task = match open {
+            // A block in hand is bound by the window like a new fetch.
+            self.task = match self.open_position(v, self.colours.get(&held).copied()) {
                 Some(pos) => {
                     self.claim(pos, held);
                     Task::Deliver { pos }
                 }
-                None => Task::PutBack(rooms.first().cloned().unwrap_or_default()),
+                None => Task::PutBack,
             };
             return;
         }
         let claimed: BTreeSet<u32> = self.claims.values().map(|(_, b)| *b).collect();
         let rank = |room: &str| rooms.iter().position(|r| r == room).unwrap_or(usize::MAX);
-        // Fetch at most one position ahead per teammate, so that while the next position's
-        // colour is still unknown somebody is always free to look for it.
-        let window = (v.index + v.players.len() + 1).min(v.sequence.len());
-        for pos in v.index..window {
+        for pos in Self::window(v) {
             if self.claims.contains_key(&pos) {
                 continue;
             }
@@ -395,7 +453,7 @@ impl Agent for Cooperative {
         }
         // Forget what players who left had claimed.
         let present: BTreeSet<&String> = v.players.iter().chain([&self.name]).collect();
-        self.claims.retain(|_, (who, _)| present.contains(who));
+        self.claims.retain(|p, (who, _)| present.contains(who) && *p >= v.index);
         self.exploring.retain(|_, who| present.contains(who));
         self.observe_room(&v);
         let mut actions = Vec::new();

@@ -4,7 +4,8 @@ use std::fmt;
 
 use crate::percept::BlockId;
 
-/// A robot's id within a match; ids are never reused.
+/// A robot's id within a match: the lowest id no robot in the match has when it joins,
+/// so an id freed by a leave is given again.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub struct RobotId(pub u32);
 

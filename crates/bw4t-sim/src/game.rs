@@ -117,7 +117,17 @@ struct Robot {
     inbox: Vec<Percept>,
     /// The changeable facts this robot's player was last told, sorted.
     told: Vec<Fact>,
+    /// `player` facts of robots that left since this robot was last told: the next delta's
+    /// first `not`s. Taken out of `told` at the leave, so a robot that reuses the id is new.
+    left: Vec<Percept>,
     introduced: bool,
+}
+
+/// What is kept of a robot that left, until its id is given to a new robot.
+struct Departed {
+    id: RobotId,
+    name: Arc<str>,
+    stats: RobotStats,
 }
 
 /// One BW4T match.
@@ -136,12 +146,11 @@ pub struct Match {
     room_blocks: Vec<Vec<BlockId>>,
     /// Per zone, the robot occupying it (rooms only).
     occupant: Vec<Option<RobotId>>,
-    /// By robot id; `None` once a robot has left.
+    /// By robot id; `None` while no robot has the id. A joining robot takes the lowest
+    /// free id, so this never holds more slots than robots were ever in the match at once.
     robots: Vec<Option<Robot>>,
-    /// By robot id, kept after a robot leaves so its departure can still be named.
-    player_names: Vec<Arc<str>>,
-    /// Statistics of robots that have left, by robot id.
-    departed: Vec<(RobotId, RobotStats)>,
+    /// The last robot that left with each id now free, ascending by id.
+    departed: Vec<Departed>,
     next_order: u64,
     stats: MatchStats,
     ended: Vec<OrderEnd>,
@@ -164,6 +173,9 @@ impl Match {
                 Block { colour: b.colour, place: BlockPlace::Room { zone: b.zone, pos: b.pos } }
             })
             .collect();
+        // An empty sequence is complete before the first tick.
+        let stats =
+            MatchStats { completed_at: content.sequence.is_empty().then_some(0), ..MatchStats::default() };
         Ok(Match {
             physics: Physics::new(map, config.robot_collisions),
             nav: Navigator::new(map),
@@ -174,10 +186,9 @@ impl Match {
             room_blocks,
             occupant: vec![None; map.zones().len()],
             robots: Vec::new(),
-            player_names: Vec::new(),
             departed: Vec::new(),
             next_order: 0,
-            stats: MatchStats::default(),
+            stats,
             ended: Vec::new(),
             facts_scratch: Vec::new(),
             waypoint_scratch: Vec::new(),
@@ -188,24 +199,16 @@ impl Match {
         })
     }
 
-    /// Adds a robot for player `name` at the first spawn point no robot holds.
+    /// Adds a robot for player `name` at the first spawn point no robot holds. It gets the
+    /// lowest id no robot in the match has (an id freed by a leave is given again).
     pub fn join(&mut self, name: &str) -> Result<RobotId, JoinError> {
-        // `all` addresses every player in `sendMessage`, so no player may be called that.
-        let valid = name.len() <= MAX_NAME_LEN
-            && name != "all"
-            && name.starts_with(|c: char| c.is_ascii_alphabetic())
-            && name.chars().all(|c| c.is_ascii_alphanumeric());
-        if !valid {
-            return Err(JoinError::InvalidName(name.to_string()));
-        }
-        if self.live_robots().any(|r| &*r.name == name) {
-            return Err(JoinError::NameTaken(name.to_string()));
-        }
+        self.check_name(name)?;
         let spawns = self.map.spawns();
         let spawn = (0..spawns.len())
             .find(|&s| self.live_robots().all(|r| r.spawn != s))
             .ok_or(JoinError::Full(spawns.len()))?;
-        let id = RobotId(self.robots.len() as u32);
+        let slot = self.robots.iter().position(Option::is_none).unwrap_or(self.robots.len());
+        let id = RobotId(slot as u32);
         let pos = spawns[spawn].pos;
         let body = self.physics.add_robot(id.0, pos);
         let mut robot = Robot {
@@ -223,16 +226,39 @@ impl Match {
             stats: RobotStats::default(),
             inbox: Vec::new(),
             told: Vec::new(),
+            left: Vec::new(),
             introduced: false,
         };
         self.update_place(&mut robot);
-        self.player_names.push(robot.name.clone());
-        self.robots.push(Some(robot));
+        self.departed.retain(|d| d.id != id);
+        if slot == self.robots.len() {
+            self.robots.push(Some(robot));
+        } else {
+            self.robots[slot] = Some(robot);
+        }
         Ok(id)
     }
 
-    /// Removes a robot. A block it holds is put down where it stands, as by `putDown`
-    /// (lost if there is no room for it).
+    /// Whether a robot for player `name` could join, as far as the name goes.
+    pub fn check_name(&self, name: &str) -> Result<(), JoinError> {
+        // `all` addresses every player in `sendMessage`, so no player may be called that.
+        let valid = name.len() <= MAX_NAME_LEN
+            && name != "all"
+            && name.starts_with(|c: char| c.is_ascii_alphabetic())
+            && name.chars().all(|c| c.is_ascii_alphanumeric());
+        if !valid {
+            return Err(JoinError::InvalidName(name.to_string()));
+        }
+        if self.live_robots().any(|r| &*r.name == name) {
+            return Err(JoinError::NameTaken(name.to_string()));
+        }
+        Ok(())
+    }
+
+    /// Removes a robot: its body, its place and everything kept for it, except its name and
+    /// statistics (until its id is given to a new robot). A block it holds is put down where
+    /// it stands, as by `putDown` (lost if there is no room for it). Orders of its that
+    /// ended this tick are not reported.
     pub fn leave(&mut self, id: RobotId) -> Result<(), Rejection> {
         if self.robot(id).is_none() {
             return Err(Rejection::UnknownRobot(id));
@@ -245,7 +271,15 @@ impl Match {
                 self.vacate(room, id);
             }
             self.physics.remove_robot(robot.body);
-            self.departed.push((id, robot.stats));
+            self.ended.retain(|end| end.robot != id);
+            for other in self.robots.iter_mut().flatten() {
+                if let Ok(at) = other.told.binary_search(&Fact::Player(id.0)) {
+                    other.told.remove(at);
+                    other.left.push(Percept::Player(robot.name.clone()));
+                }
+            }
+            let at = self.departed.partition_point(|d| d.id < id);
+            self.departed.insert(at, Departed { id, name: robot.name, stats: robot.stats });
         }
         Ok(())
     }
@@ -296,6 +330,11 @@ impl Match {
         }
         self.physics.step();
         self.stats.ticks = self.tick;
+        // Completion belongs to the first tick whose percepts show it: a delivery applied at
+        // the boundary before this tick.
+        if self.is_complete() && self.stats.completed_at.is_none() {
+            self.stats.completed_at = Some(self.tick);
+        }
         StepReport { tick: self.tick, ended: std::mem::take(&mut self.ended) }
     }
 
@@ -393,18 +432,22 @@ impl Match {
         &self.stats
     }
 
-    /// One robot's statistics (also after it has left).
+    /// One robot's statistics (also after it has left, until its id is given again).
     pub fn robot_stats(&self, id: RobotId) -> Option<&RobotStats> {
-        self.robot(id).map(|r| &r.stats).or_else(|| self.departed.iter().find(|d| d.0 == id).map(|d| &d.1))
+        self.robot(id).map(|r| &r.stats).or_else(|| self.departed(id).map(|d| &d.stats))
     }
 
-    /// Every robot that ever joined, by id: its name, statistics and whether it is still in.
+    /// Per robot id ever used, by id: the robot that has it now, or else the last one that
+    /// had it; its name, statistics and whether it is still in the match.
     pub fn all_robot_stats(&self) -> impl Iterator<Item = (RobotId, &str, &RobotStats, bool)> + '_ {
-        self.player_names.iter().enumerate().filter_map(|(i, name)| {
-            let id = RobotId(i as u32);
-            let present = self.robot(id).is_some();
-            self.robot_stats(id).map(|stats| (id, &**name, stats, present))
+        self.robots.iter().enumerate().filter_map(|(i, slot)| match slot {
+            Some(r) => Some((r.id, &*r.name, &r.stats, true)),
+            None => self.departed(RobotId(i as u32)).map(|d| (d.id, &*d.name, &d.stats, false)),
         })
+    }
+
+    fn departed(&self, id: RobotId) -> Option<&Departed> {
+        self.departed.binary_search_by_key(&id, |d| d.id).ok().map(|at| &self.departed[at])
     }
 
     /// Simulated seconds until the sequence was completed, if it was.
@@ -540,9 +583,6 @@ impl Match {
                     self.sequence_index += 1;
                     self.stats.sequence_index = self.sequence_index;
                     self.stats.good_drops += 1;
-                    if self.is_complete() {
-                        self.stats.completed_at = Some(self.tick);
-                    }
                 } else {
                     self.stats.wrong_drops += 1;
                 }
@@ -736,9 +776,11 @@ impl Match {
             robot.introduced = true;
         }
         if full {
+            robot.left.clear();
             delta.add.extend(now.iter().map(|&f| self.resolve(f)));
         } else {
-            let (mut added, mut removed) = (Vec::new(), Vec::new());
+            // Players that left come first, as `player` facts sort first.
+            let (mut added, mut removed) = (Vec::new(), std::mem::take(&mut robot.left));
             diff(&robot.told, &now, |f| added.push(self.resolve(f)), |f| removed.push(self.resolve(f)));
             delta.add.append(&mut added);
             delta.not = removed;
@@ -776,7 +818,10 @@ impl Match {
     fn resolve(&self, fact: Fact) -> Percept {
         let name = |zone: u32| self.zone_names[zone as usize].clone();
         match fact {
-            Fact::Player(r) => Percept::Player(self.player_names[r as usize].clone()),
+            // Facts name only robots in the match: a leave takes its fact out of `told`.
+            Fact::Player(r) => {
+                Percept::Player(self.robot(RobotId(r)).map(|r| r.name.clone()).unwrap_or_default())
+            }
             Fact::At(zone) => Percept::At(name(zone)),
             Fact::SequenceIndex(i) => Percept::SequenceIndex(i),
             Fact::State(s) => Percept::State(s),
@@ -787,5 +832,99 @@ impl Match {
             Fact::Holding(b) => Percept::Holding(b),
             Fact::Block(b) => Percept::Block(b),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MAP: &str = r#"
+        name = "churn"
+        area = [30, 30]
+        [[spawn]]
+        name = "S1"
+        at = [5, 5]
+        [[spawn]]
+        name = "S2"
+        at = [9, 5]
+        [[zone]]
+        name = "Hall"
+        type = "corridor"
+        centre = [15, 5]
+        size = [30, 10]
+        neighbours = ["DropZone", "RoomA"]
+        [[zone]]
+        name = "DropZone"
+        type = "room"
+        centre = [25, 15]
+        size = [10, 10]
+        doors = [[25, 10]]
+        [[zone]]
+        name = "RoomA"
+        type = "room"
+        centre = [15, 15]
+        size = [10, 10]
+        doors = [[15, 10]]
+        blocks = ["Red"]
+    "#;
+
+    fn game() -> Match {
+        let map = Map::from_native(MAP).expect("map");
+        Match::new(&map, &MatchConfig::default(), 1).expect("match")
+    }
+
+    /// Everything a tick walks over or a join searches: robot slots, departed records,
+    /// rapier's bodies and colliders.
+    fn footprint(game: &Match) -> (usize, usize, (usize, usize)) {
+        (game.robots.len(), game.departed.len(), game.physics.object_count())
+    }
+
+    #[test]
+    fn join_leave_churn_leaves_no_trace() {
+        let mut churned = game();
+        let mut calm = game();
+        let ann = churned.join("Ann").expect("Ann");
+        assert_eq!(calm.join("Ann"), Ok(ann));
+        churned.handle_action(ann, Action::GoTo("RoomA".into())).expect("go");
+        calm.handle_action(ann, Action::GoTo("RoomA".into())).expect("go");
+        // One churner, so the footprint has its largest size from the start.
+        let first = churned.join("Guest0").expect("guest");
+        churned.leave(first).expect("leave");
+        let size = footprint(&churned);
+        for i in 1..3000 {
+            let guest = churned.join(&format!("Guest{i}")).expect("guest");
+            assert_eq!(guest, first, "a freed id is given again");
+            churned.handle_action(guest, Action::GoTo("DropZone".into())).expect("go");
+            churned.step();
+            calm.step();
+            churned.poll_percepts(ann);
+            churned.leave(guest).expect("leave");
+            assert_eq!(footprint(&churned), size, "after {i} guests");
+        }
+        // Ann's slot and the guest's; the guest's record; Ann's body and collider.
+        let empty = footprint(&game()).2;
+        assert_eq!(size, (2, 1, (empty.0 + 1, empty.1 + 1)));
+        // The world is as if nobody else had ever come: the same digest, bit for bit.
+        assert_eq!(churned.robots().count(), 1);
+        assert_eq!(churned.digest(), calm.digest());
+    }
+
+    #[test]
+    fn a_reused_id_is_a_new_player_to_the_others() {
+        let mut game = game();
+        let ann = game.join("Ann").expect("Ann");
+        let bob = game.join("Bob").expect("Bob");
+        game.poll_percepts(ann);
+        game.poll_percepts(bob);
+        game.leave(bob).expect("leave");
+        let cat = game.join("Cat").expect("Cat");
+        assert_eq!(cat, bob, "Cat takes the id Bob freed");
+        let delta = game.poll_percepts(ann).expect("Ann");
+        assert_eq!(delta.not, [Percept::Player("Bob".into())]);
+        assert!(delta.add.contains(&Percept::Player("Cat".into())), "{delta:?}");
+        let names: Vec<(u32, String, bool)> =
+            game.all_robot_stats().map(|(id, name, _, present)| (id.0, name.to_string(), present)).collect();
+        assert_eq!(names, [(0, "Ann".to_string(), true), (1, "Cat".to_string(), true)]);
     }
 }

@@ -177,6 +177,12 @@ impl Physics {
         self.world.step();
     }
 
+    /// Bodies and colliders in the world (walls, guards, robots).
+    #[cfg(test)]
+    pub fn object_count(&self) -> (usize, usize) {
+        (self.world.bodies.len(), self.world.colliders.len())
+    }
+
     /// The position of a robot's body as rapier holds it.
     pub fn body_position(&self, robot: RobotBody) -> Vec2 {
         self.world.bodies.get(robot.body).map_or(Vec2::ZERO, |b| b.translation())

@@ -22,7 +22,8 @@ pub struct RobotStats {
 pub struct MatchStats {
     /// Ticks simulated so far.
     pub ticks: u64,
-    /// The tick at which the last colour of the sequence was delivered.
+    /// The first tick whose state (and percepts) show the whole sequence delivered: the
+    /// tick after the boundary at which the last colour was put down.
     pub completed_at: Option<u64>,
     /// How far the sequence got.
     pub sequence_index: u32,
