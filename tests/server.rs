@@ -9,9 +9,10 @@ use crate::util::{AutoPlayer, Client, TestServer, delta_of, lockstep, shipped_ma
 /// BW4T-FACTS section 6, played over TCP: a closed door, a delivery, and messages.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_original_scenarios_over_tcp() {
-    let server = TestServer::start(lockstep("fixed", 1, 2)).await;
+    let server = TestServer::start(lockstep("fixed", 1, 3)).await;
     let mut ann = AutoPlayer::join(server.addr, "Ann").await;
     let mut bob = AutoPlayer::join(server.addr, "Bob").await;
+    let mut cat = AutoPlayer::join(server.addr, "Cat").await;
     ann.wait_fact("at(FrontDropZone)").await;
 
     // 1. Movement: Bob meets RoomC1's closed door while Ann is inside.
@@ -39,7 +40,6 @@ async fn the_original_scenarios_over_tcp() {
     bob.wait_fact("sequenceIndex(1)").await;
 
     // 3. Communication with a third player.
-    let mut cat = AutoPlayer::join(server.addr, "Cat").await;
     cat.wait_fact("player(Ann)").await;
     ann.wait_fact("player(Cat)").await;
     ann.say("Bob", "hello").await;
@@ -250,6 +250,8 @@ async fn refusals_are_fatal_and_name_the_reason() {
     let mut config = bw4t_server::ServerConfig::new(bw4t_map::Map::from_native(twin).expect("map"));
     config.token = Some("sesame".into());
     config.max_connections = 8;
+    // Two seats but one spawn point: the last refusal is the map's.
+    config.robots = 2;
     let server = TestServer::start(config).await;
     let hello = |extra: serde_json::Value| {
         let mut h = json!({"type": "hello", "protocol": "bw4t", "versions": [1], "token": "sesame"});
@@ -561,13 +563,17 @@ async fn completing_the_sequence_ends_the_match_for_everyone() {
     assert_eq!((result.end_reason.as_str(), result.completed, result.sequence_index), ("completed", true, 1));
     assert_eq!(
         result.completed_tick,
-        Some(result.ticks - 1),
-        "the delivery was applied after the last tick but one"
+        Some(result.ticks),
+        "the completing delivery shows in the last tick's percepts"
     );
     ann.wait("the end", |s| s.ended.then_some(())).await;
-    // With every_tick, Ann was sent (and answered) every tick.
-    let ticks = ann.seen.lock().expect("lock").tick;
+    // With every_tick, Ann was sent (and answered) every tick; the last showed the sequence done.
+    let (ticks, complete) = {
+        let seen = ann.seen.lock().expect("lock");
+        (seen.tick, seen.beliefs.holds(&bw4t_sim::Percept::SequenceIndex(1)))
+    };
     assert_eq!(ticks, result.ticks);
+    assert!(complete, "the last percepts show the sequence complete");
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -580,6 +586,7 @@ async fn a_robot_whose_player_stays_away_leaves_after_the_grace_period() {
     let server = TestServer::start(config).await;
     let mut ann = AutoPlayer::join(server.addr, "Ann").await;
     let bob = AutoPlayer::join(server.addr, "Bob").await;
+    let old_session = bob.welcome.session.clone();
     ann.wait_fact("player(Bob)").await;
     bob.disconnect().await;
     ann.wait("Bob's robot to leave", |s| {
@@ -588,7 +595,8 @@ async fn a_robot_whose_player_stays_away_leaves_after_the_grace_period() {
     .await;
     // The name is free again.
     let back = AutoPlayer::join(server.addr, "Bob").await;
-    assert_eq!(back.welcome.robot, Some(2), "a new robot, not the old one");
+    assert_eq!(back.welcome.robot, Some(1), "the freed id is given again");
+    assert_ne!(back.welcome.session, old_session, "to a new robot, not the old one");
     server.stop().await;
 }
 

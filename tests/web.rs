@@ -1,28 +1,65 @@
-use bw4t_protocol::{Mode, ServerMessage, decode_server};
+use std::net::SocketAddr;
+
+use bw4t_protocol::{MAX_LINE, Mode, ServerMessage, decode_server, encode};
+use bw4t_server::ServerConfig;
 use futures_util::{SinkExt, StreamExt};
 use serde_json::{Value, json};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
-use tokio_tungstenite::tungstenite::Message;
+use tokio_tungstenite::tungstenite::client::IntoClientRequest;
+use tokio_tungstenite::tungstenite::protocol::Role;
+use tokio_tungstenite::tungstenite::{self, Message};
 
-use crate::util::{TestServer, WAIT, lockstep};
+use crate::util::{Client, TestServer, WAIT, lockstep};
 
-/// A plain HTTP GET: (status line, body), or `None` when the server closed the connection
-/// without answering.
-async fn try_get(addr: std::net::SocketAddr, path: &str) -> Option<(String, String)> {
+/// An HTTP answer.
+struct Answer {
+    status: u16,
+    head: String,
+    body: String,
+}
+
+/// A plain HTTP GET, or `None` when the server closed the connection without answering.
+async fn try_get(addr: SocketAddr, path: &str) -> Option<Answer> {
     let mut stream = tokio::net::TcpStream::connect(addr).await.expect("connect");
     let _ = stream.write_all(format!("GET {path} HTTP/1.1\r\nHost: test\r\n\r\n").as_bytes()).await;
     let mut response = String::new();
     let _ = tokio::time::timeout(WAIT, stream.read_to_string(&mut response)).await.expect("in time");
     let (head, body) = response.split_once("\r\n\r\n")?;
-    Some((head.lines().next().unwrap_or("").to_string(), body.to_string()))
+    let status = head.split(' ').nth(1).and_then(|s| s.parse().ok()).expect("a status code");
+    Some(Answer { status, head: head.to_string(), body: body.to_string() })
 }
 
 /// A plain HTTP GET that must be answered.
-async fn get(addr: std::net::SocketAddr, path: &str) -> (String, String) {
+async fn get(addr: SocketAddr, path: &str) -> Answer {
     try_get(addr, path).await.expect("an answer")
 }
 
 type Ws = tokio_tungstenite::WebSocketStream<tokio::net::TcpStream>;
+
+/// Opens `ws://ADDR/ws` with these extra (or replaced) headers; on a refusal, the
+/// handshake's error (`Http` with the answer's status).
+async fn try_ws(addr: SocketAddr, headers: &[(&'static str, &str)]) -> Result<Ws, tungstenite::Error> {
+    let mut request = format!("ws://{addr}/ws").into_client_request().expect("request");
+    for (name, value) in headers {
+        request.headers_mut().insert(*name, value.parse().expect("header value"));
+    }
+    let stream = tokio::net::TcpStream::connect(addr).await.expect("connect");
+    let handshake = tokio_tungstenite::client_async(request, stream);
+    Ok(tokio::time::timeout(WAIT, handshake).await.expect("a handshake in time")?.0)
+}
+
+/// Opens `ws://ADDR/ws`, which must succeed.
+async fn ws(addr: SocketAddr) -> Ws {
+    try_ws(addr, &[]).await.expect("handshake")
+}
+
+/// The HTTP status of a refused handshake (0 if it was not refused).
+fn refusal(handshake: &Result<Ws, tungstenite::Error>) -> u16 {
+    match handshake {
+        Err(tungstenite::Error::Http(answer)) => answer.status().as_u16(),
+        _ => 0,
+    }
+}
 
 /// The next server message on a WebSocket, within [`WAIT`].
 async fn next(ws: &mut Ws) -> ServerMessage {
@@ -32,11 +69,70 @@ async fn next(ws: &mut Ws) -> ServerMessage {
     }
 }
 
-async fn web_server(builtin: usize, robots: usize) -> (TestServer, std::net::SocketAddr) {
-    let mut config = lockstep("fixed", 4, robots);
-    config.mode = Mode::Realtime;
-    config.game.ticks_per_second = 100;
-    let http = tokio::net::TcpListener::bind("127.0.0.1:0").await.expect("bind");
+/// Every server message until the server closes the WebSocket, which it must within [`WAIT`].
+async fn drain(ws: &mut Ws) -> Vec<ServerMessage> {
+    let mut all = Vec::new();
+    let closed = async {
+        loop {
+            match ws.next().await {
+                Some(Ok(Message::Text(t))) => all.push(decode_server(&t).expect("a server message")),
+                Some(Ok(Message::Close(_)) | Err(_)) | None => break,
+                Some(Ok(_)) => {}
+            }
+        }
+    };
+    tokio::time::timeout(WAIT, closed).await.expect("closed in time");
+    all
+}
+
+/// A client frame's bytes as a raw socket sends them: `FIN`, the opcode, the length it
+/// announces, a mask (of zeros, so the payload goes as it is) and the payload sent with it.
+fn client_frame(opcode: u8, fin: bool, announced: u64, payload: &[u8]) -> Vec<u8> {
+    let mut frame = vec![if fin { 0x80 | opcode } else { opcode }];
+    match announced {
+        0..=125 => frame.push(0x80 | announced as u8),
+        126..=0xffff => {
+            frame.push(0x80 | 126);
+            frame.extend_from_slice(&(announced as u16).to_be_bytes());
+        }
+        _ => {
+            frame.push(0x80 | 127);
+            frame.extend_from_slice(&announced.to_be_bytes());
+        }
+    }
+    frame.extend_from_slice(&[0, 0, 0, 0]);
+    frame.extend_from_slice(payload);
+    frame
+}
+
+/// Sends raw bytes on an open WebSocket's socket and returns everything the server says
+/// until it closes the connection.
+async fn send_raw_and_drain(ws: Ws, bytes: &[u8]) -> Vec<ServerMessage> {
+    let mut stream = ws.into_inner();
+    stream.write_all(bytes).await.expect("write");
+    let mut ws = tokio_tungstenite::WebSocketStream::from_raw_socket(stream, Role::Client, None).await;
+    drain(&mut ws).await
+}
+
+/// The codes of the `error` and `bye` messages, in order, and whether each error was fatal.
+fn refusal_codes(messages: &[ServerMessage]) -> Vec<String> {
+    messages
+        .iter()
+        .filter_map(|m| match m {
+            ServerMessage::Error(e) => Some(format!("error {} fatal={}", e.code, e.fatal)),
+            ServerMessage::Bye(b) => Some(format!("bye {}", b.reason)),
+            _ => None,
+        })
+        .collect()
+}
+
+fn hello_json(name: &str) -> String {
+    json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": name}).to_string()
+}
+
+/// A realtime server on the fixed map with the web port, listening as `bw4t serve` does.
+async fn web_server_with(config: ServerConfig, builtin: usize) -> (TestServer, SocketAddr) {
+    let http = bw4t_server::listen("127.0.0.1:0".parse().expect("addr")).expect("listen");
     let http_addr = http.local_addr().expect("addr");
     let seats = (1..=builtin)
         .map(|i| {
@@ -50,19 +146,28 @@ async fn web_server(builtin: usize, robots: usize) -> (TestServer, std::net::Soc
     (TestServer::start_with(config, extras).await, http_addr)
 }
 
+fn web_config(robots: usize) -> ServerConfig {
+    let mut config = lockstep("fixed", 4, robots);
+    config.mode = Mode::Realtime;
+    config.game.ticks_per_second = 100;
+    config
+}
+
+async fn web_server(builtin: usize, robots: usize) -> (TestServer, SocketAddr) {
+    web_server_with(web_config(robots), builtin).await
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_page_and_the_map_layout_are_served() {
     let (server, http) = web_server(1, 1).await;
-    let (status, page) = get(http, "/").await;
-    assert!(status.contains("200") && page.contains("<html"), "{status}");
+    let page = get(http, "/").await;
+    assert!(page.status == 200 && page.body.contains("<html"), "{}", page.head);
     for path in ["/app.js", "/style.css"] {
-        assert!(get(http, path).await.0.contains("200"), "{path}");
+        assert_eq!(get(http, path).await.status, 200, "{path}");
     }
-    let (_, info) = get(http, "/info.json").await;
-    let info: Value = serde_json::from_str(&info).expect("json");
+    let info: Value = serde_json::from_str(&get(http, "/info.json").await.body).expect("json");
     assert_eq!(info["mode"], "live");
-    let (_, layout) = get(http, "/map.json").await;
-    let layout: Value = serde_json::from_str(&layout).expect("json");
+    let layout: Value = serde_json::from_str(&get(http, "/map.json").await.body).expect("json");
     let zones = layout["zones"].as_array().expect("zones");
     let room = zones.iter().find(|z| z["name"] == "RoomA1").expect("RoomA1");
     assert_eq!(
@@ -70,19 +175,14 @@ async fn the_page_and_the_map_layout_are_served() {
         (Some(10.0), Some(10.0), Some(10.0))
     );
     assert_eq!(room["doors"].as_array().map(Vec::len), Some(1));
-    assert!(get(http, "/nothing-here").await.0.contains("404"));
+    assert_eq!(get(http, "/nothing-here").await.status, 404);
     server.stop().await;
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_page_speaks_the_protocol_over_websocket() {
     let (server, http) = web_server(1, 2).await;
-    let connect = || async {
-        let stream = tokio::net::TcpStream::connect(http).await.expect("connect");
-        let (ws, _) =
-            tokio_tungstenite::client_async(format!("ws://{http}/ws"), stream).await.expect("handshake");
-        ws
-    };
+    let connect = || ws(http);
     // A human player joins; with the built-in agent that makes two and the match starts.
     let mut human = connect().await;
     human
@@ -158,6 +258,7 @@ async fn the_replay_viewer_serves_every_ticks_frame() {
         "test",
         vec!["Bot1".into()],
         100,
+        Some(400),
     );
     let seats = vec![bw4t_runner::Seat {
         name: "Bot1".into(),
@@ -167,48 +268,304 @@ async fn the_replay_viewer_serves_every_ticks_frame() {
         bw4t_runner::play_headless(&map, &config, 3, seats, 400, Some(&mut recorder)).expect("play");
     recorder.finish(&game, reason).expect("written");
     let text = String::from_utf8(buffer.lock().expect("lock").clone()).expect("utf-8");
-    let (_, _, frames) = bw4t_runner::replay_frames(&text).expect("frames");
-    assert_eq!(frames.len() as u64, game.tick() + 1, "a frame per tick, 0 included");
-    assert!(frames.iter().enumerate().all(|(i, f)| f.tick == i as u64));
-    let robot = |t: usize| (frames[t].robots[0].x, frames[t].robots[0].y);
-    assert_ne!(robot(0), robot(100), "the robot moved");
+    fn frame_at(frames: &mut bw4t_runner::ReplayFrames, tick: u64) -> Value {
+        serde_json::from_str(&frames.frame_json(tick).expect("a frame")).expect("json")
+    }
+    let mut frames = bw4t_runner::ReplayFrames::open(&text).expect("frames");
+    assert_eq!(frames.last_tick(), game.tick(), "a frame per tick, 0 included");
+    let forwards: Vec<Value> = (0..=game.tick()).map(|t| frame_at(&mut frames, t)).collect();
+    assert!(forwards.iter().enumerate().all(|(i, f)| f["tick"] == i as u64));
+    assert_ne!(forwards[0]["robots"][0]["x"], forwards[100]["robots"][0]["x"], "the robot moved");
+    assert!(frames.frame_json(game.tick() + 1).is_none());
+    // Keeping a single frame, every step back re-simulates from the start: same frames.
+    let mut lean = bw4t_runner::ReplayFrames::open(&text).expect("frames").with_cache_budget(0);
+    for t in (0..=game.tick()).rev().step_by(7) {
+        assert_eq!(frame_at(&mut lean, t), forwards[t as usize], "tick {t}");
+    }
     // Served over HTTP.
+    let frames = std::sync::Mutex::new(frames);
+    let source: bw4t_server::FrameSource =
+        std::sync::Arc::new(move |t| frames.lock().expect("lock").frame_json(t));
     let site = bw4t_server::Site {
         map_json: bw4t_protocol::map_layout(&map).to_string(),
         info_json: json!({"mode": "replay"}).to_string(),
-        replay: Some((json!({"ticks": frames.len() - 1}).to_string(), frames)),
+        replay: Some((json!({"ticks": game.tick()}).to_string(), source)),
     };
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.expect("bind");
     let addr = listener.local_addr().expect("addr");
-    let ids = std::sync::Arc::new(std::sync::atomic::AtomicU64::new(1));
-    let task = tokio::spawn(bw4t_server::serve_site(listener, std::sync::Arc::new(site), None, ids, 8, 16));
-    let (_, frame) = get(addr, "/replay/frame/100").await;
-    let frame: Value = serde_json::from_str(&frame).expect("json");
+    let task = tokio::spawn(bw4t_server::serve_site(listener, std::sync::Arc::new(site), 16));
+    let frame: Value = serde_json::from_str(&get(addr, "/replay/frame/100").await.body).expect("json");
     assert_eq!(frame["tick"], 100);
-    assert!(get(addr, "/replay/frame/99999").await.0.contains("404"));
-    assert!(get(addr, "/replay.json").await.1.contains("\"ticks\""));
+    assert_eq!(get(addr, "/replay/frame/99999").await.status, 404);
+    assert!(get(addr, "/replay.json").await.body.contains("\"ticks\""));
     task.abort();
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn the_web_port_has_a_connection_limit() {
-    let mut config = lockstep("fixed", 4, 1);
-    config.max_connections = 2;
-    let http = tokio::net::TcpListener::bind("127.0.0.1:0").await.expect("bind");
-    let addr = http.local_addr().expect("addr");
-    let server =
-        TestServer::start_with(config, bw4t_server::Extras { http: Some(http), ..Default::default() }).await;
-    // Two connections that never finish their request hold both places.
-    let _a = tokio::net::TcpStream::connect(addr).await.expect("connect");
-    let _b = tokio::net::TcpStream::connect(addr).await.expect("connect");
-    // Once the server has taken both, a third request is closed unanswered.
-    let refused = async { while try_get(addr, "/info.json").await.is_some() {} };
-    tokio::time::timeout(WAIT, refused).await.expect("a refusal in time");
-    drop((_a, _b));
-    // With the places free again, requests are served.
-    let served = async {
-        while !try_get(addr, "/info.json").await.is_some_and(|(status, _)| status.contains("200")) {}
-    };
-    tokio::time::timeout(WAIT, served).await.expect("served again");
+async fn a_websocket_without_hello_is_closed_at_the_hello_deadline_like_tcp() {
+    let mut config = web_config(1);
+    config.hello_timeout = std::time::Duration::from_millis(300);
+    let (server, http) = web_server_with(config, 0).await;
+    let mut silent_ws = ws(http).await;
+    let mut silent_tcp = Client::connect(server.addr).await;
+    let over_ws = drain(&mut silent_ws).await;
+    let over_tcp = silent_tcp.drain().await;
+    assert_eq!(refusal_codes(&over_ws), ["error hello_timeout fatal=true", "bye hello_timeout"]);
+    let encoded = |messages: &[ServerMessage]| messages.iter().map(encode).collect::<Vec<_>>();
+    assert_eq!(encoded(&over_ws), encoded(&over_tcp), "the same messages as over TCP");
     server.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_page_answers_while_the_websocket_limit_is_full() {
+    let mut config = web_config(1);
+    config.max_connections = 2;
+    // The silent sockets keep their places for the whole test.
+    config.hello_timeout = std::time::Duration::from_secs(600);
+    let (server, http) = web_server_with(config, 0).await;
+    let first = ws(http).await;
+    let _second = ws(http).await;
+    let page = get(http, "/").await;
+    assert!(page.status == 200 && page.body.contains("<html"), "{}", page.head);
+    assert_eq!(get(http, "/map.json").await.status, 200);
+    // A third WebSocket is told to come back later, not dropped.
+    match try_ws(http, &[]).await {
+        Err(tungstenite::Error::Http(answer)) => {
+            assert_eq!(answer.status().as_u16(), 503);
+            assert_eq!(answer.headers().get("retry-after").and_then(|v| v.to_str().ok()), Some("1"));
+        }
+        other => panic!("expected 503, got {:?}", other.map(|_| "a WebSocket")),
+    }
+    // Once a WebSocket leaves, its place is taken again.
+    drop(first);
+    let again = async { while try_ws(http, &[]).await.is_err() {} };
+    tokio::time::timeout(WAIT, again).await.expect("a free place in time");
+    server.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn over_long_websocket_messages_are_refused_before_they_are_buffered() {
+    let (server, http) = web_server(0, 1).await;
+    let refused = ["error line_too_long fatal=true", "bye line_too_long"];
+    // A frame that announces 45 MiB is refused at its header, before any of it arrives.
+    let over = send_raw_and_drain(ws(http).await, &client_frame(0x1, true, 45 << 20, b"")).await;
+    assert_eq!(refusal_codes(&over), refused);
+    // So is a message whose fragments are each short but add up to more than a line.
+    let mut fragments = client_frame(0x1, false, 60_000, &[b' '; 60_000]);
+    fragments.extend(client_frame(0x0, false, 10_000, &[b' '; 10_000]));
+    let over = send_raw_and_drain(ws(http).await, &fragments).await;
+    assert_eq!(refusal_codes(&over), refused);
+    // A message of exactly the line limit is read, and the match went on meanwhile.
+    let mut fine = ws(http).await;
+    let mut padded = json!({"type": "ping", "id": "padded"}).to_string();
+    padded += &" ".repeat(MAX_LINE - padded.len());
+    assert_eq!(padded.len(), MAX_LINE);
+    fine.send(Message::text(padded)).await.expect("send");
+    assert!(
+        matches!(next(&mut fine).await, ServerMessage::Pong(p) if p.id == Some(bw4t_protocol::ActId::Text("padded".into())))
+    );
+    fine.send(Message::text(hello_json("Ann"))).await.expect("send");
+    assert!(matches!(next(&mut fine).await, ServerMessage::Welcome(_)));
+    server.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn websockets_from_other_pages_are_refused_unless_allowed() {
+    let check = |allowed: &[&str]| {
+        let allowed: Vec<String> = allowed.iter().map(|o| o.to_string()).collect();
+        async move {
+            let mut config = web_config(4);
+            config.allowed_origins = allowed;
+            let (server, http) = web_server_with(config, 0).await;
+            let port = http.port();
+            let cases = [
+                ("no Origin: not a page", vec![]),
+                ("the page's own origin", vec![("Origin", format!("http://127.0.0.1:{port}"))]),
+                (
+                    "the page under localhost",
+                    vec![
+                        ("Host", format!("localhost:{port}")),
+                        ("Origin", format!("http://localhost:{port}")),
+                    ],
+                ),
+                (
+                    "the page under [::1]",
+                    vec![("Host", format!("[::1]:{port}")), ("Origin", format!("http://[::1]:{port}"))],
+                ),
+                ("another site", vec![("Origin", "http://evil.example".to_string())]),
+                ("a sandboxed page", vec![("Origin", "null".to_string())]),
+                ("another local page", vec![("Origin", "http://127.0.0.1:1".to_string())]),
+                (
+                    "a rebound name",
+                    vec![
+                        ("Host", format!("evil.example:{port}")),
+                        ("Origin", format!("http://evil.example:{port}")),
+                    ],
+                ),
+            ];
+            let mut outcome = Vec::new();
+            for (what, headers) in cases {
+                let headers: Vec<(&'static str, &str)> =
+                    headers.iter().map(|(n, v)| (*n, v.as_str())).collect();
+                let handshake = try_ws(http, &headers).await;
+                if let Err(tungstenite::Error::Http(answer)) = &handshake {
+                    let body =
+                        String::from_utf8_lossy(answer.body().as_deref().unwrap_or_default()).to_string();
+                    assert!(
+                        body.contains("--allow-origin"),
+                        "{what}: the refusal says how to allow it: {body}"
+                    );
+                }
+                assert!(handshake.is_ok() || refusal(&handshake) == 403, "{what}: {handshake:?}");
+                outcome.push(format!("{what}: {}", if handshake.is_ok() { "open" } else { "403" }));
+            }
+            server.stop().await;
+            outcome
+        }
+    };
+    let open = |what: &str| format!("{what}: open");
+    let refused = |what: &str| format!("{what}: 403");
+    let own = [
+        "no Origin: not a page",
+        "the page's own origin",
+        "the page under localhost",
+        "the page under [::1]",
+    ];
+    let mut expected: Vec<String> = own.iter().map(|w| open(w)).collect();
+    expected
+        .extend(["another site", "a sandboxed page", "another local page", "a rebound name"].map(refused));
+    assert_eq!(check(&[]).await, expected, "by default");
+    let mut expected: Vec<String> = own.iter().map(|w| open(w)).collect();
+    expected.extend([open("another site"), refused("a sandboxed page"), refused("another local page")]);
+    expected.push(open("a rebound name"));
+    assert_eq!(check(&["http://evil.example"]).await, expected, "with evil.example allowed");
+    let everything: Vec<String> = expected.iter().map(|o| o.replace(": 403", ": open")).collect();
+    assert_eq!(check(&["*"]).await, everything, "with every origin allowed");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn serve_takes_the_origins_to_allow_from_the_command_line() {
+    let out = crate::util::bw4t_within(&["serve", "--http", "0", "--allow-origin", "ftp://x"], WAIT);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && stderr.contains("'ftp://x' is not an origin"), "{stderr}");
+    let served = ServeChild::start(&["--allow-origin", "HTTP://Evil.Example/"]);
+    let http = served.http;
+    assert!(try_ws(http, &[("Origin", "http://evil.example")]).await.is_ok(), "listed");
+    assert_eq!(refusal(&try_ws(http, &[("Origin", "http://other.example")]).await), 403, "not listed");
+}
+
+/// `bw4t serve --port 0 --http 0 ARGS` as a child process, killed when dropped.
+struct ServeChild {
+    child: std::process::Child,
+    http: SocketAddr,
+}
+
+impl ServeChild {
+    fn start(args: &[&str]) -> ServeChild {
+        use std::io::BufRead;
+        let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_bw4t"))
+            .args(["serve", "--port", "0", "--http", "0", "--map", "fixed"])
+            .args(args)
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .expect("start bw4t serve");
+        let stdout = child.stdout.take().expect("stdout");
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            for line in std::io::BufReader::new(stdout).lines().map_while(Result::ok) {
+                let _ = tx.send(line);
+            }
+        });
+        let mut served = ServeChild { child, http: "0.0.0.0:0".parse().expect("addr") };
+        loop {
+            let line = rx.recv_timeout(WAIT).expect("bw4t serve prints `http on ADDR` in time");
+            if let Some(addr) = line.strip_prefix("http on ") {
+                served.http = addr.parse().expect("an address");
+                return served;
+            }
+        }
+    }
+}
+
+impl Drop for ServeChild {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_burst_of_page_requests_is_answered_whatever_the_websocket_limit() {
+    let mut config = web_config(1);
+    config.max_connections = 2;
+    let (server, http) = web_server_with(config, 0).await;
+    let paths = ["/", "/app.js", "/style.css", "/map.json", "/info.json"];
+    let requests: Vec<_> = (0..2000).map(|i| tokio::spawn(try_get(http, paths[i % paths.len()]))).collect();
+    let (mut ok, mut busy, mut silent) = (0, 0, 0);
+    for request in requests {
+        match request.await.expect("request task") {
+            Some(answer) if answer.status == 200 => ok += 1,
+            Some(answer) if answer.status == 503 && answer.head.contains("\r\nRetry-After: 1") => busy += 1,
+            Some(answer) => panic!("unexpected answer {}", answer.head),
+            None => silent += 1,
+        }
+    }
+    assert_eq!(silent, 0, "closed unanswered ({ok} served, {busy} told to retry)");
+    assert!(ok > 0, "{busy} told to retry, none served");
+    server.stop().await;
+}
+
+/// A site without a match, serving at most `max_requests` requests at once.
+async fn plain_site(max_requests: usize) -> (tokio::task::JoinHandle<()>, SocketAddr) {
+    let site = bw4t_server::Site { map_json: "{}".into(), info_json: "{}".into(), replay: None };
+    let listener = bw4t_server::listen("127.0.0.1:0".parse().expect("addr")).expect("listen");
+    let addr = listener.local_addr().expect("addr");
+    (tokio::spawn(bw4t_server::serve_site(listener, std::sync::Arc::new(site), max_requests)), addr)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn over_the_request_limit_a_client_is_told_to_retry() {
+    let (task, addr) = plain_site(2).await;
+    // Two connections that never finish their request hold both places.
+    let idle = [
+        tokio::net::TcpStream::connect(addr).await.expect("connect"),
+        tokio::net::TcpStream::connect(addr).await.expect("connect"),
+    ];
+    let busy = async {
+        loop {
+            match try_get(addr, "/info.json").await {
+                Some(answer) if answer.status == 503 => return answer,
+                _ => {}
+            }
+        }
+    };
+    let busy = tokio::time::timeout(WAIT, busy).await.expect("a 503 in time");
+    assert!(busy.head.contains("\r\nRetry-After: 1"), "{}", busy.head);
+    drop(idle);
+    let served = async { while try_get(addr, "/info.json").await.is_none_or(|a| a.status != 200) {} };
+    tokio::time::timeout(WAIT, served).await.expect("served again");
+    task.abort();
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn bad_requests_get_a_status_that_names_the_problem() {
+    let (task, addr) = plain_site(8).await;
+    let ask = |request: Vec<u8>| async move {
+        let mut stream = tokio::net::TcpStream::connect(addr).await.expect("connect");
+        stream.write_all(&request).await.expect("write");
+        let mut response = String::new();
+        let _ = tokio::time::timeout(WAIT, stream.read_to_string(&mut response)).await.expect("in time");
+        response
+    };
+    let garbage = ask(b"HELLO THERE\x01\r\n\r\n".to_vec()).await;
+    assert!(garbage.starts_with("HTTP/1.1 400 "), "{garbage}");
+    let post = ask(b"POST / HTTP/1.1\r\nHost: x\r\n\r\n".to_vec()).await;
+    assert!(post.starts_with("HTTP/1.1 405 ") && post.contains("\r\nAllow: GET"), "{post}");
+    let huge = format!("GET / HTTP/1.1\r\nHost: x\r\nX-Big: {}\r\n\r\n", "y".repeat(20_000));
+    let huge = ask(huge.into_bytes()).await;
+    assert!(huge.starts_with("HTTP/1.1 431 "), "{huge}");
+    let plain_ws = ask(b"GET /ws HTTP/1.1\r\nHost: x\r\n\r\n".to_vec()).await;
+    assert!(plain_ws.starts_with("HTTP/1.1 404 "), "no match, no /ws: {plain_ws}");
+    task.abort();
 }

@@ -100,3 +100,94 @@ test('the replay viewer seeks, plays and pauses', { timeout: 180_000 }, async (t
     await screenshot(page, 'replay');
   }
 });
+
+/** The messages a replay file records as sent ({tick, from, to, text}), in order. */
+function messagesInReplay(file) {
+  const names = new Map();
+  const sent = [];
+  for (const line of fs.readFileSync(file, 'utf8').split('\n')) {
+    if (!line.trim()) continue;
+    const record = JSON.parse(line);
+    if (record.type !== 'tick') continue;
+    for (const event of record.events) {
+      if (event.kind === 'join') names.set(event.robot, event.name);
+      if (event.kind === 'act' && event.action === 'sendMessage' && event.ok) {
+        sent.push({ tick: record.tick, from: names.get(event.robot), to: event.args[0], text: event.args[1] });
+      }
+    }
+  }
+  return sent;
+}
+
+/** The tick on screen and the message list, read together. */
+function shownMessages(page) {
+  return page.evaluate(() => ({
+    tick: Number(document.querySelector('#tick').textContent.trim()),
+    list: [...document.querySelectorAll('#messages li')].map((li) => ({
+      tick: Number(li.querySelector('.when').textContent),
+      from: li.dataset.from,
+      to: li.dataset.to,
+      text: li.lastChild.textContent,
+    })),
+  }));
+}
+
+test('the replay message list holds every message sent up to the tick shown', { timeout: 180_000 }, async (t) => {
+  const dir = tempDir('replay-messages');
+  t.after(() => fs.rmSync(dir, { recursive: true, force: true }));
+  const file = path.join(dir, 'match.jsonl');
+  // The cooperative team announces what it does: many messages.
+  await runBw4t(['run', '--map', 'fixed', '--seed', '3', '--replay', file]);
+  const sent = messagesInReplay(file);
+  assert.ok(sent.length >= 20, `${sent.length} messages in the replay`);
+  const server = await startBw4t(['replay', 'view', file, '--http', '0']);
+  t.after(() => stop(server.proc));
+  const info = await (await fetch(new URL('replay.json', server.url))).json();
+  const LOG_LIMIT = 300; // the page keeps the newest 300 entries of a list
+
+  const browser = await openBrowser();
+  t.after(() => browser.close());
+  const { page } = browser;
+  const expectListAt = async (what) => {
+    const shown = await shownMessages(page);
+    const expected = sent.filter((m) => m.tick <= shown.tick).slice(-LOG_LIMIT);
+    assert.deepEqual(shown.list, expected, `${what}: the list at tick ${shown.tick}`);
+    return shown;
+  };
+  try {
+    await page.goto(new URL('?speed=8', server.url).href);
+    await page.waitForSelector('#status[data-status="replay"]');
+    await waitForNumber(page, '#tick', { equals: 0 });
+    await expectListAt('at the start');
+
+    // Play at 8x past a good part of the messages (frames are fetched and shown sparsely).
+    assert.equal(await page.inputValue('#speed'), '8');
+    await page.click('#play');
+    await waitForNumber(page, '#tick', { above: sent[Math.floor(sent.length / 2)].tick }, 30_000);
+    await page.click('#pause');
+    const played = await expectListAt('played at 8x');
+    assert.ok(played.list.length > sent.length / 2, `${played.list.length} messages listed`);
+
+    // Seek forwards, then back: the list is that of the tick sought.
+    for (const [what, tick] of [
+      ['sought forwards', sent[sent.length - 3].tick + 1],
+      ['sought back', sent[4].tick],
+      ['sought to the start', 0],
+    ]) {
+      await page.locator('#scrub').fill(String(tick));
+      await waitForNumber(page, '#tick', { equals: tick });
+      await expectListAt(what);
+    }
+
+    // From a tick in the middle at 8x to the end: every message.
+    await page.locator('#scrub').fill(String(sent[10].tick - 1));
+    await waitForNumber(page, '#tick', { equals: sent[10].tick - 1 });
+    await page.click('#play');
+    await waitForNumber(page, '#tick', { equals: info.ticks }, 30_000);
+    const end = await expectListAt('played to the end');
+    assert.equal(end.list.length, Math.min(sent.length, LOG_LIMIT));
+    assert.deepEqual(browser.errors, []);
+  } finally {
+    await screenshot(page, 'replay-messages');
+  }
+});

@@ -39,15 +39,18 @@ pub enum ClientMessage {
     Bye(ClientBye),
 }
 
-/// Whether a client plays or watches.
+/// Whether a client plays or watches, and with which credential.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum Role {
-    /// Drives a robot.
+    /// Drives a robot (the player token, if the server has one).
     #[default]
     Agent,
-    /// Watches the whole match; cannot act.
+    /// Watches the whole match; cannot act. Sees private messages only if the server
+    /// allows it (the spectator token, when spectating is not open).
     Spectator,
+    /// Watches like a spectator and sees every message (the operator token).
+    Operator,
 }
 
 /// `hello`: the client's introduction.
@@ -57,13 +60,13 @@ pub struct Hello {
     pub protocol: String,
     /// Protocol versions the client speaks; the server picks the highest it shares.
     pub versions: Vec<u32>,
-    /// `agent` (default) or `spectator`.
+    /// `agent` (default), `spectator` or `operator`.
     #[serde(default)]
     pub role: Role,
     /// The player name wanted (agents): letters and digits, starting with a letter.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub name: Option<String>,
-    /// The match's shared secret, when the server requires one.
+    /// The credential of the role: the player, spectator or operator token.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub token: Option<String>,
     /// A session token from an earlier `welcome`, to take the robot back after a drop.
@@ -159,6 +162,9 @@ pub struct Welcome {
     /// Present this in a later `hello` to take the robot back after a dropped connection.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub session: Option<String>,
+    /// Spectators and operators: whether their frames carry private (addressed) messages.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub private_messages: Option<bool>,
     /// About the match.
     #[serde(rename = "match")]
     pub match_info: MatchInfo,

@@ -1,9 +1,13 @@
 //! The replay format: JSON lines holding everything needed to re-simulate a match.
 //!
 //! A header (format version, program version, the map itself in the native format, seed,
-//! config, robots), then for every tick at which something was applied a `tick` line with
-//! the events applied after that tick, a `digest` line every `digest_every` ticks, and an
-//! `end` line with the final digest.
+//! config, robots, the tick limit if any), then for every tick at which something was
+//! applied a `tick` line with the events applied after that tick, a `digest` line every
+//! `digest_every` ticks, and an `end` line with the final digest. Ticks never go back, no
+//! line is further than `digest_every` ticks from the previous digest (so a file's lines
+//! bound how many ticks it can claim), none is past `max_ticks`, and nothing follows `end`;
+//! a file without `end` is incomplete (its writer was stopped). The recorder flushes after
+//! the header and every digest, so a killed writer leaves a usable prefix.
 
 use std::io::Write;
 
@@ -71,6 +75,9 @@ pub struct ReplayHeader {
     pub robots: Vec<String>,
     /// How often a `digest` line is written.
     pub digest_every: u64,
+    /// The tick at which the match was to end at the latest (none: no limit was set).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_ticks: Option<u64>,
 }
 
 /// Something applied to the match at a tick boundary.
@@ -134,13 +141,15 @@ pub struct Recorder {
 }
 
 impl Recorder {
-    /// Starts a replay of `game` (before any robot joins) on `out`.
+    /// Starts a replay of `game` (before any robot joins) on `out`; `max_ticks` is the
+    /// match's tick limit, if it has one.
     pub fn new(
         mut out: Box<dyn Write + Send>,
         game: &Match,
         program: &str,
         robots: Vec<String>,
         digest_every: u64,
+        max_ticks: Option<u64>,
     ) -> Self {
         let config: &MatchConfig = game.config();
         let header = ReplayLine::Header(ReplayHeader {
@@ -154,8 +163,9 @@ impl Recorder {
             robot_collisions: config.robot_collisions,
             robots,
             digest_every: digest_every.max(1),
+            max_ticks,
         });
-        let error = write_line(&mut out, &header).err();
+        let error = write_line(&mut out, &header).and_then(|()| out.flush()).err();
         Recorder {
             out,
             digest_every: digest_every.max(1),
@@ -178,9 +188,11 @@ impl Recorder {
     pub fn stepped(&mut self, game: &Match) {
         self.flush_events();
         self.pending_tick = game.tick();
-        if game.tick() % self.digest_every == 0 {
+        if game.tick().is_multiple_of(self.digest_every) {
             let line = ReplayLine::Digest { tick: game.tick(), digest: format!("{:016x}", game.digest()) };
             self.write(&line);
+            // What is written up to a digest survives the writer being killed.
+            self.flush();
         }
     }
 
@@ -193,10 +205,14 @@ impl Recorder {
             reason: reason.into(),
         };
         self.write(&line);
-        if let Err(e) = self.out.flush() {
-            self.error.get_or_insert(e);
-        }
+        self.flush();
         self.error.map_or(Ok(()), Err)
+    }
+
+    fn flush(&mut self) {
+        if self.error.is_none() {
+            self.error = self.out.flush().err();
+        }
     }
 
     fn flush_events(&mut self) {

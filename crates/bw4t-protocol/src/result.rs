@@ -24,12 +24,14 @@ pub struct MatchResult {
     pub end_reason: String,
     /// Ticks simulated.
     pub ticks: u64,
-    /// The tick the sequence was completed at.
+    /// The first tick whose percepts show the whole sequence delivered (the tick after the
+    /// boundary at which the last block was put down).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub completed_tick: Option<u64>,
     /// Simulated seconds.
     pub sim_seconds: f64,
-    /// Wall-clock milliseconds the match took.
+    /// Wall-clock milliseconds from the first tick to the end (waiting for players before
+    /// the first tick does not count).
     pub wall_ms: u64,
     /// The goal colours.
     pub sequence: Vec<String>,

@@ -10,8 +10,8 @@ use bw4t_protocol::{
     ClientMessage, DecodeError, ErrorMessage, LineBuffer, Pong, ServerBye, ServerMessage, encode,
 };
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
-use tokio::net::tcp::OwnedWriteHalf;
-use tokio::net::{TcpListener, TcpStream};
+use tokio::net::tcp::{OwnedReadHalf, OwnedWriteHalf};
+use tokio::net::{TcpListener, TcpSocket, TcpStream};
 use tokio::sync::{Notify, mpsc, watch};
 
 use crate::ServerConfig;
@@ -52,6 +52,22 @@ pub enum Event {
     BadInput { conn: ConnId },
     /// The connection is gone.
     Closed { conn: ConnId },
+}
+
+/// How many connections the kernel may hold for a listener before they are accepted. The
+/// usual default (128) overflows under a burst of page loads, and clients then wait a
+/// second or more for their retry; the kernel caps it at `net.core.somaxconn`.
+pub const LISTEN_BACKLOG: u32 = 1024;
+
+/// Listens on `addr` with a [`LISTEN_BACKLOG`]-deep queue, for the protocol port and the
+/// web port alike. Must be called inside a tokio runtime.
+pub fn listen(addr: std::net::SocketAddr) -> std::io::Result<TcpListener> {
+    let socket = if addr.is_ipv4() { TcpSocket::new_v4()? } else { TcpSocket::new_v6()? };
+    // As `TcpListener::bind` does: a restarted server can take its port back at once.
+    #[cfg(unix)]
+    socket.set_reuseaddr(true)?;
+    socket.bind(addr)?;
+    socket.listen(LISTEN_BACKLOG)
 }
 
 /// Accepts connections until aborted, refusing those beyond the limit.
@@ -120,7 +136,7 @@ impl LineSink for OwnedWriteHalf {
 
 /// A connection's outgoing side: its queue, the handles the match task keeps, and the
 /// writer task behind them.
-pub struct Outgoing {
+struct Outgoing {
     conn: ConnId,
     /// The queue of lines to send.
     pub tx: mpsc::Sender<Outbound>,
@@ -138,7 +154,7 @@ impl Outgoing {
 }
 
 /// Starts the writer: queued lines go to `sink` until `Close`, a kill or a dead peer.
-pub fn start_writer(conn: ConnId, queue: usize, mut sink: impl LineSink) -> Outgoing {
+fn start_writer(conn: ConnId, queue: usize, mut sink: impl LineSink) -> Outgoing {
     let (tx, mut rx) = mpsc::channel::<Outbound>(queue);
     let kill = Arc::new(Notify::new());
     let (done_tx, done) = watch::channel(false);
@@ -165,7 +181,7 @@ pub fn start_writer(conn: ConnId, queue: usize, mut sink: impl LineSink) -> Outg
 }
 
 /// What became of one incoming line.
-pub enum Forwarded {
+enum Forwarded {
     /// Answered here or passed on.
     Handled,
     /// A `hello` was passed on.
@@ -177,7 +193,7 @@ pub enum Forwarded {
 /// Handles one incoming line: bad input and `ping` are answered here (best effort: a
 /// client that sends garbage and does not read loses only its own replies), everything
 /// else goes to the match task.
-pub async fn forward(
+async fn forward(
     conn: ConnId,
     line: Result<String, DecodeError>,
     tx: &mpsc::Sender<Outbound>,
@@ -205,40 +221,90 @@ pub async fn forward(
 }
 
 /// Tells the match task the connection is gone and lets the writer flush.
-pub async fn finish(conn: ConnId, outgoing: Outgoing, events: &mpsc::Sender<Event>) {
+async fn finish(conn: ConnId, outgoing: Outgoing, events: &mpsc::Sender<Event>) {
     let _ = events.send(Event::Closed { conn }).await;
     let _ = outgoing.tx.try_send(Outbound::Close);
     drop(outgoing.tx);
     let _ = outgoing.task.await;
 }
 
+/// Where a connection's incoming lines come from: a TCP socket or a WebSocket.
+pub trait LineSource: Send {
+    /// What arrived next. Must be cancel-safe: it is raced against the hello deadline.
+    fn next(&mut self) -> impl Future<Output = Incoming> + Send;
+}
+
+/// What a [`LineSource`] read.
+pub enum Incoming {
+    /// Complete lines (possibly none yet), or errors for lines that are not usable.
+    Lines(Vec<Result<String, DecodeError>>),
+    /// Input the connection cannot recover from: sent as a fatal `error` and `bye`, then
+    /// the connection is closed.
+    Fatal(DecodeError),
+    /// The peer is gone.
+    Closed,
+}
+
+/// A TCP socket's reading half, split into lines.
+struct TcpLines {
+    reader: OwnedReadHalf,
+    lines: LineBuffer,
+    buf: Vec<u8>,
+}
+
+impl LineSource for TcpLines {
+    async fn next(&mut self) -> Incoming {
+        match self.reader.read(&mut self.buf).await {
+            Ok(0) | Err(_) => Incoming::Closed,
+            Ok(n) => Incoming::Lines(self.lines.push(&self.buf[..n])),
+        }
+    }
+}
+
 async fn handle(stream: TcpStream, conn: ConnId, config: &ServerConfig, events: mpsc::Sender<Event>) {
-    let (mut reader, writer) = stream.into_split();
+    let (reader, writer) = stream.into_split();
+    let source = TcpLines { reader, lines: LineBuffer::new(), buf: vec![0u8; 16 * 1024] };
+    run(conn, config.hello_timeout, config.queue, source, writer, events).await;
+}
+
+/// Runs one connection, whatever carries it: lines from `source` go to the match task
+/// (bad input and `ping` are answered here), queued lines go to `sink`. A connection that
+/// has not said `hello` within `hello_timeout` gets `error` and `bye` `hello_timeout` and is
+/// closed.
+pub async fn run(
+    conn: ConnId,
+    hello_timeout: std::time::Duration,
+    queue: usize,
+    mut source: impl LineSource,
+    sink: impl LineSink,
+    events: mpsc::Sender<Event>,
+) {
     // The writer ends on `Close`, a kill or a dead socket; the reader then stops too.
-    let outgoing = start_writer(conn, config.queue, writer);
+    let outgoing = start_writer(conn, queue, sink);
     let (tx, mut done) = (outgoing.tx.clone(), outgoing.done.clone());
     if events.send(Event::Opened(outgoing.opened())).await.is_err() {
         return;
     }
-    let mut lines = LineBuffer::new();
-    let mut buf = vec![0u8; 16 * 1024];
     let mut greeted = false;
-    let hello_deadline = tokio::time::Instant::now() + config.hello_timeout;
+    let hello_deadline = tokio::time::Instant::now() + hello_timeout;
     'read: loop {
-        let read = tokio::select! {
-            read = reader.read(&mut buf) => read,
+        let incoming = tokio::select! {
+            incoming = source.next() => incoming,
             _ = done.wait_for(|d| *d) => break 'read,
             () = tokio::time::sleep_until(hello_deadline), if !greeted => {
-                let _ = tx.try_send(Outbound::Line(error_line("hello_timeout", "no hello in time", true)));
-                let _ = tx.try_send(Outbound::Line(bye_line("hello_timeout")));
+                refuse_fatally(&tx, "hello_timeout", "no hello in time");
                 break 'read;
             }
         };
-        let n = match read {
-            Ok(0) | Err(_) => break,
-            Ok(n) => n,
+        let lines = match incoming {
+            Incoming::Lines(lines) => lines,
+            Incoming::Fatal(error) => {
+                refuse_fatally(&tx, error.code, &error.message);
+                break 'read;
+            }
+            Incoming::Closed => break 'read,
         };
-        for line in lines.push(&buf[..n]) {
+        for line in lines {
             match forward(conn, line, &tx, &events).await {
                 Forwarded::Handled => {}
                 Forwarded::Hello => greeted = true,
@@ -248,4 +314,10 @@ async fn handle(stream: TcpStream, conn: ConnId, config: &ServerConfig, events: 
     }
     drop(tx);
     finish(conn, outgoing, &events).await;
+}
+
+/// Queues a fatal `error` and its `bye` (best effort: the connection closes next anyway).
+fn refuse_fatally(tx: &mpsc::Sender<Outbound>, code: &str, message: &str) {
+    let _ = tx.try_send(Outbound::Line(error_line(code, message, true)));
+    let _ = tx.try_send(Outbound::Line(bye_line(code)));
 }

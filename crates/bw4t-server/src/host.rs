@@ -1,8 +1,9 @@
-//! The match task: the one owner of the match. It admits players and spectators, buffers
-//! actions until the next tick boundary, paces ticks (realtime or lockstep) and sends
-//! every client what concerns it, never waiting on any client.
+//! The match task: the one owner of the match. It admits players (at most `robots`),
+//! spectators and the operator, each with its own token, buffers actions until the next
+//! tick boundary, paces ticks (realtime or lockstep) and sends every client what concerns
+//! it, never waiting on any client.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::future::Future;
 use std::sync::Arc;
 
@@ -46,7 +47,17 @@ struct Conn {
 enum ConnRole {
     New,
     Agent(RobotId),
-    Spectator,
+    /// A spectator or the operator: gets frames, cannot act.
+    Watcher(Sight),
+}
+
+/// Which messages a watcher's frames carry.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Sight {
+    /// Messages to `all` only.
+    Public,
+    /// Private (addressed) messages too.
+    Everything,
 }
 
 /// Which percepts to send a player.
@@ -130,7 +141,7 @@ pub struct Host {
     recorder: Option<Recorder>,
     /// Names of reserved seats whose player will not come (its process died).
     gone_seats: Option<mpsc::Receiver<String>>,
-    abandoned: std::collections::BTreeSet<String>,
+    abandoned: BTreeSet<String>,
     /// Figures of players that left (errors, whether they ever connected), for the result.
     gone: BTreeMap<RobotId, (u64, bool)>,
 }
@@ -142,11 +153,28 @@ impl Host {
         events: mpsc::Receiver<Event>,
         extras: Extras,
     ) -> Result<Host, crate::ServerError> {
+        let tokens = [
+            ("player", &config.token),
+            ("spectator", &config.spectator_token),
+            ("operator", &config.operator_token),
+        ];
+        for (i, (a, first)) in tokens.iter().enumerate() {
+            for (b, second) in &tokens[i + 1..] {
+                if first.is_some() && first == second {
+                    return Err(crate::ServerError::SameToken(a, b));
+                }
+            }
+        }
+        if extras.seats.len() > config.robots {
+            let message =
+                format!("{} seats, but the match admits {} players", extras.seats.len(), config.robots);
+            return Err(crate::ServerError::Seat(message));
+        }
         let game = Match::new(&config.map, &config.game, config.seed)?;
         let names = extras.seats.iter().map(|s| s.name().to_string()).collect();
-        let recorder = extras
-            .replay
-            .map(|out| Recorder::new(out, &game, &extras.program, names, crate::REPLAY_DIGEST_EVERY));
+        let recorder = extras.replay.map(|out| {
+            Recorder::new(out, &game, &extras.program, names, crate::REPLAY_DIGEST_EVERY, config.max_ticks)
+        });
         let mut host = Host {
             config,
             game,
@@ -162,7 +190,7 @@ impl Host {
             closing: Vec::new(),
             recorder,
             gone_seats: extras.gone_seats,
-            abandoned: std::collections::BTreeSet::new(),
+            abandoned: BTreeSet::new(),
             gone: BTreeMap::new(),
         };
         for seat in extras.seats {
@@ -205,15 +233,18 @@ impl Host {
                 () = tokio::time::sleep(Duration::from_millis(100)) => self.expire_dropped(),
             }
         }
+        // `wall_ms` counts from the first tick: waiting for players is not playing.
+        let mut playing_since = None;
         if self.end.is_none() {
             self.observe_locals();
             self.tick_sent_at = Instant::now();
+            playing_since = Some(self.tick_sent_at);
             match self.config.mode {
                 Mode::Realtime => self.run_realtime(&mut shutdown).await,
                 Mode::Lockstep => self.run_lockstep(&mut shutdown).await,
             }
         }
-        self.finish(started).await
+        self.finish(playing_since).await
     }
 
     async fn run_realtime(&mut self, shutdown: &mut std::pin::Pin<&mut impl Future<Output = ()>>) {
@@ -274,7 +305,7 @@ impl Host {
             }
             self.advance();
             back_to_back += 1;
-            if back_to_back % YIELD_EVERY == 0 {
+            if back_to_back.is_multiple_of(YIELD_EVERY) {
                 tokio::task::yield_now().await;
             }
         }
@@ -313,6 +344,9 @@ impl Host {
     /// One tick boundary: apply buffered actions in robot-id order, step, tell everyone.
     fn advance(&mut self) {
         let ids: Vec<RobotId> = self.players.keys().copied().collect();
+        // Players acked at this boundary: each gets this tick's `percepts`, so it has a tick
+        // to answer and its next actions land at a boundary its script decides.
+        let mut acked = BTreeSet::new();
         for &id in &ids {
             let pending =
                 self.players.get_mut(&id).map(|p| std::mem::take(&mut p.pending)).unwrap_or_default();
@@ -320,6 +354,7 @@ impl Host {
                 match item {
                     Pending::Act(act_id, action) => {
                         let _ = self.apply(id, act_id, action);
+                        acked.insert(id);
                     }
                     Pending::Stop => {
                         let _ = self.game.stop(id);
@@ -344,7 +379,9 @@ impl Host {
             r.stepped(&self.game);
         }
         // A new tick: players are awaited again only if they are sent something now.
-        self.players.values_mut().for_each(|p| p.awaiting = false);
+        for (id, player) in &mut self.players {
+            player.awaiting = acked.contains(id) && player.conn.is_some();
+        }
         for end in report.ended {
             let Some(player) = self.players.get_mut(&end.robot) else { continue };
             if let Some(driver) = player.local.as_mut() {
@@ -429,7 +466,9 @@ impl Host {
         let Some(conn) = self.conns.get(&conn_id) else { return false };
         if conn.tx.capacity() < RESERVE {
             // Not reading: hold percepts back; the next ones sent will be a full snapshot.
+            // Nothing sent, nothing to answer: lockstep does not wait for it.
             player.needs_snapshot = true;
+            player.awaiting = false;
             let since = *player.full_since.get_or_insert_with(Instant::now);
             if since.elapsed() > self.config.slow_limit {
                 self.disconnect(conn_id, "too_slow", "the client did not read its messages");
@@ -457,9 +496,14 @@ impl Host {
     }
 
     fn send_frames(&mut self, force: bool) {
-        let spectators: Vec<ConnId> =
-            self.conns.iter().filter(|(_, c)| c.role == ConnRole::Spectator).map(|(id, _)| *id).collect();
-        if spectators.is_empty() {
+        let watchers: Vec<(ConnId, Sight)> = self
+            .conns
+            .iter()
+            .filter_map(
+                |(id, c)| if let ConnRole::Watcher(sight) = c.role { Some((*id, sight)) } else { None },
+            )
+            .collect();
+        if watchers.is_empty() {
             self.frame_messages.clear();
             return;
         }
@@ -469,20 +513,22 @@ impl Host {
             return;
         }
         self.last_frame = Some(Instant::now());
-        let line: Arc<str> = encode(&ServerMessage::Frame(self.frame())).into();
-        self.frame_messages.clear();
-        for conn in spectators {
+        let mut frame = Frame::of(&self.game, std::mem::take(&mut self.frame_messages));
+        let wanted = |sight| watchers.iter().any(|w| w.1 == sight);
+        let line = |frame: &Frame| -> Arc<str> { encode(&ServerMessage::Frame(frame.clone())).into() };
+        let everything = wanted(Sight::Everything).then(|| line(&frame));
+        // `all` is no player's name (it is refused at `hello`), so it marks public messages.
+        frame.messages.retain(|m| m.to == "all");
+        let public = wanted(Sight::Public).then(|| line(&frame));
+        for (conn, sight) in watchers {
+            let line = if sight == Sight::Everything { &everything } else { &public };
             // Frames are whole states: one a spectator misses is replaced by the next.
-            if let Some(c) = self.conns.get(&conn) {
+            if let (Some(c), Some(line)) = (self.conns.get(&conn), line) {
                 if c.tx.capacity() > RESERVE {
                     let _ = c.tx.try_send(Outbound::Line(line.clone()));
                 }
             }
         }
-    }
-
-    fn frame(&self) -> Frame {
-        Frame::of(&self.game, self.frame_messages.clone())
     }
 
     fn on_event(&mut self, event: Option<Event>) {
@@ -530,10 +576,10 @@ impl Host {
         let robot = match (role, &message) {
             (_, ClientMessage::Hello(hello)) => return self.on_hello(conn, role, hello),
             (ConnRole::Agent(id), _) => id,
-            (ConnRole::Spectator, ClientMessage::Bye(_)) | (ConnRole::New, ClientMessage::Bye(_)) => {
+            (ConnRole::Watcher(_) | ConnRole::New, ClientMessage::Bye(_)) => {
                 return self.disconnect(conn, "goodbye", "");
             }
-            (ConnRole::Spectator, _) => {
+            (ConnRole::Watcher(_), _) => {
                 return self.error(conn, "not_a_player", "spectators cannot act", false);
             }
             (ConnRole::New, _) => return self.error(conn, "no_hello", "say hello first", false),
@@ -602,14 +648,19 @@ impl Host {
             let message = format!("no common protocol version (this server speaks {VERSION})");
             return self.error(conn, "unsupported_version", &message, true);
         }
-        if self.config.token.is_some() && hello.token != self.config.token {
-            return self.error(conn, "bad_token", "wrong or missing token", true);
+        if let Err(message) = self.check_token(hello) {
+            return self.error(conn, "bad_token", message, true);
         }
-        if hello.role == Role::Spectator {
+        let sight = match hello.role {
+            Role::Agent => None,
+            Role::Spectator if !self.config.spectators_see_private => Some(Sight::Public),
+            Role::Spectator | Role::Operator => Some(Sight::Everything),
+        };
+        if let Some(sight) = sight {
             if let Some(c) = self.conns.get_mut(&conn) {
-                c.role = ConnRole::Spectator;
+                c.role = ConnRole::Watcher(sight);
             }
-            self.welcome(conn, None, false);
+            self.welcome(conn, None, false, Some(sight == Sight::Everything));
             return self.send_frames(true);
         }
         let every_tick = self.config.every_tick || hello.every_tick;
@@ -652,8 +703,27 @@ impl Host {
         if let Some(c) = self.conns.get_mut(&conn) {
             c.role = ConnRole::Agent(robot);
         }
-        self.welcome(conn, Some(robot), every_tick);
+        self.welcome(conn, Some(robot), every_tick, None);
         self.send_percepts(robot, Send::Snapshot);
+    }
+
+    /// Checks the credential of the role `hello` asks for; the error says what is missing.
+    fn check_token(&self, hello: &Hello) -> Result<(), &'static str> {
+        let presents = |secret: &Option<String>| matches!((secret, &hello.token), (Some(s), Some(t)) if same_secret(t, s));
+        let config = &self.config;
+        match hello.role {
+            Role::Agent if config.token.is_none() || presents(&config.token) => Ok(()),
+            Role::Agent => Err("wrong or missing player token"),
+            // A local match (no player or spectator token) is open to watch.
+            Role::Spectator if config.token.is_none() && config.spectator_token.is_none() => Ok(()),
+            Role::Spectator if presents(&config.spectator_token) || presents(&config.operator_token) => {
+                Ok(())
+            }
+            Role::Spectator => Err("watching this match needs the spectator token"),
+            Role::Operator if presents(&config.operator_token) => Ok(()),
+            Role::Operator if config.operator_token.is_none() => Err("this server has no operator token"),
+            Role::Operator => Err("wrong or missing operator token"),
+        }
     }
 
     fn join(&mut self, name: Option<&str>) -> Result<RobotId, (&'static str, String)> {
@@ -664,31 +734,40 @@ impl Host {
                 .find(|n| self.players.values().all(|p| &p.name != n))
                 .unwrap_or_default(),
         };
-        if self.players.values().any(|p| p.name == name) {
-            return Err(("name_taken", format!("the name '{name}' is taken")));
-        }
-        let id = self.game.join(&name).map_err(|e| {
+        let refusal = |e: bw4t_sim::JoinError| {
             let code = match e {
                 bw4t_sim::JoinError::InvalidName(_) => "invalid_name",
                 bw4t_sim::JoinError::NameTaken(_) => "name_taken",
                 bw4t_sim::JoinError::Full(_) => "match_full",
             };
             (code, e.to_string())
-        })?;
+        };
+        self.game.check_name(&name).map_err(refusal)?;
+        // Every player in the match holds a seat: connected, reserved, or dropped and
+        // within its grace period.
+        let seats = self.config.robots;
+        if self.players.len() >= seats {
+            return Err(("match_full", format!("the match is full: it admits {seats} players")));
+        }
+        let id = self.game.join(&name).map_err(refusal)?;
         self.record(ReplayEvent::Join { name: name.clone(), robot: id.0 });
+        // The id may have been another robot's: its figures belong to that one.
+        self.late.remove(&id);
+        self.gone.remove(&id);
         self.sessions += 1;
         let session = format!("{:016x}{:08x}", session_entropy(), self.sessions);
         self.players.insert(id, Player::new(name, session));
         Ok(id)
     }
 
-    fn welcome(&mut self, conn: ConnId, robot: Option<RobotId>, every_tick: bool) {
+    fn welcome(&mut self, conn: ConnId, robot: Option<RobotId>, every_tick: bool, private: Option<bool>) {
         let player = robot.and_then(|r| self.players.get(&r));
         let welcome = Welcome {
             version: VERSION,
             name: player.map(|p| p.name.clone()),
             robot: robot.map(|r| r.0),
             session: player.map(|p| p.session.clone()),
+            private_messages: private,
             match_info: MatchInfo {
                 map: self.game.map().name().to_string(),
                 seed: self.config.seed,
@@ -762,9 +841,9 @@ impl Host {
         self.on_closed(conn);
     }
 
-    async fn finish(mut self, started: Instant) -> MatchResult {
+    async fn finish(mut self, playing_since: Option<Instant>) -> MatchResult {
         let reason = self.end.unwrap_or("interrupted");
-        let wall_ms = started.elapsed().as_millis() as u64;
+        let wall_ms = playing_since.map_or(0, |t| t.elapsed().as_millis() as u64);
         let extra = |id: RobotId| {
             let (errors, connected) = match self.players.get(&id) {
                 Some(p) => (p.errors, p.connected_ever || p.local.is_some()),
@@ -782,8 +861,10 @@ impl Host {
         let end: Arc<str> = end.into();
         let conns: Vec<ConnId> = self.conns.keys().copied().collect();
         for conn in conns {
-            if matches!(self.conns.get(&conn).map(|c| c.role), Some(ConnRole::Agent(_) | ConnRole::Spectator))
-            {
+            if matches!(
+                self.conns.get(&conn).map(|c| c.role),
+                Some(ConnRole::Agent(_) | ConnRole::Watcher(_))
+            ) {
                 self.send_line(conn, end.clone());
             }
             self.disconnect(conn, "match_over", "");
@@ -811,6 +892,12 @@ async fn sleep_until_opt(deadline: Option<Instant>) {
         Some(t) => tokio::time::sleep_until(t).await,
         None => std::future::pending().await,
     }
+}
+
+/// Whether `given` is `secret`, in a time that does not depend on where they differ.
+fn same_secret(given: &str, secret: &str) -> bool {
+    let differences = given.bytes().zip(secret.bytes()).fold(0u8, |acc, (a, b)| acc | (a ^ b));
+    given.len() == secret.len() && differences == 0
 }
 
 /// Unpredictable bits for session tokens, from the standard library's per-process keys.

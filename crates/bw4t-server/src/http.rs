@@ -1,26 +1,43 @@
-//! The web side: a small HTTP server for the browser page, the map's layout and replay
-//! frames, and a WebSocket bridge that lets the page speak the protocol like a TCP client.
+//! The web port: a small HTTP server for the browser page, the map's layout and replay
+//! frames. One request per connection; `/ws` is handed to [`crate::websocket`].
+//!
+//! Plain requests are short, so they are admitted on accept up to their own limit
+//! ([`MAX_REQUESTS`]) and never wait behind the long-lived WebSockets, which have theirs
+//! (`max_connections`). Beyond a limit the client gets `503` with `Retry-After`.
 
+use std::borrow::Cow;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
 
-use bw4t_protocol::{DecodeError, Frame};
-use futures_util::{SinkExt, StreamExt};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpStream};
-use tokio::sync::mpsc;
-use tokio_tungstenite::tungstenite::Message;
+use tokio::sync::Semaphore;
+use tokio_tungstenite::tungstenite::http::{self, StatusCode};
 
-use crate::connection::{ConnId, Event, Forwarded, LineSink, finish, forward, start_writer};
+use crate::websocket::{self, Live};
 
 /// The page, built into the binary.
 const INDEX_HTML: &str = include_str!("../web/index.html");
 const APP_JS: &str = include_str!("../web/app.js");
 const STYLE_CSS: &str = include_str!("../web/style.css");
 
+/// Plain requests read or answered at once, by default; more are answered `503` at once.
+/// They are short, so this is far above what a page load needs.
+pub const MAX_REQUESTS: usize = 1024;
+
 /// The longest request head read, in bytes.
 const MAX_HEAD: usize = 16 * 1024;
+/// The most header lines in a request head.
+const MAX_HEADERS: usize = 64;
+/// The time a client has to send its request head.
+const HEAD_TIMEOUT: Duration = Duration::from_secs(10);
+/// The time a client has to take its answer.
+const WRITE_TIMEOUT: Duration = Duration::from_secs(10);
+/// How long, after answering, the rest of a request is read and dropped so that closing
+/// the socket does not reset the connection before the client has read the answer.
+const LINGER: Duration = Duration::from_secs(1);
+/// What a `503` asks the client to wait, in seconds.
+const RETRY_AFTER_S: u32 = 1;
 
 /// What the web server serves besides the page.
 pub struct Site {
@@ -28,155 +45,219 @@ pub struct Site {
     pub map_json: String,
     /// `GET /info.json`.
     pub info_json: String,
-    /// Replay mode: every tick's frame (`GET /replay/frame/T`) and `GET /replay.json`.
-    pub replay: Option<(String, Vec<Frame>)>,
+    /// Replay mode: `GET /replay.json`, and every tick's frame (`GET /replay/frame/T`).
+    pub replay: Option<(String, FrameSource)>,
 }
 
-/// Serves the page on `listener` until aborted, at most `max_connections` at once. With
-/// `events`, `/ws` joins the live match.
-pub async fn serve_site(
+/// A replay's frames: the JSON of tick T's `frame`, or `None` when there is none. It may
+/// re-simulate, so it runs off the async threads.
+pub type FrameSource = Arc<dyn Fn(u64) -> Option<String> + Send + Sync>;
+
+/// Serves the page (no match: `/ws` is not found) on `listener` until aborted, with at
+/// most `max_requests` requests being read or answered at once.
+pub async fn serve_site(listener: TcpListener, site: Arc<Site>, max_requests: usize) {
+    serve(listener, site, max_requests, None).await;
+}
+
+/// Serves the page, and with `live` the match's WebSockets on `/ws`, until aborted.
+pub(crate) async fn serve(
     listener: TcpListener,
     site: Arc<Site>,
-    events: Option<mpsc::Sender<Event>>,
-    ids: Arc<AtomicU64>,
-    queue: usize,
-    max_connections: usize,
+    max_requests: usize,
+    live: Option<Arc<Live>>,
 ) {
-    let open = Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let requests = Arc::new(Semaphore::new(max_requests));
     loop {
         let Ok((stream, _)) = listener.accept().await else {
+            // Out of file descriptors or a reset before accept: try again shortly.
             tokio::time::sleep(Duration::from_millis(10)).await;
             continue;
         };
-        // Beyond the limit a connection is simply closed: page loads retry, sockets reconnect.
-        if open.load(Ordering::SeqCst) >= max_connections {
-            drop(stream);
-            continue;
-        }
         let _ = stream.set_nodelay(true);
-        open.fetch_add(1, Ordering::SeqCst);
-        let (site, events, ids, open) = (site.clone(), events.clone(), ids.clone(), open.clone());
+        let Ok(permit) = requests.clone().try_acquire_owned() else {
+            tokio::spawn(reply_and_close(stream, Reply::busy("too many requests at once")));
+            continue;
+        };
+        let (site, live) = (site.clone(), live.clone());
         tokio::spawn(async move {
-            handle(stream, site, events, ids, queue).await;
-            open.fetch_sub(1, Ordering::SeqCst);
+            let mut stream = stream;
+            let head = match tokio::time::timeout(HEAD_TIMEOUT, read_head(&mut stream)).await {
+                Err(_) => Err(Some(Reply::text(StatusCode::REQUEST_TIMEOUT, "no request in time"))),
+                Ok(head) => head,
+            };
+            let head = match head {
+                Ok(head) => head,
+                Err(Some(reply)) => return reply_and_close(stream, reply).await,
+                Err(None) => return,
+            };
+            if let Some(live) = live.filter(|_| head.request.uri().path() == "/ws") {
+                match websocket::admit(&head.request, &live) {
+                    Ok(admitted) => {
+                        // From here on it counts as a WebSocket, not as a request.
+                        drop(permit);
+                        websocket::bridge(stream, head, admitted, &live).await;
+                    }
+                    Err(reply) => reply_and_close(stream, reply).await,
+                }
+                return;
+            }
+            reply_and_close(stream, respond(&head.request, &site).await).await;
+            drop(permit);
         });
     }
 }
 
-async fn handle(
-    stream: TcpStream,
-    site: Arc<Site>,
-    events: Option<mpsc::Sender<Event>>,
-    ids: Arc<AtomicU64>,
-    queue: usize,
-) {
-    // Look at the request head without taking it, so a WebSocket handshake can read it too.
-    let mut head = vec![0u8; MAX_HEAD];
-    let peeked = tokio::time::timeout(Duration::from_secs(10), async {
-        loop {
-            let n = stream.peek(&mut head).await.ok()?;
-            if n == 0 {
-                return None;
-            }
-            if head[..n].windows(4).any(|w| w == b"\r\n\r\n") || n == MAX_HEAD {
-                return Some(n);
-            }
-            tokio::time::sleep(Duration::from_millis(5)).await;
+/// A request head as read, and the bytes that came after it.
+pub(crate) struct Head {
+    pub request: http::Request<()>,
+    pub rest: Vec<u8>,
+}
+
+/// Reads one request head. `Err(None)`: the client left before sending one.
+async fn read_head(stream: &mut TcpStream) -> Result<Head, Option<Reply>> {
+    let mut buf = Vec::with_capacity(1024);
+    let mut chunk = [0u8; 4096];
+    loop {
+        let n = match stream.read(&mut chunk).await {
+            Ok(0) | Err(_) => return Err(None),
+            Ok(n) => n,
+        };
+        buf.extend_from_slice(&chunk[..n]);
+        if let Some((request, len)) = parse_head(&buf)? {
+            return Ok(Head { request, rest: buf.split_off(len) });
         }
+        if buf.len() >= MAX_HEAD {
+            return Err(Some(Reply::text(
+                StatusCode::REQUEST_HEADER_FIELDS_TOO_LARGE,
+                format!("request head longer than {MAX_HEAD} bytes"),
+            )));
+        }
+    }
+}
+
+/// The request and its head's length, or `None` while the head is incomplete.
+fn parse_head(buf: &[u8]) -> Result<Option<(http::Request<()>, usize)>, Option<Reply>> {
+    let bad = |what: String| Some(Reply::text(StatusCode::BAD_REQUEST, what));
+    let mut headers = [httparse::EMPTY_HEADER; MAX_HEADERS];
+    let mut parsed = httparse::Request::new(&mut headers);
+    let len = match parsed.parse(buf) {
+        Ok(httparse::Status::Complete(len)) => len,
+        Ok(httparse::Status::Partial) => return Ok(None),
+        Err(httparse::Error::TooManyHeaders) => {
+            return Err(Some(Reply::text(
+                StatusCode::REQUEST_HEADER_FIELDS_TOO_LARGE,
+                format!("more than {MAX_HEADERS} header lines"),
+            )));
+        }
+        Err(e) => return Err(bad(format!("not an HTTP request: {e}"))),
+    };
+    let version = if parsed.version == Some(0) { http::Version::HTTP_10 } else { http::Version::HTTP_11 };
+    let mut request = http::Request::builder()
+        .method(parsed.method.unwrap_or_default())
+        .uri(parsed.path.unwrap_or_default())
+        .version(version);
+    for header in parsed.headers.iter() {
+        request = request.header(header.name, header.value);
+    }
+    let request = request.body(()).map_err(|e| bad(format!("bad request: {e}")))?;
+    Ok(Some((request, len)))
+}
+
+/// The answer to a plain request.
+async fn respond(request: &http::Request<()>, site: &Site) -> Reply {
+    if request.method() != http::Method::GET {
+        return Reply::text(StatusCode::METHOD_NOT_ALLOWED, "only GET").with("Allow", "GET".into());
+    }
+    let json = |body: &str| Reply::new(StatusCode::OK, "application/json", body.to_string());
+    match request.uri().path() {
+        "/" | "/index.html" => Reply::new(StatusCode::OK, "text/html; charset=utf-8", INDEX_HTML),
+        "/app.js" => Reply::new(StatusCode::OK, "text/javascript; charset=utf-8", APP_JS),
+        "/style.css" => Reply::new(StatusCode::OK, "text/css; charset=utf-8", STYLE_CSS),
+        "/map.json" => json(&site.map_json),
+        "/info.json" => json(&site.info_json),
+        "/replay.json" => match &site.replay {
+            Some((info, _)) => json(info),
+            None => Reply::text(StatusCode::NOT_FOUND, "not a replay"),
+        },
+        path if path.starts_with("/replay/frame/") => {
+            let tick = path.trim_start_matches("/replay/frame/").parse::<u64>().ok();
+            let frame = match (&site.replay, tick) {
+                (Some((_, frames)), Some(t)) => {
+                    let frames = frames.clone();
+                    tokio::task::spawn_blocking(move || frames(t)).await.ok().flatten()
+                }
+                _ => None,
+            };
+            match frame {
+                Some(frame) => json(&frame),
+                None => Reply::text(StatusCode::NOT_FOUND, "no such frame"),
+            }
+        }
+        _ => Reply::text(StatusCode::NOT_FOUND, "not found"),
+    }
+}
+
+/// An HTTP answer; the connection is closed after it.
+pub(crate) struct Reply {
+    status: StatusCode,
+    kind: &'static str,
+    body: Cow<'static, str>,
+    headers: Vec<(&'static str, String)>,
+}
+
+impl Reply {
+    fn new(status: StatusCode, kind: &'static str, body: impl Into<Cow<'static, str>>) -> Reply {
+        Reply { status, kind, body: body.into(), headers: Vec::new() }
+    }
+
+    /// A plain-text answer; the text gets a newline.
+    pub fn text(status: StatusCode, text: impl Into<String>) -> Reply {
+        Reply::new(status, "text/plain; charset=utf-8", text.into() + "\n")
+    }
+
+    /// `503 Service Unavailable` with `Retry-After`.
+    pub fn busy(why: &str) -> Reply {
+        Reply::text(StatusCode::SERVICE_UNAVAILABLE, format!("{why}; try again shortly"))
+            .with("Retry-After", RETRY_AFTER_S.to_string())
+    }
+
+    /// The answer with one more header.
+    pub fn with(mut self, name: &'static str, value: String) -> Reply {
+        self.headers.push((name, value));
+        self
+    }
+
+    fn to_bytes(&self) -> Vec<u8> {
+        let mut head = format!(
+            "HTTP/1.1 {} {}\r\nContent-Type: {}\r\nContent-Length: {}\r\nCache-Control: no-store\r\nConnection: close\r\n",
+            self.status.as_str(),
+            self.status.canonical_reason().unwrap_or(""),
+            self.kind,
+            self.body.len()
+        );
+        for (name, value) in &self.headers {
+            head += &format!("{name}: {value}\r\n");
+        }
+        head += "\r\n";
+        let mut bytes = head.into_bytes();
+        bytes.extend_from_slice(self.body.as_bytes());
+        bytes
+    }
+}
+
+/// Sends `reply` and closes the connection, reading and dropping whatever the client
+/// still sends for a moment first (closing a socket with unread input resets the
+/// connection, which can throw away the answer before the client reads it).
+pub(crate) async fn reply_and_close(mut stream: TcpStream, reply: Reply) {
+    let sent = tokio::time::timeout(WRITE_TIMEOUT, async {
+        stream.write_all(&reply.to_bytes()).await?;
+        stream.shutdown().await
     })
     .await;
-    let Ok(Some(n)) = peeked else { return };
-    let text = String::from_utf8_lossy(&head[..n]).to_string();
-    let mut words = text.split_whitespace();
-    let (method, path) = (words.next().unwrap_or(""), words.next().unwrap_or("/").to_string());
-    let upgrade = text.to_ascii_lowercase().contains("upgrade: websocket");
-    if upgrade && path.starts_with("/ws") {
-        if let Some(events) = events {
-            bridge(stream, events, ids.fetch_add(1, Ordering::SeqCst), queue).await;
-        }
+    if !matches!(sent, Ok(Ok(()))) {
         return;
     }
-    respond(stream, n, method, &path, &site).await;
-}
-
-async fn respond(mut stream: TcpStream, head_len: usize, method: &str, path: &str, site: &Site) {
-    // Take the head off the socket (it was only peeked).
-    let mut sink = vec![0u8; head_len];
-    let _ = stream.read_exact(&mut sink).await;
-    let path = path.split('?').next().unwrap_or("/");
-    let (status, kind, body): (&str, &str, String) = match (method, path) {
-        ("GET", "/" | "/index.html") => ("200 OK", "text/html; charset=utf-8", INDEX_HTML.into()),
-        ("GET", "/app.js") => ("200 OK", "text/javascript; charset=utf-8", APP_JS.into()),
-        ("GET", "/style.css") => ("200 OK", "text/css; charset=utf-8", STYLE_CSS.into()),
-        ("GET", "/map.json") => ("200 OK", "application/json", site.map_json.clone()),
-        ("GET", "/info.json") => ("200 OK", "application/json", site.info_json.clone()),
-        ("GET", "/replay.json") => match &site.replay {
-            Some((info, _)) => ("200 OK", "application/json", info.clone()),
-            None => ("404 Not Found", "text/plain", "not a replay\n".into()),
-        },
-        ("GET", p) if p.starts_with("/replay/frame/") => {
-            let tick = p.trim_start_matches("/replay/frame/").parse::<usize>().ok();
-            match (&site.replay, tick) {
-                (Some((_, frames)), Some(t)) if t < frames.len() => {
-                    ("200 OK", "application/json", serde_json::to_string(&frames[t]).unwrap_or_default())
-                }
-                _ => ("404 Not Found", "text/plain", "no such frame\n".into()),
-            }
-        }
-        ("GET", _) => ("404 Not Found", "text/plain", "not found\n".into()),
-        _ => ("405 Method Not Allowed", "text/plain", "only GET\n".into()),
-    };
-    let response = format!(
-        "HTTP/1.1 {status}\r\nContent-Type: {kind}\r\nContent-Length: {}\r\nCache-Control: no-store\r\nConnection: close\r\n\r\n{body}",
-        body.len()
-    );
-    let _ = stream.write_all(response.as_bytes()).await;
-    let _ = stream.shutdown().await;
-}
-
-/// The sending half of a WebSocket, as a line sink: a line is a text frame.
-struct WsSink(futures_util::stream::SplitSink<tokio_tungstenite::WebSocketStream<TcpStream>, Message>);
-
-impl LineSink for WsSink {
-    async fn send_line(&mut self, line: Arc<str>) -> bool {
-        self.0.send(Message::text(line.trim_end().to_string())).await.is_ok()
-    }
-
-    async fn close(&mut self) {
-        let _ = self.0.close().await;
-    }
-}
-
-/// One WebSocket client as one protocol connection: a text frame is a line.
-async fn bridge(stream: TcpStream, events: mpsc::Sender<Event>, conn: ConnId, queue: usize) {
-    let Ok(ws) = tokio_tungstenite::accept_async(stream).await else { return };
-    let (write, mut read) = ws.split();
-    let outgoing = start_writer(conn, queue, WsSink(write));
-    let (tx, mut done) = (outgoing.tx.clone(), outgoing.done.clone());
-    if events.send(Event::Opened(outgoing.opened())).await.is_err() {
-        return;
-    }
-    loop {
-        let message = tokio::select! {
-            message = read.next() => message,
-            _ = done.wait_for(|d| *d) => break,
-        };
-        let line = match message {
-            Some(Ok(Message::Text(text))) if text.len() > bw4t_protocol::MAX_LINE => Err(DecodeError {
-                code: "line_too_long",
-                message: format!("message longer than {} bytes", bw4t_protocol::MAX_LINE),
-            }),
-            Some(Ok(Message::Text(text))) => Ok(text.to_string()),
-            Some(Ok(Message::Binary(_))) => {
-                Err(DecodeError { code: "bad_message", message: "send text frames".into() })
-            }
-            Some(Ok(Message::Close(_)) | Err(_)) | None => break,
-            Some(Ok(_)) => continue,
-        };
-        if let Forwarded::Stop = forward(conn, line, &tx, &events).await {
-            break;
-        }
-    }
-    drop(tx);
-    finish(conn, outgoing, &events).await;
+    let mut sink = [0u8; 1024];
+    let drain = async { while matches!(stream.read(&mut sink).await, Ok(n) if n > 0) {} };
+    let _ = tokio::time::timeout(LINGER, drain).await;
 }

@@ -8,8 +8,11 @@
 mod connection;
 mod host;
 mod http;
+mod websocket;
 
-pub use http::{Site, serve_site};
+pub use connection::{LISTEN_BACKLOG, listen};
+pub use http::{FrameSource, MAX_REQUESTS, Site, serve_site};
+pub use websocket::parse_origin;
 
 use std::future::Future;
 use std::sync::Arc;
@@ -33,22 +36,32 @@ pub struct ServerConfig {
     pub game: MatchConfig,
     /// Realtime or lockstep pacing.
     pub mode: Mode,
-    /// How many players the match waits for before its first tick.
+    /// How many players the match waits for before its first tick, and admits at most.
     pub robots: usize,
     /// End the match after this many ticks.
     pub max_ticks: Option<u64>,
     /// Lockstep: how long to wait for `ready` (`None`: forever).
     pub deadline: Option<Duration>,
-    /// A shared secret players must present.
+    /// The player token: a secret players must present.
     pub token: Option<String>,
+    /// The spectator token: with it (or the player token) set, spectators must present it.
+    pub spectator_token: Option<String>,
+    /// The operator token: the secret of the `operator` role, which sees every message.
+    pub operator_token: Option<String>,
+    /// Spectators see private (addressed) messages too.
+    pub spectators_see_private: bool,
     /// Send every player `percepts` every tick, even empty ones.
     pub every_tick: bool,
     /// How long a dropped player's robot waits for its session to come back.
     pub grace: Duration,
     /// Connections that have not said `hello` by then are closed.
     pub hello_timeout: Duration,
-    /// Connections beyond this are refused.
+    /// Connections beyond this are refused (counted apart on the protocol port and, as
+    /// WebSockets, on the web port).
     pub max_connections: usize,
+    /// Web pages, besides the server's own, that may open WebSockets (see
+    /// [`parse_origin`]; `*`: any).
+    pub allowed_origins: Vec<String>,
     /// Actions and messages a player may send per tick; more are rejected.
     pub max_actions_per_tick: u32,
     /// Messages queued for one client before it counts as not reading.
@@ -78,10 +91,14 @@ impl ServerConfig {
             max_ticks: None,
             deadline: Some(Duration::from_millis(1000)),
             token: None,
+            spectator_token: None,
+            operator_token: None,
+            spectators_see_private: false,
             every_tick: false,
             grace: Duration::from_secs(30),
             hello_timeout: Duration::from_secs(10),
             max_connections: 256,
+            allowed_origins: Vec::new(),
             max_actions_per_tick: 16,
             queue: 1024,
             slow_limit: Duration::from_secs(5),
@@ -135,9 +152,12 @@ pub enum ServerError {
     /// The match could not be created (bad configuration or content).
     #[error(transparent)]
     Match(#[from] bw4t_sim::MatchError),
-    /// A seat could not be taken (a bad name, or more seats than spawn points).
+    /// A seat could not be taken (a bad name, more seats than players or spawn points).
     #[error("cannot seat a player: {0}")]
     Seat(String),
+    /// Two roles were given the same token, so one role's secret would open the other's.
+    #[error("the {0} and {1} tokens must differ")]
+    SameToken(&'static str, &'static str),
 }
 
 /// Serves one match on `listener` until it ends (sequence complete, `max_ticks`, or
@@ -168,14 +188,8 @@ pub async fn serve_with(
                 .to_string(),
             replay: None,
         });
-        tokio::spawn(http::serve_site(
-            listener,
-            site,
-            Some(events_tx.clone()),
-            ids.clone(),
-            config.queue,
-            config.max_connections,
-        ))
+        let live = websocket::Live::new(&config, events_tx.clone(), ids.clone());
+        tokio::spawn(http::serve(listener, site, http::MAX_REQUESTS, Some(Arc::new(live))))
     });
     let acceptor = tokio::spawn(connection::accept_loop(listener, config, events_tx, ids));
     let result = host.run(shutdown).await;

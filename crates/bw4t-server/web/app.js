@@ -624,10 +624,22 @@ function openSocket(hello, onMessage, onClose) {
   };
 }
 
+/** The URL parameter holding each role's credential (PROTOCOL.md, Roles). */
+const TOKEN_PARAMS = { agent: 'token', spectator: 'spectator_token', operator: 'operator_token' };
+
+/** A `hello` with the credential of its role from the page's address, if given. */
 function helloFor(extra) {
   const hello = { type: 'hello', protocol: 'bw4t', versions: [1], ...extra };
-  if (params.get('token')) hello.token = params.get('token');
+  const token = params.get(TOKEN_PARAMS[extra.role || 'agent']);
+  if (token) hello.token = token;
   return hello;
+}
+
+/** A note above the message list (why messages are missing), or none. */
+function setWatchNote(text) {
+  const note = $('#watch-note');
+  note.hidden = !text;
+  setText(note, text || '');
 }
 
 function showMatch(match) {
@@ -645,14 +657,18 @@ const spectator = {
 function startSpectator() {
   setView('spectator');
   setStatus('connecting');
+  setWatchNote('');
+  // With the operator token the overview shows every message; else it is a spectator's.
+  const role = params.get('operator_token') ? 'operator' : 'spectator';
   const socket = openSocket(
-    helloFor({ role: 'spectator' }),
+    helloFor({ role }),
     (message) => {
       if (spectator.socket !== socket) return; // the player view took over
       switch (message.type) {
         case 'welcome':
           showMatch(message.match);
           setStatus('connected');
+          if (message.private_messages === false) setWatchNote('Messages to one player are not shown to spectators.');
           break;
         case 'frame':
           showFrame(message);
@@ -663,6 +679,9 @@ function startSpectator() {
         case 'error':
           console.warn('bw4t spectator error', message);
           if (message.fatal) setStatus('error', message.code);
+          if (message.code === 'bad_token') {
+            setWatchNote(`Cannot watch: ${message.message}. Open the page with ?${TOKEN_PARAMS[role]}=SECRET to watch; joining as a player needs ?token=SECRET.`);
+          }
           break;
         default:
           break; // bye, pong: nothing to show
@@ -690,7 +709,8 @@ function showFrame(frame) {
   setTick(frame.tick, frame.sim_seconds);
   showSequence(frame.sequence || [], frame.sequence_index ?? 0);
   showRobotList(frame);
-  for (const m of frame.messages || []) addMessage(frame.tick, m.from, m.to, m.text);
+  // A replay lists messages from its own index (frames skipped or sought past carry some).
+  if (page.view !== 'replay') for (const m of frame.messages || []) addMessage(frame.tick, m.from, m.to, m.text);
   page.dirty = true;
 }
 
@@ -816,6 +836,7 @@ function joinAsPlayer(name) {
   $('#join-error').hidden = true;
   $('#log').replaceChildren();
   $('#messages').replaceChildren();
+  setWatchNote('');
   // After a reload, take the robot back with the session the server gave this tab.
   const session = sessionStorage.getItem(sessionKey(name));
   connectPlayer(session ? { session } : { name });
@@ -1093,8 +1114,10 @@ function setupPlayerControls(canvas) {
 // Frames come one per request from /replay/frame/T and are cached. While playing, the
 // position advances by tick_hz x speed ticks per second and the newest fetched frame not
 // past it is shown; frames ahead are fetched a few at a time, every tick at low speed and
-// every few ticks at high speed (frames hold the whole state, so skipping costs nothing
-// but messages). If the fetches fall behind, playback waits for them instead of jumping.
+// every few ticks at high speed (frames hold the whole state, so skipping costs nothing).
+// If the fetches fall behind, playback waits for them instead of jumping. The message list
+// comes from every message of the match, in /replay.json: whatever tick is shown, it holds
+// the messages sent up to that tick (the newest LOG_LIMIT of them).
 
 const replay = {
   ticks: 0,
@@ -1109,6 +1132,8 @@ const replay = {
   last: null, // time of the previous step
   seeking: null, // the tick sought and not yet on screen
   scrubbing: false,
+  messages: [], // every message of the match {tick, from, to, text}, by tick
+  listed: 0, // how many of them (from the first) the message list reflects
 
   MAX_LOADING: 6,
   MAX_CACHED: 5000,
@@ -1120,6 +1145,7 @@ const replay = {
     const info = await fetchJSON('/replay.json');
     this.ticks = info.ticks;
     this.tickHz = info.tick_hz || 20;
+    this.messages = info.messages || [];
     const players = (info.players || []).map((p) => (typeof p === 'string' ? p : p.name ?? JSON.stringify(p)));
     setText($('#replay-about'), `seed ${info.seed}${players.length ? `, ${players.join(', ')}` : ''}`);
     const scrub = $('#scrub');
@@ -1172,9 +1198,6 @@ const replay = {
       this.seeking = null;
       return;
     }
-    // Frames carry the messages since the previous frame: after a jump the list would
-    // have a gap, so it starts again.
-    $('#messages').replaceChildren();
     this.seeking = this.position;
     this.fetch(this.position); // first, before the frames ahead
     this.fetchAhead();
@@ -1222,8 +1245,29 @@ const replay = {
     this.shown = tick;
     this.seeking = null;
     showFrame(this.cache.get(tick));
+    this.listMessages(tick);
     if (!this.scrubbing) $('#scrub').value = String(tick);
     setText($('#replay-position'), `${tick} / ${this.ticks}`);
+  },
+
+  /** Makes the message list hold the messages sent up to `tick`: appends when moving
+   * forwards, starts again when moving back or too far ahead. */
+  listMessages(tick) {
+    const list = $('#messages');
+    // Binary search for the first message after `tick`.
+    let upTo = 0;
+    for (let hi = this.messages.length; upTo < hi; ) {
+      const mid = (upTo + hi) >> 1;
+      if (this.messages[mid].tick <= tick) upTo = mid + 1;
+      else hi = mid;
+    }
+    let from = this.listed;
+    if (upTo < this.listed || upTo - this.listed > LOG_LIMIT) {
+      list.replaceChildren();
+      from = Math.max(0, upTo - LOG_LIMIT);
+    }
+    for (const m of this.messages.slice(from, upTo)) addMessage(m.tick, m.from, m.to, m.text);
+    this.listed = upTo;
   },
 
   stride() {

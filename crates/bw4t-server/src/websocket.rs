@@ -1,0 +1,253 @@
+//! `/ws`: who may open a WebSocket (the page's own origin and host, or those allowed),
+//! the handshake, and the bridge that makes each WebSocket one protocol connection.
+//!
+//! A browser always sends `Origin` with a WebSocket handshake, so a page on another site
+//! is told apart by it; `Host` is checked as well because a page on a name that the
+//! attacker points at 127.0.0.1 (DNS rebinding) is same-origin with that name. A
+//! handshake without `Origin` does not come from a page: such a program could as well
+//! use the protocol port, so it is let in.
+
+use std::net::{Ipv4Addr, Ipv6Addr};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Duration;
+
+use bw4t_protocol::{DecodeError, MAX_LINE};
+use futures_util::stream::{SplitSink, SplitStream};
+use futures_util::{SinkExt, StreamExt};
+use tokio::io::AsyncWriteExt;
+use tokio::net::TcpStream;
+use tokio::sync::{OwnedSemaphorePermit, Semaphore, mpsc};
+use tokio_tungstenite::WebSocketStream;
+use tokio_tungstenite::tungstenite::handshake::server::{Response, create_response, write_response};
+use tokio_tungstenite::tungstenite::http::{self, StatusCode};
+use tokio_tungstenite::tungstenite::protocol::{Role, WebSocketConfig};
+use tokio_tungstenite::tungstenite::{Error as WsError, Message};
+
+use crate::connection::{Event, Incoming, LineSink, LineSource};
+use crate::http::{Head, Reply};
+
+/// Bytes read from the socket at a time (the library's default, 128 KiB, is allocated
+/// eagerly for every connection; messages here are small).
+const READ_BUFFER: usize = 4 * 1024;
+/// The most outgoing bytes a WebSocket holds beyond its message queue: one message being
+/// written. A full `frame` of the 100-room map is 16 KB.
+const MAX_WRITE_BUFFER: usize = 1024 * 1024;
+
+/// A live match's side of the web port.
+pub(crate) struct Live {
+    /// Where connections report to the match task.
+    pub events: mpsc::Sender<Event>,
+    /// Connection ids, shared with the protocol port.
+    pub ids: Arc<AtomicU64>,
+    /// WebSockets open at once (`max_connections`); more get `503`.
+    pub max_sockets: usize,
+    /// The places among them.
+    pub sockets: Arc<Semaphore>,
+    /// As over TCP: the time to say `hello`, and the outgoing queue.
+    pub hello_timeout: Duration,
+    pub queue: usize,
+    /// Which pages may connect.
+    pub origins: OriginPolicy,
+}
+
+impl Live {
+    /// The WebSocket side of a match served with `config`.
+    pub fn new(config: &crate::ServerConfig, events: mpsc::Sender<Event>, ids: Arc<AtomicU64>) -> Live {
+        Live {
+            events,
+            ids,
+            max_sockets: config.max_connections,
+            sockets: Arc::new(Semaphore::new(config.max_connections)),
+            hello_timeout: config.hello_timeout,
+            queue: config.queue,
+            origins: OriginPolicy::new(&config.allowed_origins),
+        }
+    }
+}
+
+/// A handshake that may go ahead: its `101` answer and its place among the WebSockets.
+pub(crate) struct Admitted {
+    response: Response,
+    permit: OwnedSemaphorePermit,
+}
+
+/// Checks a request on `/ws`: a valid handshake, an allowed origin and host, a free place.
+pub(crate) fn admit(request: &http::Request<()>, live: &Live) -> Result<Admitted, Reply> {
+    let response = create_response(request)
+        .map_err(|e| Reply::text(StatusCode::BAD_REQUEST, format!("not a WebSocket handshake: {e}")))?;
+    let header = |name| request.headers().get(name).and_then(|v| v.to_str().ok());
+    if let Some(why) = live.origins.refusal(header(http::header::ORIGIN), header(http::header::HOST)) {
+        return Err(Reply::text(StatusCode::FORBIDDEN, why));
+    }
+    let permit = live
+        .sockets
+        .clone()
+        .try_acquire_owned()
+        .map_err(|_| Reply::busy(&format!("the server takes at most {} WebSockets", live.max_sockets)))?;
+    Ok(Admitted { response, permit })
+}
+
+/// Completes the handshake and runs the WebSocket as a protocol connection: a text
+/// frame is a line.
+pub(crate) async fn bridge(mut stream: TcpStream, head: Head, admitted: Admitted, live: &Live) {
+    let _place = admitted.permit;
+    let mut answer = Vec::new();
+    if write_response(&mut answer, &admitted.response).is_err() || stream.write_all(&answer).await.is_err() {
+        return;
+    }
+    let ws = WebSocketStream::from_partially_read(stream, head.rest, Role::Server, Some(config())).await;
+    let (write, read) = ws.split();
+    let conn = live.ids.fetch_add(1, Ordering::SeqCst);
+    crate::connection::run(
+        conn,
+        live.hello_timeout,
+        live.queue,
+        WsLines(read),
+        WsSink(write),
+        live.events.clone(),
+    )
+    .await;
+}
+
+/// Frames and messages no longer than a protocol line, so an over-long message is refused
+/// at its first frame header or fragment instead of being buffered whole.
+fn config() -> WebSocketConfig {
+    WebSocketConfig::default()
+        .read_buffer_size(READ_BUFFER)
+        .max_frame_size(Some(MAX_LINE))
+        .max_message_size(Some(MAX_LINE))
+        .write_buffer_size(0)
+        .max_write_buffer_size(MAX_WRITE_BUFFER)
+}
+
+/// The receiving half of a WebSocket, as a line source: a text message is a line.
+struct WsLines(SplitStream<WebSocketStream<TcpStream>>);
+
+impl LineSource for WsLines {
+    async fn next(&mut self) -> Incoming {
+        let error = |code, message: String| DecodeError { code, message };
+        loop {
+            return match self.0.next().await {
+                Some(Ok(Message::Text(text))) => Incoming::Lines(vec![Ok(text.as_str().to_owned())]),
+                Some(Ok(Message::Binary(_))) => {
+                    Incoming::Lines(vec![Err(error("bad_message", "send text frames".into()))])
+                }
+                // Pings are answered by the library; pongs and raw frames mean nothing here.
+                Some(Ok(Message::Ping(_) | Message::Pong(_) | Message::Frame(_))) => continue,
+                Some(Ok(Message::Close(_))) | None => Incoming::Closed,
+                // The rest of the message is not read, so the connection cannot go on.
+                Some(Err(WsError::Capacity(_))) => Incoming::Fatal(error(
+                    "line_too_long",
+                    format!("message longer than {MAX_LINE} bytes; the WebSocket is closed"),
+                )),
+                Some(Err(WsError::Utf8(_))) => {
+                    Incoming::Fatal(error("bad_utf8", "text frame is not valid UTF-8".into()))
+                }
+                Some(Err(_)) => Incoming::Closed,
+            };
+        }
+    }
+}
+
+/// The sending half of a WebSocket, as a line sink: a line is a text frame.
+struct WsSink(SplitSink<WebSocketStream<TcpStream>, Message>);
+
+impl LineSink for WsSink {
+    async fn send_line(&mut self, line: Arc<str>) -> bool {
+        self.0.send(Message::text(line.trim_end().to_string())).await.is_ok()
+    }
+
+    async fn close(&mut self) {
+        let _ = self.0.close().await;
+    }
+}
+
+/// Which pages may open WebSockets: the page's own origin on an allowed host always, and
+/// the origins listed in `ServerConfig::allowed_origins` (`*`: any page, any host).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct OriginPolicy {
+    any: bool,
+    origins: Vec<String>,
+    /// The host names of the listed origins, also accepted in `Host`.
+    hosts: Vec<String>,
+}
+
+impl OriginPolicy {
+    /// The policy for a list of origins as [`parse_origin`] gives them.
+    pub fn new(allowed: &[String]) -> OriginPolicy {
+        let origins: Vec<String> = allowed.iter().filter_map(|o| parse_origin(o).ok()).collect();
+        let hosts = origins
+            .iter()
+            .filter_map(|o| o.split_once("://").map(|(_, authority)| host_name(authority).to_string()))
+            .collect();
+        OriginPolicy { any: origins.iter().any(|o| o == "*"), origins, hosts }
+    }
+
+    /// Why a handshake with these `Origin` and `Host` headers is refused, if it is.
+    pub fn refusal(&self, origin: Option<&str>, host: Option<&str>) -> Option<String> {
+        let origin = origin?.trim().to_ascii_lowercase();
+        if self.any {
+            return None;
+        }
+        let Some(host) = host.map(|h| h.trim().to_ascii_lowercase()) else {
+            return Some("a WebSocket from a page needs a Host header".into());
+        };
+        let own = ["http://", "https://"].iter().any(|scheme| origin.strip_prefix(scheme) == Some(&host));
+        if !own && !self.origins.contains(&origin) {
+            return Some(format!(
+                "pages from {origin} may not open WebSockets here (the server can allow them: \
+                 bw4t serve --allow-origin {origin})"
+            ));
+        }
+        let name = host_name(&host);
+        let literal = name.parse::<Ipv4Addr>().is_ok()
+            || name
+                .strip_prefix('[')
+                .and_then(|n| n.strip_suffix(']'))
+                .is_some_and(|n| n.parse::<Ipv6Addr>().is_ok());
+        if !(literal || name == "localhost" || self.hosts.iter().any(|h| h == name)) {
+            return Some(format!(
+                "'{host}' is not a name of this server (the server can allow it: \
+                 bw4t serve --allow-origin http://{host})"
+            ));
+        }
+        None
+    }
+}
+
+/// The host name of `host[:port]` (an IPv6 address keeps its brackets).
+fn host_name(authority: &str) -> &str {
+    match authority.find(']') {
+        Some(end) if authority.starts_with('[') => &authority[..=end],
+        _ => authority.split(':').next().unwrap_or(authority),
+    }
+}
+
+/// Checks and normalises an allowed origin: `*`, or `http://` or `https://` with a host
+/// and an optional port, as browsers send it in `Origin` (lower case, no default port, no
+/// path).
+pub fn parse_origin(text: &str) -> Result<String, String> {
+    let text = text.trim();
+    if text == "*" {
+        return Ok(text.into());
+    }
+    let lower = text.trim_end_matches('/').to_ascii_lowercase();
+    let bad = || {
+        format!(
+            "'{text}' is not an origin: expected `*` or a scheme, host and optional port, like http://example.org:8080"
+        )
+    };
+    let (scheme, authority) = lower.split_once("://").ok_or_else(bad)?;
+    let default_port = match scheme {
+        "http" => ":80",
+        "https" => ":443",
+        _ => return Err(bad()),
+    };
+    let authority = authority.strip_suffix(default_port).unwrap_or(authority);
+    let clean = authority.chars().all(|c| c.is_ascii_alphanumeric() || "-.:[]_".contains(c));
+    if authority.is_empty() || !clean || host_name(authority).is_empty() {
+        return Err(bad());
+    }
+    Ok(format!("{scheme}://{authority}"))
+}
