@@ -58,6 +58,11 @@ fn help_describes_the_commands() {
     let out = bw4t(&["--help"]);
     assert!(out.status.success());
     assert!(String::from_utf8_lossy(&out.stdout).contains("bench"));
+    let out = bw4t(&["replay", "verify", "--help"]);
+    let help = String::from_utf8_lossy(&out.stdout);
+    for status in ["0  ok", "1  the file cannot be read", "3  the re-simulation differs", "4  incomplete"] {
+        assert!(help.contains(status), "verify's exit statuses: {help}");
+    }
 }
 
 fn json_lines(out: &Output) -> Vec<serde_json::Value> {
@@ -91,17 +96,11 @@ fn bench_lockstep_and_realtime_report_their_figures() {
     );
 }
 
-/// `bw4t serve` as a user runs it: prints its address, plays, stops on SIGTERM, exits 0
-/// and writes the result file.
-#[test]
-fn serve_runs_until_terminated_and_writes_its_result() {
+/// Starts `serve` (a `bw4t serve` command), connects to the address it prints and says
+/// `hello` as Ann; returns the child and the connection (reads time out after 20 s).
+fn serve_and_say_hello(mut serve: Command) -> (std::process::Child, std::net::TcpStream) {
     use std::io::{BufRead, BufReader, Write};
-    let dir = std::env::temp_dir().join(format!("bw4t-serve-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    let results = dir.join("result.json");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_bw4t"))
-        .args(["serve", "--port", "0", "--map", "fixed", "--seed", "9", "--mode", "lockstep", "--results"])
-        .arg(&results)
+    let mut child = serve
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
         .spawn()
@@ -114,6 +113,22 @@ fn serve_runs_until_terminated_and_writes_its_result() {
     stream.set_read_timeout(Some(std::time::Duration::from_secs(20))).expect("timeout");
     let mut writer = stream.try_clone().expect("clone");
     writeln!(writer, r#"{{"type":"hello","protocol":"bw4t","versions":[1],"name":"Ann"}}"#).expect("hello");
+    (child, stream)
+}
+
+/// `bw4t serve` as a user runs it: prints its address, plays, stops on SIGTERM, exits 0
+/// and writes the result file.
+#[test]
+fn serve_runs_until_terminated_and_writes_its_result() {
+    use std::io::{BufRead, BufReader};
+    let dir = std::env::temp_dir().join(format!("bw4t-serve-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let results = dir.join("result.json");
+    let mut serve = Command::new(env!("CARGO_BIN_EXE_bw4t"));
+    serve
+        .args(["serve", "--port", "0", "--map", "fixed", "--seed", "9", "--mode", "lockstep", "--results"])
+        .arg(&results);
+    let (mut child, stream) = serve_and_say_hello(serve);
     let mut reader = BufReader::new(stream);
     let mut line = String::new();
     reader.read_line(&mut line).expect("welcome");
@@ -184,9 +199,141 @@ fn map_generate_makes_a_map_that_checks_clean_and_refuses_bad_sizes() {
     for (rooms, expected) in [
         ("0x3", "expected ROWSxCOLUMNS"),
         ("3by4", "expected ROWSxCOLUMNS"),
-        ("30x3", "rooms must be 1x1 to"),
+        ("41x3", "rooms must be 1x1 to"),
     ] {
         let out = bw4t(&["map", "generate", "--rooms", rooms]);
         assert!(!out.status.success() && stderr(&out).contains(expected), "{rooms}: {}", stderr(&out));
     }
+}
+
+/// Runs `bw4t ARGS` with standard output a pipe whose reading end is closed after
+/// `lines_read` lines (with 0, before bw4t starts, so that even a short output cannot slip
+/// into the pipe first), and returns how it ended and what it said on standard error.
+fn with_closed_stdout(args: &[&str], lines_read: usize) -> (std::process::ExitStatus, String) {
+    use std::io::{BufRead, BufReader, Read};
+    use std::process::Stdio;
+    let (reader, writer) = std::io::pipe().expect("a pipe");
+    let mut command = Command::new(env!("CARGO_BIN_EXE_bw4t"));
+    command.args(args).current_dir(env!("CARGO_MANIFEST_DIR")).stderr(Stdio::piped());
+    if lines_read == 0 {
+        drop(reader);
+        command.stdout(writer);
+    } else {
+        command.stdout(Stdio::piped());
+    }
+    let mut child = command.spawn().expect("start bw4t");
+    if lines_read > 0 {
+        let mut stdout = BufReader::new(child.stdout.take().expect("stdout"));
+        for _ in 0..lines_read {
+            let mut line = String::new();
+            stdout.read_line(&mut line).expect("a line");
+        }
+    }
+    // The command holds the pipe's writing end; dropping it leaves the child the only writer.
+    drop(command);
+    let mut stderr = child.stderr.take().expect("stderr");
+    let pid = child.id();
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let mut text = String::new();
+        let _ = stderr.read_to_string(&mut text);
+        let _ = tx.send((child.wait(), text));
+    });
+    match rx.recv_timeout(std::time::Duration::from_secs(120)) {
+        Ok((status, text)) => (status.expect("exit status"), text),
+        Err(_) => {
+            let _ = Command::new("kill").args(["-KILL", &pid.to_string()]).status();
+            panic!("bw4t {args:?} did not end after its output was closed");
+        }
+    }
+}
+
+#[test]
+fn output_into_a_closed_pipe_ends_quietly_with_the_sigpipe_status() {
+    let dir = std::env::temp_dir().join(format!("bw4t-pipe-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = dir.join("t");
+    let cases: [(&[&str], usize); 6] = [
+        (&["bench", "sim", "--ticks", "50"], 0),
+        (&["run", "--map", "fixed", "--seed", "1"], 0),
+        (&["run", "--map", "fixed", "--seed", "1", "--json"], 0),
+        (&["map", "show", "default"], 0),
+        // Far more than a pipe holds, so the write fails after the first line is read.
+        (&["map", "generate", "--rooms", "26x40"], 1),
+        (
+            &[
+                "tournament",
+                "--map",
+                "fixed",
+                "--team",
+                "a=builtin",
+                "--seeds",
+                "1",
+                "--out",
+                out.to_str().expect("utf-8"),
+            ],
+            0,
+        ),
+    ];
+    for (args, lines) in cases {
+        let (status, stderr) = with_closed_stdout(args, lines);
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+        assert_eq!(status.code(), Some(141), "{args:?}: {status:?} {stderr}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_configuration_error_is_said_once_and_counts_read_as_english() {
+    let dir = std::env::temp_dir().join(format!("bw4t-once-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let config = dir.join("t.toml");
+    std::fs::write(&config, "maps = [\"fixed\"]\nseeds = 2\nmax_tick = 5\n").expect("write");
+    let out = bw4t(&["tournament", config.to_str().expect("utf-8")]);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert_eq!(err.matches("unknown field `max_tick`").count(), 1, "{err}");
+    let run = bw4t(&["run", "--map", "fixed", "--seed", "1", "--robots", "1"]);
+    let (text, err) = (String::from_utf8_lossy(&run.stdout), stderr(&run));
+    assert!(err.contains(", 1 robot,") && !err.contains("1 robots"), "{err}");
+    assert!(text.starts_with("completed after ") && !text.contains("(completed)"), "{text}");
+    let tournament = bw4t(&[
+        "tournament",
+        "--map",
+        "fixed",
+        "--team",
+        "a=builtin",
+        "--seeds",
+        "1",
+        "--out",
+        dir.join("out").to_str().expect("utf-8"),
+    ]);
+    assert!(tournament.status.success(), "{}", stderr(&tournament));
+    assert!(String::from_utf8_lossy(&tournament.stdout).contains("\n1 match (1 played now"));
+    let md = std::fs::read_to_string(dir.join("out").join("summary.md")).expect("summary");
+    assert!(md.contains("**1 match**, ") && md.contains("1 team on 1 map,"), "{md}");
+    let svg = std::fs::read_to_string(dir.join("out").join("summary.svg")).expect("chart");
+    assert!(svg.contains("1 match on 1 map,"), "{svg}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `bw4t serve` without `--max-ticks` tells players the map's own limit in `welcome`.
+#[test]
+fn serve_gives_the_map_s_tick_limit_by_default() {
+    use std::io::{BufRead, BufReader};
+    let mut serve = Command::new(env!("CARGO_BIN_EXE_bw4t"));
+    serve.args(["serve", "--port", "0", "--map", "fixed", "--seed", "9", "--mode", "lockstep"]);
+    let (child, stream) = serve_and_say_hello(serve);
+    let mut line = String::new();
+    BufReader::new(stream).read_line(&mut line).expect("welcome");
+    let _ = Command::new("kill").arg("-TERM").arg(child.id().to_string()).status();
+    let out = child.wait_with_output().expect("exit");
+    let welcome: serde_json::Value = serde_json::from_str(&line).expect("json");
+    assert_eq!(welcome["match"]["max_ticks"], 20_000, "{line}");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("tick limit 20000, derived from the map: one robot needs about")
+            && err.contains("for 1 player"),
+        "{err}"
+    );
 }

@@ -12,14 +12,20 @@ mod sim_properties;
 /// Maps and their seeded random content.
 mod maps;
 
-/// Original BW4T XML maps: import, format detection, errors.
+/// Original BW4T XML maps, on fixtures of this repository: import, format detection, errors.
 mod import;
 
 /// Built-in agents in headless matches.
 mod agents;
 
+/// The cooperative team's progress rule: no deadlock whatever the seed and team size.
+mod coop_deadlock;
+
 /// The match server over real loopback TCP.
 mod server;
+
+/// The match host over TCP: roles and tokens, seats, join/leave churn, lockstep timing.
+mod host;
 
 /// The conformance suite: example transcripts replayed against the server.
 mod conformance;
@@ -41,3 +47,9 @@ mod cli;
 
 /// Map tools: check, render, show, import.
 mod map_tools;
+
+/// Maps are checked before anything is built from them: limits, the check's errors, ranges.
+mod map_guard;
+
+/// The original BW4T map files, when `BW4T_ORIGINAL_MAPS` names their folder (ignored otherwise).
+mod original_maps;

@@ -12,10 +12,11 @@ fn bw4t(args: &[&str]) -> Output {
     crate::util::bw4t_within(args, RUN_LIMIT)
 }
 
+/// The JSON a run printed, whatever its exit status (which says how the match went).
 fn json_of(out: &Output) -> Value {
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    serde_json::from_slice(&out.stdout)
-        .unwrap_or_else(|e| panic!("{e}: {}", String::from_utf8_lossy(&out.stdout)))
+    serde_json::from_slice(&out.stdout).unwrap_or_else(|e| {
+        panic!("{e}: {}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr))
+    })
 }
 
 fn temp_dir(tag: &str) -> PathBuf {
@@ -169,6 +170,7 @@ fn agents_that_crash_hang_talk_garbage_or_never_connect_get_clear_statuses() {
         "sleep 61.73",
     ]);
     let result = json_of(&out);
+    assert_eq!(out.status.code(), Some(4), "none of the external agents played");
     let status = |name: &str| {
         let agent = result["agents"].as_array().expect("agents").iter().find(|a| a["name"] == name).cloned();
         let agent = agent.unwrap_or_else(|| panic!("no agent {name}"));
@@ -245,7 +247,7 @@ fn replays_verify_and_a_tampered_one_names_the_tick() {
     let bad = dir.join("tampered.jsonl");
     std::fs::write(&bad, tampered.join("\n")).expect("write");
     let verify = bw4t(&["replay", "verify", bad.to_str().expect("utf-8")]);
-    assert!(!verify.status.success());
+    assert_eq!(verify.status.code(), Some(EXIT_DIFFERS));
     let err = String::from_utf8_lossy(&verify.stderr);
     assert!(err.contains("differs at tick"), "{err}");
     let reported: u64 = err
@@ -258,7 +260,152 @@ fn replays_verify_and_a_tampered_one_names_the_tick() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// The line with the first goTo's place replaced by `place`.
+/// `bw4t replay verify`'s exit status for a replay that differs, and for an incomplete one.
+const EXIT_DIFFERS: i32 = 3;
+const EXIT_INCOMPLETE: i32 = 4;
+
+/// Records a headless match on the fixed map and returns the replay's lines.
+fn recorded_replay(dir: &Path) -> Vec<String> {
+    let file = dir.join("whole.jsonl");
+    let out = bw4t(&["run", "--map", "fixed", "--seed", "3", "--replay", file.to_str().expect("utf-8")]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    std::fs::read_to_string(&file).expect("replay").lines().map(str::to_string).collect()
+}
+
+fn tick_of(line: &str) -> u64 {
+    serde_json::from_str::<Value>(line).expect("json")["tick"].as_u64().expect("tick")
+}
+
+#[test]
+fn a_replay_cut_short_is_incomplete_not_ok() {
+    let dir = temp_dir("replay-cut");
+    let lines = recorded_replay(&dir);
+    assert!(lines.last().expect("lines").contains("\"type\":\"end\""));
+    let middle = lines.len() / 2;
+    let torn = format!("{}\n{}", lines[..middle].join("\n"), &lines[middle][..lines[middle].len() / 2]);
+    let cases = [
+        ("header", format!("{}\n", lines[0]), 0),
+        ("middle", format!("{}\n", lines[..middle].join("\n")), tick_of(&lines[middle - 1])),
+        ("torn", torn, tick_of(&lines[middle - 1])),
+    ];
+    for (name, text, ticks) in cases {
+        let file = dir.join(format!("{name}.jsonl"));
+        std::fs::write(&file, text).expect("write");
+        let verify = bw4t(&["replay", "verify", file.to_str().expect("utf-8")]);
+        let said = String::from_utf8_lossy(&verify.stdout);
+        assert_eq!(verify.status.code(), Some(EXIT_INCOMPLETE), "{name}: {said}");
+        let expected = format!("incomplete: verified {ticks} of 20000 ticks, no end record");
+        assert!(said.starts_with(&expected), "{name}: {said}");
+        let show = bw4t(&["replay", "show", file.to_str().expect("utf-8")]);
+        assert!(String::from_utf8_lossy(&show.stdout).contains(&expected), "{name}: show says so too");
+    }
+    // A complete replay without a tick limit in its header (as older files) is still ok.
+    let unlimited = dir.join("unlimited.jsonl");
+    let header = lines[0].replace(",\"max_ticks\":20000", "");
+    assert_ne!(header, lines[0], "the header names its tick limit");
+    std::fs::write(&unlimited, [&[header], &lines[1..]].concat().join("\n")).expect("write");
+    let verify = bw4t(&["replay", "verify", unlimited.to_str().expect("utf-8")]);
+    assert!(verify.status.success(), "{}", String::from_utf8_lossy(&verify.stderr));
+    assert!(String::from_utf8_lossy(&verify.stdout).starts_with("ok: all"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn the_replay_of_a_killed_server_is_incomplete() {
+    use std::process::{Command, Stdio};
+    let dir = temp_dir("replay-killed");
+    let file = dir.join("served.jsonl");
+    let mut server = Command::new(env!("CARGO_BIN_EXE_bw4t"))
+        .args(["serve", "--port", "0", "--map", "fixed", "--seed", "4", "--builtin", "1", "--robots", "1"])
+        .args(["--tick-hz", "200", "--max-ticks", "100000", "--replay", file.to_str().expect("utf-8")])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("start bw4t serve");
+    // The recorder flushes at every digest: wait (bounded) for the third one.
+    let deadline = std::time::Instant::now() + Duration::from_secs(30);
+    let has_third_digest = || {
+        std::fs::read_to_string(&file)
+            .is_ok_and(|text| text.lines().any(|l| l.contains("\"type\":\"digest\"") && tick_of(l) >= 300))
+    };
+    while !has_third_digest() {
+        if std::time::Instant::now() > deadline {
+            let _ = server.kill();
+            panic!("the served match's replay has no digest at tick 300 after 30 s");
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    server.kill().expect("kill the server");
+    server.wait().expect("the server ended");
+    let text = std::fs::read_to_string(&file).expect("replay");
+    let last =
+        text.lines().filter_map(|l| serde_json::from_str::<Value>(l).ok()).next_back().expect("a line");
+    let ticks = last["tick"].as_u64().expect("a tick");
+    let verify = bw4t(&["replay", "verify", file.to_str().expect("utf-8")]);
+    let said = String::from_utf8_lossy(&verify.stdout);
+    assert_eq!(verify.status.code(), Some(EXIT_INCOMPLETE), "{said}");
+    assert!(
+        said.starts_with(&format!("incomplete: verified {ticks} of 100000 ticks, no end record")),
+        "{said}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn replays_with_ticks_beyond_their_limits_are_refused_before_any_work() {
+    let dir = temp_dir("replay-huge");
+    let lines = recorded_replay(&dir);
+    let last = lines.len() - 1;
+    let tick_line = lines.iter().rposition(|l| l.contains("\"type\":\"tick\"")).expect("a tick line");
+    let set_tick = |lines: &[String], at: usize, tick: u64| -> Vec<String> {
+        let mut lines = lines.to_vec();
+        let mut line: Value = serde_json::from_str(&lines[at]).expect("json");
+        line["tick"] = tick.into();
+        lines[at] = line.to_string();
+        lines
+    };
+    let unlimited: Vec<String> = [&[lines[0].replace(",\"max_ticks\":20000", "")], &lines[1..]].concat();
+    let cases = [
+        (
+            "tick",
+            set_tick(&lines, tick_line, 1_000_000_000),
+            tick_line,
+            "tick 1000000000 is beyond the header's max_ticks 20000",
+        ),
+        (
+            "end",
+            set_tick(&lines, last, 1_000_000_000_000),
+            last,
+            "tick 1000000000000 is beyond the header's max_ticks 20000",
+        ),
+        (
+            "unlimited",
+            set_tick(&unlimited, tick_line, 1_000_000_000),
+            tick_line,
+            "tick 1000000000 skips the digest due at tick",
+        ),
+        ("back", set_tick(&lines, tick_line, 3), tick_line, "tick 3 goes back"),
+    ];
+    for (name, text, at, expected) in cases {
+        let file = dir.join(format!("{name}.jsonl"));
+        std::fs::write(&file, text.join("\n") + "\n").expect("write");
+        let path = file.to_str().expect("utf-8");
+        for command in [
+            &["replay", "verify", path][..],
+            &["replay", "show", path],
+            &["replay", "view", path, "--http", "0"],
+        ] {
+            // Quickly: a hostile tick number must cost no work.
+            let out = crate::util::bw4t_within(command, Duration::from_secs(10));
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert_eq!(out.status.code(), Some(1), "{name} {command:?}: {err}");
+            assert!(err.contains(&format!("line {}: {expected}", at + 1)), "{name} {command:?}: {err}");
+            assert!(!String::from_utf8_lossy(&out.stdout).contains("http on"), "{name}: view served");
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 fn regex_free_replace_place(line: &str, place: &str) -> String {
     let at = line.find("\"goTo\",\"args\":[\"").expect("goTo args") + "\"goTo\",\"args\":[\"".len();
     let end = at + line[at..].find('"').expect("end of place");
@@ -306,4 +453,129 @@ fn bench_scale_reports_ticks_per_second_with_100_robots() {
         (Some("scale"), Some(100), Some(20))
     );
     assert!(line["ticks_per_s"].as_f64().is_some_and(|t| t > 0.0), "{line}");
+}
+
+/// Runs `bw4t ARGS` with extra environment variables, bounded like [`bw4t`].
+fn bw4t_env(args: &[&str], env: &[(&str, &str)]) -> Output {
+    use std::process::Stdio;
+    let mut command = Command::new(env!("CARGO_BIN_EXE_bw4t"));
+    command.args(args).current_dir(env!("CARGO_MANIFEST_DIR")).stdout(Stdio::piped()).stderr(Stdio::piped());
+    for (key, value) in env {
+        command.env(key, value);
+    }
+    let child = command.spawn().expect("start bw4t");
+    let pid = child.id();
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let _ = tx.send(child.wait_with_output());
+    });
+    match rx.recv_timeout(RUN_LIMIT) {
+        Ok(output) => output.expect("output"),
+        Err(_) => {
+            let _ = Command::new("kill").args(["-KILL", &pid.to_string()]).status();
+            panic!("bw4t {args:?} did not finish within {RUN_LIMIT:?}");
+        }
+    }
+}
+
+#[test]
+fn the_exit_status_tells_completed_not_completed_no_agent_and_errors_apart() {
+    let dir = temp_dir("status");
+    let logs = dir.to_str().expect("utf-8");
+    let code = |args: &[&str]| bw4t(args).status.code();
+    assert_eq!(code(&["run", "--map", "fixed", "--seed", "1"]), Some(0), "completed");
+    assert_eq!(code(&["run", "--map", "fixed", "--seed", "1", "--max-ticks", "100"]), Some(3), "tick limit");
+    let crashing = ["--agent", "echo giving up; exit 3", "--connect-timeout-s", "5", "--log-dir", logs];
+    let alone = [&["run", "--map", "fixed", "--seed", "1", "--max-ticks", "200"][..], &crashing].concat();
+    assert_eq!(code(&alone), Some(4), "the only agent crashed");
+    // Beside a built-in team that completes the match, an agent that never played still shows.
+    let beside =
+        [&["run", "--map", "fixed", "--seed", "1", "--team", "builtin", "--robots", "3"][..], &crashing]
+            .concat();
+    let out = bw4t(&beside);
+    assert_eq!(out.status.code(), Some(4), "{}", String::from_utf8_lossy(&out.stdout));
+    assert!(String::from_utf8_lossy(&out.stdout).starts_with("completed"));
+    assert_eq!(code(&["run", "--team", "builtin:genius"]), Some(1), "bad option value");
+    assert_eq!(code(&["run", "--agent", "no-such-program-here"]), Some(1), "agent cannot start");
+    assert_eq!(code(&["run", "--no-such-flag"]), Some(2), "unreadable command line");
+    let help = String::from_utf8_lossy(&bw4t(&["run", "--help"]).stdout).into_owned();
+    assert!(
+        help.contains("Exit status: 0 the match completed") && help.contains("3 the match did not complete"),
+        "{help}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn completed_tick_and_wall_ms_mean_the_same_in_the_percepts_match_end_and_run_json() {
+    let dir = temp_dir("meaning");
+    let record = dir.join("seen.json");
+    let out = bw4t_env(
+        &[
+            "run",
+            "--map",
+            "fixed",
+            "--seed",
+            "2",
+            "--agent",
+            TINY_AGENT,
+            "--json",
+            "--log-dir",
+            dir.to_str().expect("utf-8"),
+        ],
+        &[("TINY_AGENT_RECORD", record.to_str().expect("utf-8"))],
+    );
+    let result = json_of(&out);
+    let seen: Value =
+        serde_json::from_str(&std::fs::read_to_string(&record).expect("the agent's record")).expect("json");
+    let length = result["sequence"].as_array().expect("sequence").len() as u64;
+    let first_complete = seen["percepts"]
+        .as_array()
+        .expect("percepts")
+        .iter()
+        .find(|p| p[1].as_u64() == Some(length))
+        .and_then(|p| p[0].as_u64())
+        .expect("percepts showing the sequence complete");
+    assert_eq!(
+        result["completed_tick"].as_u64(),
+        Some(first_complete),
+        "completed_tick is the tick the player saw it"
+    );
+    let end = &seen["result"];
+    for field in ["completed_tick", "ticks", "wall_ms", "digest", "completed"] {
+        assert_eq!(result[field], end[field], "{field}: run --json and match_end differ");
+    }
+    // Headless matches use the same meaning: completion shows in the last tick.
+    let headless = json_of(&bw4t(&["run", "--map", "fixed", "--seed", "2", "--json"]));
+    assert_eq!(headless["completed_tick"], headless["ticks"]);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn the_default_tick_limit_follows_the_map_so_one_robot_finishes_a_large_one() {
+    let dir = temp_dir("limit");
+    let file = dir.join("large.toml");
+    let path = file.to_str().expect("utf-8");
+    let made = bw4t(&["map", "generate", "--rooms", "26x40", "--robots", "1", "-o", path]);
+    assert!(made.status.success(), "{}", String::from_utf8_lossy(&made.stderr));
+    let map = bw4t_map::Map::from_native(&std::fs::read_to_string(&file).expect("map")).expect("valid");
+    let expected = bw4t_runner::TickLimit::for_map(&map, &bw4t_sim::MatchConfig::default());
+    assert!(expected.ticks > 20_000, "{expected:?}");
+    let out = bw4t(&["run", "--map", path, "--seed", "1", "--robots", "1"]);
+    let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert_eq!(out.status.code(), Some(0), "{stdout}{stderr}");
+    let ticks: u64 = stdout
+        .strip_prefix("completed after ")
+        .and_then(|rest| rest.split(' ').next())
+        .and_then(|t| t.parse().ok())
+        .unwrap_or_else(|| panic!("{stdout}"));
+    assert!(ticks > 20_000, "one robot needs more than the old fixed limit here: {ticks}");
+    assert!(stdout.contains(&format!("tick limit {}: derived from the map", expected.ticks)), "{stdout}");
+    assert!(stderr.contains(&format!("tick limit {}", expected.ticks)), "{stderr}");
+    // A small map keeps the customary limit, and says so; a given limit wins.
+    let small = json_of(&bw4t(&["run", "--map", "fixed", "--seed", "1", "--json"]));
+    assert_eq!((small["max_ticks"].as_u64(), small["max_ticks_from"].as_str()), (Some(20_000), Some("map")));
+    let given = json_of(&bw4t(&["run", "--map", "fixed", "--seed", "1", "--json", "--max-ticks", "9"]));
+    assert_eq!((given["max_ticks"].as_u64(), given["ticks"].as_u64()), (Some(9), Some(9)));
+    let _ = std::fs::remove_dir_all(&dir);
 }

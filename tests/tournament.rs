@@ -213,6 +213,18 @@ fn shards_merged_equal_the_whole_tournament() {
     run_to(&config, &a, &["--replays", "none", "--shard", "1/2"]);
     run_to(&config, &b, &["--replays", "none", "--shard", "2/2"]);
     assert_eq!(rows(&a).len() + rows(&b).len(), rows(&whole).len());
+    // Interleaved: each shard plays half of every team's matches, on every map, so a slow
+    // team is not all on one machine.
+    for shard in [&a, &b] {
+        let mine = rows(shard);
+        for team in ["coop", "solo"] {
+            let of_team: Vec<&Value> = mine.iter().filter(|r| r["team"] == team).collect();
+            assert_eq!(of_team.len(), 3, "{team} in {}: {mine:?}", shard.display());
+            let maps: std::collections::BTreeSet<&str> =
+                of_team.iter().filter_map(|r| r["map"].as_str()).collect();
+            assert_eq!(maps.len(), 2, "{team} in {} plays both maps", shard.display());
+        }
+    }
     bw4t(&[
         "tournament",
         "merge",
@@ -261,7 +273,23 @@ robots = 1
 "#,
     );
     let out_dir = dir.join("out");
-    let out = run_to(&config, &out_dir, &["--replays", "failed", "--connect-timeout-s", "5"]);
+    let out = crate::util::bw4t_within(
+        &[
+            "tournament",
+            &config,
+            "--out",
+            out_dir.to_str().expect("utf-8"),
+            "--replays",
+            "failed",
+            "--connect-timeout-s",
+            "5",
+        ],
+        LIMIT,
+    );
+    // The tournament finishes, and its exit status says a team's agents never played.
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(4), "{stderr}");
+    assert!(stderr.contains("team 'broken': its agents played in none of its 2 matches"), "{stderr}");
     let all = rows(&out_dir);
     assert_eq!(all.len(), 4);
     for row in all.iter().filter(|r| r["team"] == "broken") {
@@ -314,5 +342,177 @@ fn flags_alone_describe_a_tournament_and_mistakes_are_named() {
             String::from_utf8_lossy(&out.stderr)
         );
     }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn an_agent_command_that_cannot_start_is_refused_before_any_match() {
+    let dir = temp("preflight");
+    let team = |agents: &str| {
+        format!(
+            "maps = [\"fixed\"]\nseeds = 2\n\n[[team]]\nname = \"good\"\nagents = \"builtin\"\n\n[[team]]\nname = \"typo\"\nagents = {agents}\nrobots = 1\n"
+        )
+    };
+    let cases = [
+        ("\"biultin\"", "team 'typo': agents \"biultin\" looks like a misspelt built-in team"),
+        ("[\"builtin\", \"biultin:coop\"]", "team 'typo': agents \"biultin:coop\" looks like a misspelt"),
+        (
+            "\"no-such-agent-program --fast\"",
+            "team 'typo': agents \"no-such-agent-program --fast\": program 'no-such-agent-program' is not found",
+        ),
+    ];
+    for (agents, expected) in cases {
+        let text =
+            team(agents).replace("robots = 1\n", if agents.starts_with('[') { "" } else { "robots = 1\n" });
+        let config = write_config(&dir, &text);
+        let out_dir = dir.join("out");
+        let out = Command::new(env!("CARGO_BIN_EXE_bw4t"))
+            .args(["tournament", &config, "--out", out_dir.to_str().expect("utf-8")])
+            .output()
+            .expect("run");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{agents}: {stderr}");
+        assert!(stderr.contains(expected), "{agents}: {stderr}");
+        assert!(!out_dir.join("matches.jsonl").exists(), "{agents}: no match may run");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_map_with_fixed_content_over_many_seeds_is_warned_of_and_the_limits_are_named() {
+    let dir = temp("fixed-content");
+    let config = write_config(
+        &dir,
+        "maps = [\"rooms12\", \"fixed\"]\nseeds = 3\n\n[[team]]\nname = \"coop\"\nagents = \"builtin\"\nrobots = 2\n",
+    );
+    let out_dir = dir.join("out");
+    let out = run_to(&config, &out_dir, &["--replays", "none"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("bw4t: warning: map 'rooms12' fixes its own seed"), "{stderr}");
+    assert!(!stderr.contains("'fixed' fixes"), "{stderr}");
+    // The warning is true: every seed plays the same match (the digest also covers the seed).
+    let plays: std::collections::BTreeSet<String> = rows(&out_dir)
+        .iter()
+        .filter(|r| r["map"] == "rooms12")
+        .map(|r| format!("{} {} {} {}", r["ticks"], r["completed_tick"], r["messages"], r["wrong_drops"]))
+        .collect();
+    assert_eq!(plays.len(), 1, "{plays:?}");
+    let md = std::fs::read_to_string(out_dir.join("summary.md")).expect("summary.md");
+    assert!(md.contains("**Warning:** map 'rooms12' fixes its own seed"), "{md}");
+    assert!(md.contains("Tick limits: rooms12 20000 (derived from the map: one robot needs about"), "{md}");
+    let summary: Value =
+        serde_json::from_str(&std::fs::read_to_string(out_dir.join("summary.json")).expect("json"))
+            .expect("json");
+    assert_eq!(summary["setup"]["fixed_content_maps"], serde_json::json!(["rooms12"]));
+    let limits = summary["setup"]["tick_limits"].as_array().expect("limits");
+    assert!(limits.iter().all(|l| l["from"] == "map" && l["max_ticks"] == 20_000), "{limits:?}");
+    // A limit from the configuration is reported as such.
+    let given = dir.join("given");
+    run_to(&config, &given, &["--replays", "none", "--max-ticks", "500", "--seeds", "1"]);
+    let md = std::fs::read_to_string(given.join("summary.md")).expect("summary.md");
+    assert!(md.contains("Tick limits: rooms12 500 (from the configuration); fixed 500"), "{md}");
+    assert!(!md.contains("Warning"), "one seed: nothing to warn of\n{md}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_team_can_mix_builtin_and_external_agents() {
+    let dir = temp("mixed");
+    let config = write_config(
+        &dir,
+        "maps = [\"fixed\"]\nseeds = [2]\n\n[[team]]\nname = \"mixed\"\nagents = [\"builtin\", \"python3 tests/agents/tiny_agent.py\"]\n",
+    );
+    let out_dir = dir.join("out");
+    run_to(&config, &out_dir, &["--replays", "none"]);
+    let all = rows(&out_dir);
+    assert_eq!(all.len(), 1);
+    assert_eq!(
+        (all[0]["robots"].as_u64(), all[0]["completed"].as_bool(), all[0]["crashed_agents"].as_u64()),
+        (Some(2), Some(true), Some(0)),
+        "{}",
+        all[0]
+    );
+    let logs: Vec<String> = std::fs::read_dir(out_dir.join("logs").join("mixed_fixed_2_0"))
+        .expect("the external agent's logs")
+        .filter_map(|e| e.ok().map(|e| e.file_name().to_string_lossy().into_owned()))
+        .collect();
+    assert_eq!(logs, ["Agent1.log"], "one external seat, one built-in");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn ctrl_c_keeps_the_rows_and_prints_the_command_that_resumes() {
+    use std::io::{BufRead, BufReader, Read};
+    let dir = temp("interrupt");
+    // The second team's agents wait for a gate file, so a match is under way when the
+    // signal comes, however fast the machine.
+    let gate = dir.join("gate");
+    let script = dir.join("gated.sh");
+    std::fs::write(
+        &script,
+        format!(
+            "while [ ! -e '{}' ]; do sleep 0.05; done\nexec python3 tests/agents/tiny_agent.py\n",
+            gate.display()
+        ),
+    )
+    .expect("script");
+    let config = write_config(
+        &dir,
+        &format!(
+            "maps = [\"fixed\"]\nseeds = [2, 3]\n\n[[team]]\nname = \"coop\"\nagents = \"builtin\"\nrobots = 1\n\n[[team]]\nname = \"gated\"\nagents = \"sh {}\"\nrobots = 1\n",
+            script.display()
+        ),
+    );
+    let out_dir = dir.join("out");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_bw4t"))
+        .args(["tournament", &config, "--out", out_dir.to_str().expect("utf-8")])
+        .args(["--concurrency", "1", "--replays", "none", "--connect-timeout-s", "100"])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start");
+    let pid = child.id();
+    let (finished, watch) = std::sync::mpsc::channel::<()>();
+    std::thread::spawn(move || {
+        // Fails the test (by ending the child) if it hangs; never its synchronisation.
+        if watch.recv_timeout(LIMIT) == Err(std::sync::mpsc::RecvTimeoutError::Timeout) {
+            let _ = Command::new("kill").args(["-KILL", &pid.to_string()]).status();
+        }
+    });
+    let mut stderr = BufReader::new(child.stderr.take().expect("stderr"));
+    let mut said = String::new();
+    let mut line = String::new();
+    while !line.starts_with("[1/4]") {
+        line.clear();
+        assert!(stderr.read_line(&mut line).expect("stderr") > 0, "ended before a row: {said}");
+        said.push_str(&line);
+    }
+    let sent = Command::new("kill").args(["-INT", &pid.to_string()]).status().expect("kill");
+    assert!(sent.success());
+    stderr.read_to_string(&mut said).expect("stderr");
+    let status = child.wait().expect("exit");
+    let _ = finished.send(());
+    assert_eq!(status.code(), Some(130), "{said}");
+    assert_eq!(rows(&out_dir).len(), 1, "the first row is kept, the interrupted match is not: {said}");
+    let resume = said
+        .split("to play the rest, run:\n")
+        .nth(1)
+        .and_then(|rest| rest.lines().next())
+        .map(str::trim)
+        .unwrap_or_else(|| panic!("no resume command in: {said}"));
+    assert!(resume.ends_with("--resume"), "{resume}");
+    std::fs::write(&gate, "").expect("open the gate");
+    let resumed = Command::new("sh")
+        .args(["-c", resume])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("run the resume command");
+    let out = String::from_utf8_lossy(&resumed.stdout);
+    assert!(resumed.status.success(), "{out}{}", String::from_utf8_lossy(&resumed.stderr));
+    assert!(out.contains("(3 played now, 1 already done)"), "{out}");
+    let all = rows(&out_dir);
+    assert_eq!(all.len(), 4);
+    assert!(all.iter().all(|r| r["completed"] == true), "{all:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }

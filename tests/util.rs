@@ -10,6 +10,41 @@ pub fn shipped_map(name: &str) -> Map {
     Map::from_native(&text).unwrap_or_else(|e| panic!("{path}: {e}"))
 }
 
+/// A file under `tests/fixtures/`, by its path there.
+pub fn fixture_path(file: &str) -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures").join(file)
+}
+
+/// The text of a file under `tests/fixtures/`.
+pub fn fixture_text(file: &str) -> String {
+    let path = fixture_path(file);
+    std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// The variable that names a folder of original BW4T map files (the original distribution's
+/// `setup/maps/`). The tests that read it are `#[ignore]`d, so that a plain `cargo test`
+/// lists them as skipped; `./test.sh` runs them when the variable is set.
+pub const ORIGINAL_MAPS_VAR: &str = "BW4T_ORIGINAL_MAPS";
+
+/// A file of the original BW4T maps folder named by [`ORIGINAL_MAPS_VAR`], by its path
+/// there; fails the test, saying what to set, when the variable or the file is missing.
+pub fn original_map_path(file: &str) -> std::path::PathBuf {
+    let dir = std::env::var_os(ORIGINAL_MAPS_VAR).unwrap_or_else(|| {
+        panic!("{ORIGINAL_MAPS_VAR} is not set: set it to a folder of the original BW4T map files")
+    });
+    let dir = std::path::PathBuf::from(dir);
+    assert!(dir.is_dir(), "{ORIGINAL_MAPS_VAR}={} is not a folder", dir.display());
+    let path = dir.join(file);
+    assert!(path.is_file(), "{ORIGINAL_MAPS_VAR}: no original map '{file}' in {}", dir.display());
+    path
+}
+
+/// The text of an original BW4T map file (see [`original_map_path`]).
+pub fn original_map_text(file: &str) -> String {
+    let path = original_map_path(file);
+    std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
 /// A match with players joined in order, each polled into its own belief base every tick.
 pub struct Scenario {
     pub game: Match,
@@ -297,8 +332,8 @@ impl Client {
     }
 
     pub async fn send_raw(&mut self, line: &str) {
-        self.writer.write_all(line.as_bytes()).await.expect("write");
-        self.writer.write_all(b"\n").await.expect("write");
+        // One write: a line in two small segments waits for the first one's delayed ack.
+        self.writer.write_all(format!("{line}\n").as_bytes()).await.expect("write");
     }
 
     pub async fn send(&mut self, message: Value) {

@@ -62,22 +62,22 @@ pub fn run(args: &BenchArgs) -> Result<()> {
         match case {
             Case::Sim => {
                 for robots in [3, 10] {
-                    println!("{}", sim(args, robots)?);
+                    outln!("{}", sim(args, robots)?);
                 }
             }
             Case::Lockstep => {
                 for players in [1, 3, 10] {
-                    println!(
+                    outln!(
                         "{}",
                         crate::bench_net::lockstep(&args.map, args.seed, players, args.lockstep_ticks)?
                     );
                 }
             }
             Case::Realtime => {
-                println!("{}", crate::bench_net::realtime(args.seed, 100, args.realtime_seconds)?)
+                outln!("{}", crate::bench_net::realtime(args.seed, 100, args.realtime_seconds)?)
             }
-            Case::Match => println!("{}", matches(args)?),
-            Case::Scale => println!("{}", scale(args)?),
+            Case::Match => outln!("{}", matches(args)?),
+            Case::Scale => outln!("{}", scale(args)?),
         }
     }
     Ok(())

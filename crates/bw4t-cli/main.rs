@@ -1,5 +1,10 @@
 //! `bw4t`: the command line of Blocks World for Teams.
 
+// Standard output goes through `out!`/`outln!`, which end quietly on a closed pipe.
+#![deny(clippy::print_stdout)]
+
+#[macro_use]
+mod output;
 mod bench;
 mod bench_net;
 mod map_cmd;
@@ -7,6 +12,8 @@ mod maps;
 mod replay;
 mod run;
 mod serve;
+mod signals;
+mod status;
 mod tournament;
 
 use std::process::ExitCode;
@@ -24,12 +31,14 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Run one match as fast as possible, with the built-in team and/or your agent programs.
+    #[command(after_help = status::RUN_HELP)]
     Run(run::RunArgs),
     /// Import, check, show, render or generate maps.
     Map(map_cmd::MapArgs),
     /// Check (re-simulate) or summarise a replay.
     Replay(replay::ReplayArgs),
     /// Play many matches over teams, maps and seeds, and summarise them.
+    #[command(after_help = status::TOURNAMENT_HELP)]
     Tournament(tournament::TournamentArgs),
     /// Serve one match over TCP (JSON lines; see protocol/PROTOCOL.md).
     Serve(serve::ServeArgs),
@@ -50,19 +59,21 @@ pub fn random_seed() -> u64 {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    let done = |result: anyhow::Result<()>| result.map(|()| status::SUCCESS);
     let result = match cli.command {
         Command::Run(args) => run::run(&args),
-        Command::Map(args) => map_cmd::run(&args),
+        Command::Map(args) => done(map_cmd::run(&args)),
+        // Its exit status says the verdict.
         Command::Replay(args) => replay::run(&args),
-        Command::Serve(args) => serve::run(&args),
+        Command::Serve(args) => done(serve::run(&args)),
         Command::Tournament(args) => tournament::run(&args),
-        Command::Bench(args) => bench::run(&args),
+        Command::Bench(args) => done(bench::run(&args)),
     };
     match result {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(code) => ExitCode::from(code),
         Err(e) => {
             eprintln!("bw4t: error: {e:#}");
-            ExitCode::FAILURE
+            ExitCode::from(status::ERROR)
         }
     }
 }

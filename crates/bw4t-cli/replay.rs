@@ -1,10 +1,22 @@
-//! `bw4t replay`: check a replay by re-simulating it, or summarise it.
+//! `bw4t replay`: check a replay by re-simulating it, summarise it, or serve the page on it.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
 
-use anyhow::{Context, Result, bail};
-use bw4t_runner::{Verdict, verify_replay};
+use anyhow::{Context, Result};
+use bw4t_runner::{ReplayFrames, ReplaySummary, Verdict, verify_replay};
 use clap::{Args, Subcommand};
+
+use crate::status::{self, REPLAY_DIFFERS, REPLAY_INCOMPLETE};
+
+/// The exit statuses of `bw4t replay verify`, for its `--help`.
+const VERIFY_EXIT_STATUS: &str = "Exit status:
+  0  ok: the replay is complete and every digest matches
+  1  the file cannot be read or is not a valid replay (the error names the line)
+  2  bad command line
+  3  the re-simulation differs (the error names the first tick)
+  4  incomplete: no end record (its writer was stopped, or the file cut); everything up to
+     its last tick matches";
 
 /// Options of `bw4t replay`.
 #[derive(Args)]
@@ -15,17 +27,20 @@ pub struct ReplayArgs {
 
 #[derive(Subcommand)]
 enum ReplayCommand {
-    /// Re-simulate and report the first tick whose state differs, or that all match.
+    /// Re-simulate and report the first tick whose state differs, that all match, or that
+    /// the replay is incomplete.
+    #[command(after_help = VERIFY_EXIT_STATUS)]
     Verify {
         /// The replay file.
         file: PathBuf,
     },
-    /// Print what the replay holds.
+    /// Print what the replay holds (exits 0 whenever it can read the replay).
     Show {
         /// The replay file.
         file: PathBuf,
     },
-    /// Serve the browser page on a replay: play, pause, speed, scrub to any tick.
+    /// Serve the browser page on a replay: play, pause, speed, scrub to any tick. A replay
+    /// that differs is refused (exit status 3); an incomplete one is shown up to its end.
     View {
         /// The replay file.
         file: PathBuf,
@@ -38,98 +53,135 @@ enum ReplayCommand {
     },
 }
 
-/// Runs a replay command.
-pub fn run(args: &ReplayArgs) -> Result<()> {
-    let (file, verify) = match &args.command {
-        ReplayCommand::Verify { file } => (file, true),
-        ReplayCommand::Show { file } => (file, false),
-        ReplayCommand::View { file, http, bind } => return view(file, *bind, *http),
-    };
-    let text = std::fs::read_to_string(file).with_context(|| format!("cannot read {}", file.display()))?;
-    let (verdict, summary) =
-        verify_replay(&text).with_context(|| format!("{} is not a usable replay", file.display()))?;
-    if verify {
-        return match verdict {
-            Verdict::Matches { digests, ticks } => {
-                println!("ok: all {digests} digests match ({ticks} ticks re-simulated)");
-                Ok(())
-            }
-            Verdict::Differs { tick, expected, found } => {
-                bail!("the replay differs at tick {tick}: recorded {expected}, re-simulated {found}")
-            }
-        };
+/// Runs a replay command; its exit status says the verdict (`VERIFY_EXIT_STATUS`).
+pub fn run(args: &ReplayArgs) -> Result<u8> {
+    match &args.command {
+        ReplayCommand::Verify { file } => {
+            let (verdict, _) = verified(file)?;
+            Ok(match verdict {
+                Verdict::Matches { digests, ticks } => {
+                    outln!("ok: all {digests} digests match ({ticks} ticks re-simulated)");
+                    status::SUCCESS
+                }
+                Verdict::Incomplete { .. } => incomplete(&verdict),
+                Verdict::Differs { .. } => differs(&verdict),
+            })
+        }
+        ReplayCommand::Show { file } => {
+            let (verdict, summary) = verified(file)?;
+            show(&verdict, &summary);
+            Ok(status::SUCCESS)
+        }
+        ReplayCommand::View { file, http, bind } => view(file, *bind, *http),
     }
+}
+
+/// Reads and re-simulates a replay file.
+fn verified(file: &Path) -> Result<(Verdict, ReplaySummary)> {
+    let text = std::fs::read_to_string(file).with_context(|| format!("cannot read {}", file.display()))?;
+    verify_replay(&text).with_context(|| format!("{} is not a usable replay", file.display()))
+}
+
+fn incomplete(verdict: &Verdict) -> u8 {
+    outln!("{}", verdict.incomplete_report().unwrap_or_default());
+    REPLAY_INCOMPLETE
+}
+
+fn differs(verdict: &Verdict) -> u8 {
+    if let Verdict::Differs { tick, expected, found } = verdict {
+        eprintln!(
+            "bw4t: error: the replay differs at tick {tick}: recorded {expected}, re-simulated {found}"
+        );
+    }
+    REPLAY_DIFFERS
+}
+
+fn show(verdict: &Verdict, summary: &ReplaySummary) {
     let h = &summary.header;
-    println!("{} (format {}), map '{}', seed {}", h.program, h.format, h.map, h.seed);
-    println!(
-        "config: {} ticks/s, speed {}, robot collisions {}",
+    outln!("{} (format {}), map '{}', seed {}", h.program, h.format, h.map, h.seed);
+    outln!(
+        "config: {} ticks/s, speed {}, robot collisions {}, tick limit {}",
         h.ticks_per_second,
         h.speed,
-        if h.robot_collisions { "on" } else { "off" }
+        if h.robot_collisions { "on" } else { "off" },
+        h.max_ticks.map_or("none".to_string(), |m| m.to_string())
     );
-    println!("players: {}", summary.players.join(", "));
-    println!(
+    outln!("players: {}", summary.players.join(", "));
+    outln!(
         "{} ticks, {} actions, end: {}",
         summary.game_ticks,
         summary.actions,
         summary.reason.as_deref().unwrap_or("(none recorded)")
     );
-    println!(
-        "sequence {}/{}: {}",
-        summary.sequence_index,
-        summary.sequence.len(),
-        summary.sequence.join(" ")
-    );
+    outln!("sequence {}/{}: {}", summary.sequence_index, summary.sequence.len(), summary.sequence.join(" "));
     match verdict {
-        Verdict::Matches { digests, .. } => println!("verified: all {digests} digests match"),
-        Verdict::Differs { tick, .. } => println!("NOT verified: differs at tick {tick}"),
+        Verdict::Matches { digests, .. } => outln!("verified: all {digests} digests match"),
+        Verdict::Incomplete { .. } => outln!("{}", verdict.incomplete_report().unwrap_or_default()),
+        Verdict::Differs { tick, .. } => outln!("NOT verified: differs at tick {tick}"),
     }
-    Ok(())
 }
 
-/// Serves the page on a replay until interrupted.
-fn view(file: &std::path::Path, bind: std::net::IpAddr, port: u16) -> Result<()> {
+/// Serves the page on a replay until interrupted, once it verifies.
+fn view(file: &Path, bind: std::net::IpAddr, port: u16) -> Result<u8> {
     let text = std::fs::read_to_string(file).with_context(|| format!("cannot read {}", file.display()))?;
-    let (header, map, frames) = bw4t_runner::replay_frames(&text)
-        .with_context(|| format!("{} is not a usable replay", file.display()))?;
-    let last = frames.len().saturating_sub(1);
+    let usable = || format!("{} is not a usable replay", file.display());
+    // The frames are re-simulated on demand; a replay that does not re-simulate as
+    // recorded would show another match.
+    let (verdict, _) = verify_replay(&text).with_context(usable)?;
+    match verdict {
+        Verdict::Differs { .. } => return Ok(differs(&verdict)),
+        Verdict::Incomplete { .. } => {
+            eprintln!("bw4t: {}; showing what there is", verdict.incomplete_report().unwrap_or_default())
+        }
+        Verdict::Matches { .. } => {}
+    }
+    let frames = ReplayFrames::open(&text).with_context(usable)?;
+    drop(text);
+    let header = frames.header().clone();
+    let last = frames.last_tick();
+    let messages: Vec<serde_json::Value> = frames
+        .messages()
+        .iter()
+        .map(|m| serde_json::json!({"tick": m.tick, "from": m.message.from, "to": m.message.to, "text": m.message.text}))
+        .collect();
+    let info = serde_json::json!({
+        "ticks": last,
+        "complete": frames.complete(),
+        "tick_hz": header.ticks_per_second,
+        "map": header.map,
+        "seed": header.seed,
+        "players": header.robots,
+        "messages": messages,
+    });
+    let map_json = bw4t_protocol::map_layout(frames.map()).to_string();
+    let frames = Mutex::new(frames);
+    let source: bw4t_server::FrameSource = Arc::new(move |tick| frames.lock().ok()?.frame_json(tick));
     let site = bw4t_server::Site {
-        map_json: bw4t_protocol::map_layout(&map).to_string(),
+        map_json,
         info_json:
             serde_json::json!({"mode": "replay", "protocol": bw4t_protocol::VERSION, "map": header.map})
                 .to_string(),
-        replay: Some((
-            serde_json::json!({
-                "ticks": last,
-                "tick_hz": header.ticks_per_second,
-                "map": header.map,
-                "seed": header.seed,
-                "players": header.robots,
-            })
-            .to_string(),
-            frames,
-        )),
+        replay: Some((info.to_string(), source)),
     };
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()
         .context("cannot start the runtime")?;
     runtime.block_on(async {
-        let addr = std::net::SocketAddr::new(bind, port);
-        let listener =
-            tokio::net::TcpListener::bind(addr).await.with_context(|| format!("cannot listen on {addr}"))?;
-        println!("http on {}", listener.local_addr().context("no local address")?);
+        let stop = crate::serve::stop_signal();
+        let (listener, local) = crate::serve::listen(std::net::SocketAddr::new(bind, port))?;
+        outln!("http on {local}");
         eprintln!(
             "bw4t: replay of map '{}', seed {}, {last} ticks; Ctrl-C (or SIGTERM) stops",
             header.map, header.seed
         );
-        let ids = std::sync::Arc::new(std::sync::atomic::AtomicU64::new(1));
-        let served =
-            tokio::spawn(bw4t_server::serve_site(listener, std::sync::Arc::new(site), None, ids, 64, 256));
-        crate::serve::stop_signal().await;
+        let site = std::sync::Arc::new(site);
+        let served = tokio::spawn(bw4t_server::serve_site(listener, site, bw4t_server::MAX_REQUESTS));
+        stop.await;
         served.abort();
         anyhow::Ok(())
-    })
+    })?;
+    Ok(status::SUCCESS)
 }
 
 /// A buffered file for a replay, or none without a path.

@@ -1,14 +1,18 @@
 //! `bw4t run`: one whole match as fast as possible, with built-in and external agents.
 
 use std::path::PathBuf;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
 use bw4t_agents::Strategy;
 use bw4t_protocol::MatchResult;
-use bw4t_runner::{AgentReport, SeatSpec, ServedRun, play_builtin, play_served};
+use bw4t_runner::{
+    AgentReport, SeatSpec, ServedRun, TickLimit, check_command, play_builtin, play_served, plural,
+};
 use bw4t_sim::MatchConfig;
 use clap::Args;
+
+use crate::status;
 
 /// Options of `bw4t run`.
 #[derive(Args)]
@@ -30,9 +34,10 @@ pub struct RunArgs {
     /// no --team starts N copies. Each gets BW4T_HOST, BW4T_PORT, BW4T_NAME, BW4T_TOKEN.
     #[arg(long = "agent", value_name = "COMMAND")]
     agents: Vec<String>,
-    /// End the match after this many ticks.
-    #[arg(long, default_value_t = 20_000)]
-    max_ticks: u64,
+    /// End the match after this many ticks (default: derived from the map, at least 20000;
+    /// see the README).
+    #[arg(long)]
+    max_ticks: Option<u64>,
     /// Milliseconds an external agent has to answer each tick (0: forever).
     #[arg(long, default_value_t = 1000)]
     deadline_ms: u64,
@@ -53,28 +58,41 @@ pub struct RunArgs {
     log_dir: Option<PathBuf>,
 }
 
-/// Runs one match and reports it.
-pub fn run(args: &RunArgs) -> Result<()> {
+/// Runs one match and reports it; returns the exit status (see `status`).
+pub fn run(args: &RunArgs) -> Result<u8> {
     let map = crate::maps::load(&args.map)?;
     let seed = args.seed.unwrap_or_else(crate::random_seed);
     let seats = seats(args)?;
     if seats.len() > map.spawns().len() {
-        bail!("{} robots but map '{}' has {} spawn points", seats.len(), map.name(), map.spawns().len());
+        bail!(
+            "{} but map '{}' has {}",
+            plural(seats.len(), "robot"),
+            map.name(),
+            plural(map.spawns().len(), "spawn point")
+        );
     }
     if seats.is_empty() {
         bail!("a match needs at least one robot");
     }
+    for seat in &seats {
+        if let SeatSpec::External { command, .. } = seat {
+            if let Err(e) = check_command(command) {
+                bail!("--agent '{command}' cannot start: {e}");
+            }
+        }
+    }
+    let limit = Limit::of(args.max_ticks, &map);
     if !args.json {
         eprintln!(
-            "bw4t: map '{}', seed {seed} (rerun with --seed {seed}), {} robots",
+            "bw4t: map '{}', seed {seed} (rerun with --seed {seed}), {}, tick limit {}",
             map.name(),
-            seats.len()
+            plural(seats.len(), "robot"),
+            limit.ticks
         );
     }
     let replay = crate::replay::writer(args.replay.as_deref())?;
-    let started = Instant::now();
     let external = seats.iter().any(|s| matches!(s, SeatSpec::External { .. }));
-    let (mut result, agents) = if external {
+    let (result, agents) = if external {
         let log_dir = args
             .log_dir
             .clone()
@@ -84,28 +102,63 @@ pub fn run(args: &RunArgs) -> Result<()> {
             game: MatchConfig::default(),
             seed,
             seats: seats.clone(),
-            max_ticks: args.max_ticks,
+            max_ticks: limit.ticks,
             deadline: (args.deadline_ms > 0).then(|| Duration::from_millis(args.deadline_ms)),
             connect_timeout: Duration::from_secs(args.connect_timeout_s),
             log_dir: &log_dir,
             replay,
+            stop: None,
         })?
     } else {
-        play_builtin(&map, seed, &seats, args.max_ticks, replay)?
+        play_builtin(&map, seed, &seats, limit.ticks, replay)?
     };
-    result.wall_ms = started.elapsed().as_millis() as u64;
     let mut json = serde_json::to_value(&result)?;
     json["agents"] = serde_json::to_value(&agents)?;
+    json["max_ticks"] = limit.ticks.into();
+    json["max_ticks_from"] = limit.from.into();
     if let Some(path) = &args.out {
         let text = serde_json::to_string_pretty(&json)? + "\n";
         std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))?;
     }
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&json)?);
+        outln!("{}", serde_json::to_string_pretty(&json)?);
     } else {
-        print!("{}", summary(&result, &agents));
+        out!("{}", summary(&result, &agents, &limit));
     }
-    Ok(())
+    Ok(exit_status(&result, &agents))
+}
+
+/// The tick limit of a run and where it came from.
+struct Limit {
+    ticks: u64,
+    /// `option` (given with --max-ticks) or `map` (derived from the map).
+    from: &'static str,
+    /// How it was found, for the summary.
+    explanation: String,
+}
+
+impl Limit {
+    fn of(given: Option<u64>, map: &bw4t_map::Map) -> Limit {
+        match given {
+            Some(ticks) => Limit { ticks, from: "option", explanation: "given with --max-ticks".into() },
+            None => {
+                let derived = TickLimit::for_map(map, &MatchConfig::default());
+                Limit { ticks: derived.ticks, from: "map", explanation: derived.explain() }
+            }
+        }
+    }
+}
+
+/// 0 completed; 4 when external agents were given and none of them played; 3 otherwise.
+fn exit_status(result: &MatchResult, agents: &[AgentReport]) -> u8 {
+    let external: Vec<&AgentReport> = agents.iter().filter(|a| a.kind == "external").collect();
+    if !external.is_empty() && external.iter().all(|a| a.status != "ok") {
+        status::NO_AGENT_PLAYED
+    } else if result.completed {
+        status::SUCCESS
+    } else {
+        status::NOT_COMPLETED
+    }
 }
 
 /// The seats a run's options describe: external agents first, the built-in team after.
@@ -128,7 +181,7 @@ fn seats(args: &RunArgs) -> Result<Vec<SeatSpec>> {
     };
     let total = args.robots.unwrap_or(if args.agents.is_empty() { 3 } else { commands.len() });
     if commands.len() > total {
-        bail!("{} agent commands but --robots {total}", commands.len());
+        bail!("{} but --robots {total}", plural(commands.len(), "agent command"));
     }
     let mut seats: Vec<SeatSpec> = commands
         .into_iter()
@@ -141,16 +194,20 @@ fn seats(args: &RunArgs) -> Result<Vec<SeatSpec>> {
 }
 
 /// The readable report of a match.
-fn summary(r: &MatchResult, agents: &[AgentReport]) -> String {
+fn summary(r: &MatchResult, agents: &[AgentReport], limit: &Limit) -> String {
     let mut out = String::new();
-    let outcome = if r.completed { "completed" } else { "NOT completed" };
+    let outcome = match r.end_reason.as_str() {
+        "completed" => "completed".to_string(),
+        "max_ticks" => "NOT completed: the tick limit was reached".to_string(),
+        other => format!("NOT completed: {other}"),
+    };
     let at = r.completed_tick.unwrap_or(r.ticks);
     out += &format!(
-        "{outcome} ({}) after {at} ticks ({:.1} s simulated, {} ms wall)\n",
-        r.end_reason,
+        "{outcome} after {at} ticks ({:.1} s simulated, {} ms wall)\n",
         at as f64 * r.sim_seconds / r.ticks.max(1) as f64,
         r.wall_ms
     );
+    out += &format!("tick limit {}: {}\n", limit.ticks, limit.explanation);
     let marked: Vec<String> = r
         .sequence
         .iter()

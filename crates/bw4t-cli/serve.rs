@@ -31,18 +31,32 @@ pub struct ServeArgs {
     /// Ticks per simulated second (and per wall-clock second in realtime mode).
     #[arg(long, default_value_t = 20)]
     tick_hz: u32,
-    /// Players the match waits for before its first tick.
+    /// Players the match waits for before its first tick, and admits at most (built-in
+    /// agents included); more get `match_full`.
     #[arg(long, default_value_t = 1)]
     robots: usize,
-    /// End the match after this many ticks.
+    /// End the match after this many ticks (default: derived from the map, at least 20000;
+    /// see the README); 0 for no limit.
     #[arg(long)]
     max_ticks: Option<u64>,
     /// Lockstep: milliseconds to wait for a player's `ready` before counting it late (0: forever).
     #[arg(long, default_value_t = 1000)]
     deadline_ms: u64,
-    /// A shared secret players must send in `hello`.
+    /// The player token: a secret players must send in `hello`. With it set, watching
+    /// needs the spectator or operator token.
     #[arg(long)]
     token: Option<String>,
+    /// The spectator token: a secret spectators must send in `hello` (without it or
+    /// --token, anyone may watch). Spectators see public messages only.
+    #[arg(long)]
+    spectator_token: Option<String>,
+    /// The operator token: the secret of the `operator` role, which watches and sees every
+    /// message, private ones included.
+    #[arg(long)]
+    operator_token: Option<String>,
+    /// Spectators see private (addressed) messages too.
+    #[arg(long)]
+    spectators_see_private: bool,
     /// Send every player `percepts` every tick, even empty ones (lockstep then waits every tick).
     #[arg(long)]
     every_tick: bool,
@@ -71,6 +85,10 @@ pub struct ServeArgs {
     /// TCP port; 0 picks a free one. Off by default.
     #[arg(long, value_name = "PORT")]
     http: Option<u16>,
+    /// Let pages from this origin (like http://example.org:8080) open WebSockets on the
+    /// --http port, besides the page's own; repeatable; `*` lets any page in.
+    #[arg(long, value_name = "URL", value_parser = bw4t_server::parse_origin)]
+    allow_origin: Vec<String>,
     /// Add this many built-in agents (cooperative) to the match; they count toward --robots.
     #[arg(long, default_value_t = 0)]
     builtin: usize,
@@ -99,14 +117,28 @@ pub fn run(args: &ServeArgs) -> Result<()> {
         PaceArg::Lockstep => Mode::Lockstep,
     };
     config.robots = args.robots;
-    config.max_ticks = args.max_ticks;
+    let derived = bw4t_runner::TickLimit::for_map(&config.map, &config.game);
+    config.max_ticks = match args.max_ticks {
+        Some(0) => None,
+        Some(ticks) => Some(ticks),
+        None => Some(derived.ticks),
+    };
+    let limit = match (args.max_ticks, config.max_ticks) {
+        (_, None) => "no tick limit".to_string(),
+        (Some(_), Some(ticks)) => format!("tick limit {ticks} (--max-ticks)"),
+        (None, Some(ticks)) => format!("tick limit {ticks}, {}", derived.explain()),
+    };
     config.deadline = (args.deadline_ms > 0).then(|| Duration::from_millis(args.deadline_ms));
     config.token = args.token.clone();
+    config.spectator_token = args.spectator_token.clone();
+    config.operator_token = args.operator_token.clone();
+    config.spectators_see_private = args.spectators_see_private;
     config.every_tick = args.every_tick;
     config.grace = Duration::from_secs(args.grace_s);
     config.max_connections = args.max_connections;
     config.max_actions_per_tick = args.max_actions;
     config.hello_timeout = Duration::from_secs(args.hello_timeout_s);
+    config.allowed_origins = args.allow_origin.clone();
     if args.robots > config.map.spawns().len() {
         anyhow::bail!(
             "--robots {} but map '{}' has {} spawn points",
@@ -122,6 +154,15 @@ pub fn run(args: &ServeArgs) -> Result<()> {
             args.builtin,
             config.map.name(),
             config.map.spawns().len()
+        );
+    }
+    if args.builtin > args.robots {
+        anyhow::bail!(
+            "--builtin {} but --robots {}: --robots counts every player, built-in ones included \
+             (use --robots {} or more)",
+            args.builtin,
+            args.robots,
+            args.builtin
         );
     }
     let seats = (1..=args.builtin)
@@ -141,26 +182,21 @@ pub fn run(args: &ServeArgs) -> Result<()> {
         .build()
         .context("cannot start the runtime")?;
     let result = runtime.block_on(async {
-        let addr = SocketAddr::new(args.bind, args.port);
-        let listener =
-            tokio::net::TcpListener::bind(addr).await.with_context(|| format!("cannot listen on {addr}"))?;
-        let local = listener.local_addr().context("no local address")?;
-        println!("listening on {local}");
+        let stop = stop_signal();
+        let (listener, local) = listen(SocketAddr::new(args.bind, args.port))?;
+        outln!("listening on {local}");
         if let Some(port) = args.http {
-            let addr = SocketAddr::new(args.bind, port);
-            let http = tokio::net::TcpListener::bind(addr)
-                .await
-                .with_context(|| format!("cannot listen on {addr}"))?;
-            println!("http on {}", http.local_addr().context("no local address")?);
+            let (http, local) = listen(SocketAddr::new(args.bind, port))?;
+            outln!("http on {local}");
             extras.http = Some(http);
         }
         eprintln!(
-            "bw4t: map '{}', seed {seed}, {} mode; waiting for {} player(s)",
+            "bw4t: map '{}', seed {seed}, {} mode, {limit}; waiting for {}",
             config.map.name(),
             config.mode.name(),
-            config.robots
+            bw4t_runner::plural(config.robots, "player")
         );
-        bw4t_server::serve_with(listener, config, extras, stop_signal()).await.context("the match failed")
+        bw4t_server::serve_with(listener, config, extras, stop).await.context("the match failed")
     })?;
     eprintln!(
         "bw4t: match over ({}): {} ticks, sequence {}/{}, digest {}",
@@ -178,25 +214,43 @@ pub fn run(args: &ServeArgs) -> Result<()> {
     Ok(())
 }
 
-/// Resolves on Ctrl-C or SIGTERM.
-pub async fn stop_signal() {
+/// Listens on `addr` (with a deep queue, see [`bw4t_server::listen`]); returns the listener
+/// and its address, the port chosen if `addr` had port 0.
+pub fn listen(addr: SocketAddr) -> Result<(tokio::net::TcpListener, SocketAddr)> {
+    let listener = bw4t_server::listen(addr).with_context(|| format!("cannot listen on {addr}"))?;
+    let local = listener.local_addr().context("no local address")?;
+    Ok((listener, local))
+}
+
+/// Installs the Ctrl-C and SIGTERM handlers now, so that a signal sent as soon as the
+/// address is printed is not missed, and returns what resolves at the first of them.
+/// Must be called inside the runtime.
+pub fn stop_signal() -> impl std::future::Future<Output = ()> {
     #[cfg(unix)]
     {
-        use tokio::signal::unix::{SignalKind, signal};
-        match signal(SignalKind::terminate()) {
-            Ok(mut term) => {
-                tokio::select! {
-                    _ = tokio::signal::ctrl_c() => {}
-                    _ = term.recv() => {}
+        use tokio::signal::unix::{Signal, SignalKind, signal};
+        // A handler that cannot be installed leaves its signal's default effect.
+        async fn received(handler: Option<Signal>) {
+            match handler {
+                Some(mut handler) => {
+                    handler.recv().await;
                 }
+                None => std::future::pending().await,
             }
-            Err(_) => {
-                let _ = tokio::signal::ctrl_c().await;
+        }
+        let interrupt = signal(SignalKind::interrupt()).ok();
+        let terminate = signal(SignalKind::terminate()).ok();
+        async move {
+            tokio::select! {
+                () = received(interrupt) => {}
+                () = received(terminate) => {}
             }
         }
     }
     #[cfg(not(unix))]
     {
-        let _ = tokio::signal::ctrl_c().await;
+        async {
+            let _ = tokio::signal::ctrl_c().await;
+        }
     }
 }

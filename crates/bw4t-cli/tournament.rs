@@ -5,11 +5,18 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
+
 use bw4t_runner::tournament::{
-    Options, Progress, ReplayPolicy, Seeds, TeamConfig, TournamentConfig, merge, run_tournament,
+    self, Agents, Options, Progress, ReplayPolicy, Resolved, Row, Seeds, Setup, TeamConfig, TournamentConfig,
+    merge, run_tournament, seats,
 };
+use bw4t_runner::{SeatSpec, check_command, plural};
 use clap::{Args, Subcommand, ValueEnum};
 use serde_json::json;
+
+use crate::status;
 
 /// Options of `bw4t tournament`.
 #[derive(Args)]
@@ -38,7 +45,7 @@ pub struct TournamentArgs {
     /// Times every (team, map, seed) is played.
     #[arg(long)]
     repetitions: Option<u32>,
-    /// The last tick of every match.
+    /// The last tick of every match (default: each map's own, at least 20000; see README).
     #[arg(long)]
     max_ticks: Option<u64>,
     /// External agents' lockstep deadline in milliseconds (0: forever).
@@ -93,33 +100,41 @@ fn parse_shard(text: &str) -> Result<(u64, u64), String> {
     }
 }
 
-/// Runs a tournament command.
-pub fn run(args: &TournamentArgs) -> Result<()> {
+/// Runs a tournament command; returns the exit status (see `status`).
+pub fn run(args: &TournamentArgs) -> Result<u8> {
     if let Some(TournamentCommand::Merge { dirs, out }) = &args.command {
         let out = out.clone().unwrap_or_else(|| default_out("merged"));
         let outcome = merge(dirs, &out)?;
-        print!("{}", outcome.summary.terminal_table());
-        println!("merged {} matches into {}", outcome.rows.len(), out.display());
-        return Ok(());
+        out!("{}", outcome.summary.terminal_table());
+        outln!("merged {} into {}", plural(outcome.rows.len(), "match"), out.display());
+        return Ok(status::SUCCESS);
     }
     let config = config(args)?;
     let resolved = config.resolve().context("invalid tournament configuration")?;
+    check_agents(&resolved)?;
     let maps = resolved.maps.iter().map(|spec| crate::maps::load(spec)).collect::<Result<Vec<_>>>()?;
     for team in &resolved.teams {
         for (spec, map) in resolved.maps.iter().zip(&maps) {
             if team.robots > map.spawns().len() {
                 bail!(
-                    "team '{}' has {} robots but map '{spec}' has {} spawn points",
+                    "team '{}' has {} but map '{spec}' has {}",
                     team.name,
-                    team.robots,
-                    map.spawns().len()
+                    plural(team.robots, "robot"),
+                    plural(map.spawns().len(), "spawn point")
                 );
             }
         }
     }
+    let setup = tournament::setup(&resolved, &maps);
+    describe_limits(&setup);
+    if let Some(warning) = setup.fixed_content_warning() {
+        eprintln!("bw4t: warning: {warning}");
+    }
     let concurrency =
         args.concurrency.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
     let out = args.out.clone().unwrap_or_else(|| default_out("tournament"));
+    let stop = Arc::new(AtomicBool::new(false));
+    let signal = crate::signals::watch(stop.clone());
     let options = Options {
         out: out.clone(),
         concurrency,
@@ -131,6 +146,7 @@ pub fn run(args: &TournamentArgs) -> Result<()> {
         resume: args.resume,
         shard: args.shard,
         connect_timeout: Duration::from_secs(args.connect_timeout_s),
+        stop,
     };
     let manifest = json!({
         "program": bw4t_runner::program(),
@@ -143,18 +159,110 @@ pub fn run(args: &TournamentArgs) -> Result<()> {
     if terminal {
         eprintln!();
     }
-    print!("{}", outcome.summary.terminal_table());
+    out!("{}", outcome.summary.terminal_table());
     let json = outcome.summary.to_json();
     let per_min = json.get("matches_per_min").and_then(serde_json::Value::as_f64).unwrap_or(0.0);
-    println!(
-        "{} matches ({} played now, {} already done) in {}; matches_per_min {:.0}",
-        outcome.rows.len(),
+    outln!(
+        "{} ({} played now, {} already done) in {}; matches_per_min {:.0}",
+        plural(outcome.rows.len(), "match"),
         outcome.played,
         outcome.skipped,
         out.display(),
         per_min
     );
-    Ok(())
+    if outcome.stopped {
+        let left = outcome.summary.matches;
+        eprintln!(
+            "bw4t: stopped with {} recorded; to play the rest, run:\n  {}",
+            plural(left, "match"),
+            resume_command(args, &out)
+        );
+        return Ok(status::SIGNAL_BASE + signal.number().unwrap_or(2));
+    }
+    let silent = teams_without_play(&resolved, &outcome.rows);
+    if !silent.is_empty() {
+        for (team, matches) in &silent {
+            eprintln!(
+                "bw4t: error: team '{team}': its agents played in none of its {} (see the logs in {})",
+                plural(*matches, "match"),
+                out.join("logs").display()
+            );
+        }
+        return Ok(status::NO_AGENT_PLAYED);
+    }
+    Ok(status::SUCCESS)
+}
+
+/// Refuses, before anything runs, a team whose agent command cannot start: a misspelt
+/// `builtin` is caught when the configuration resolves; here, a program that is not found.
+fn check_agents(resolved: &Resolved) -> Result<()> {
+    let mut problems = Vec::new();
+    for team in &resolved.teams {
+        let mut commands: Vec<String> = Vec::new();
+        for seat in seats(team).map_err(anyhow::Error::msg)? {
+            if let SeatSpec::External { command, .. } = seat {
+                if !commands.contains(&command) {
+                    if let Err(e) = check_command(&command) {
+                        problems.push(format!("team '{}': agents \"{command}\": {e}", team.name));
+                    }
+                    commands.push(command);
+                }
+            }
+        }
+    }
+    if problems.is_empty() { Ok(()) } else { bail!("{}", problems.join("\n")) }
+}
+
+/// Says on standard error what tick limits the matches run with.
+fn describe_limits(setup: &Setup) {
+    let limits: Vec<String> = setup
+        .tick_limits
+        .iter()
+        .map(|l| match &l.explanation {
+            Some(how) => format!("'{}' {} ({how})", l.map, l.max_ticks),
+            None => format!("'{}' {} (from the configuration)", l.map, l.max_ticks),
+        })
+        .collect();
+    eprintln!("bw4t: tick limits: {}", limits.join("; "));
+}
+
+/// Teams with external agents none of which played in any of the team's matches, with
+/// their match counts.
+fn teams_without_play(resolved: &Resolved, rows: &[Row]) -> Vec<(String, usize)> {
+    let mut out = Vec::new();
+    for team in &resolved.teams {
+        let external =
+            seats(team).map_or(0, |s| s.iter().filter(|s| matches!(s, SeatSpec::External { .. })).count());
+        let mine: Vec<&Row> = rows.iter().filter(|r| r.team == team.name).collect();
+        let none_played =
+            mine.iter().all(|r| r.crashed_agents as usize >= external || r.end_reason.starts_with("error"));
+        if external > 0 && !mine.is_empty() && none_played {
+            out.push((team.name.clone(), mine.len()));
+        }
+    }
+    out
+}
+
+/// The command that finishes this tournament: the one given, with `--out` and `--resume`.
+fn resume_command(args: &TournamentArgs, out: &std::path::Path) -> String {
+    let mut words: Vec<String> = std::env::args().collect();
+    if args.out.is_none() {
+        words.extend(["--out".to_string(), out.display().to_string()]);
+    }
+    if !args.resume {
+        words.push("--resume".into());
+    }
+    words.iter().map(|w| shell_quote(w)).collect::<Vec<_>>().join(" ")
+}
+
+/// `word` as `sh` reads it back: bare when safe, else in single quotes.
+fn shell_quote(word: &str) -> String {
+    let safe = |c: char| c.is_ascii_alphanumeric() || "_-./:=@%+,".contains(c);
+    if !word.is_empty() && word.chars().all(safe) {
+        word.to_string()
+    } else {
+        format!("'{}'", word.replace('\'', "'\\''"))
+    }
 }
 
 /// The configuration file merged with the flags.
@@ -171,7 +279,7 @@ fn config(args: &TournamentArgs) -> Result<TournamentConfig> {
             seeds: None,
             master_seed: None,
             games: None,
-            max_ticks: 20_000,
+            max_ticks: None,
             repetitions: 1,
             deadline_ms: 1000,
             teams: Vec::new(),
@@ -185,9 +293,11 @@ fn config(args: &TournamentArgs) -> Result<TournamentConfig> {
             .teams
             .iter()
             .map(|t| match t.split_once('=') {
-                Some((name, agents)) => {
-                    Ok(TeamConfig { name: name.into(), agents: agents.into(), robots: args.robots })
-                }
+                Some((name, agents)) => Ok(TeamConfig {
+                    name: name.into(),
+                    agents: Agents::Each(agents.into()),
+                    robots: Some(args.robots),
+                }),
                 None => bail!("--team '{t}': expected NAME=AGENTS, e.g. coop=builtin"),
             })
             .collect::<Result<_>>()?;
@@ -201,8 +311,8 @@ fn config(args: &TournamentArgs) -> Result<TournamentConfig> {
     if let Some(r) = args.repetitions {
         config.repetitions = r;
     }
-    if let Some(t) = args.max_ticks {
-        config.max_ticks = t;
+    if args.max_ticks.is_some() {
+        config.max_ticks = args.max_ticks;
     }
     if let Some(d) = args.deadline_ms {
         config.deadline_ms = d;
@@ -254,7 +364,7 @@ fn progress(p: &Progress, terminal: bool) {
             p.done, p.total, row.team, row.map, row.seed, row.wall_ms
         );
     } else {
-        eprintln!("{} matches to play ({} already done)", p.to_play, p.done);
+        eprintln!("{} to play ({} already done)", plural(p.to_play, "match"), p.done);
     }
 }
 

@@ -3,6 +3,8 @@
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use bw4t_agents::Strategy;
@@ -97,6 +99,8 @@ pub struct ServedRun<'a> {
     pub log_dir: &'a Path,
     /// Where the replay goes.
     pub replay: Option<Box<dyn std::io::Write + Send>>,
+    /// When set, the match ends early (`interrupted`) and its agents are stopped.
+    pub stop: Option<Arc<AtomicBool>>,
 }
 
 /// Why a served run failed to start.
@@ -157,7 +161,15 @@ pub fn play_served(run: ServedRun<'_>) -> Result<(MatchResult, Vec<AgentReport>)
             gone_seats: Some(gone_rx),
             http: None,
         };
-        let server = tokio::spawn(bw4t_server::serve_with(listener, config, extras, std::future::pending()));
+        let (interrupt, interrupted) = tokio::sync::oneshot::channel::<()>();
+        let mut interrupt = Some(interrupt);
+        let shutdown = async move {
+            // A dropped sender (the match ended first) must not end anything.
+            if interrupted.await.is_err() {
+                std::future::pending::<()>().await;
+            }
+        };
+        let server = tokio::spawn(bw4t_server::serve_with(listener, config, extras, shutdown));
         let mut children = Vec::new();
         for seat in &run.seats {
             if let SeatSpec::External { name, command } = seat {
@@ -172,6 +184,11 @@ pub fn play_served(run: ServedRun<'_>) -> Result<(MatchResult, Vec<AgentReport>)
             tokio::select! {
                 outcome = &mut server => break outcome,
                 () = tokio::time::sleep(Duration::from_millis(50)) => {
+                    if run.stop.as_ref().is_some_and(|s| s.load(Ordering::SeqCst)) {
+                        if let Some(interrupt) = interrupt.take() {
+                            let _ = interrupt.send(());
+                        }
+                    }
                     for c in children.iter_mut().filter(|c| c.exited.is_none()) {
                         if let Some(code) = c.poll() {
                             c.exited = Some(code);
@@ -214,13 +231,21 @@ impl Running {
         }
     }
 
-    /// Ends the program and everything it started: TERM to its process group, KILL after a second.
+    /// Ends the program and everything it started: a second to leave by itself after
+    /// `match_end` (to write down its result), then TERM to its process group, KILL after
+    /// another second.
     async fn stop(&mut self) {
         let Ok(child) = &mut self.child else { return };
         if self.exited.is_none() {
             if let Ok(Some(status)) = child.try_wait() {
                 self.exited = Some(Ok(status.code().unwrap_or(-1)));
             }
+        }
+        for _ in 0..20 {
+            if matches!(child.try_wait(), Ok(Some(_))) {
+                break;
+            }
+            tokio::time::sleep(Duration::from_millis(50)).await;
         }
         let group = format!("-{}", child.id());
         let _ = Command::new("kill").args(["-TERM", "--", &group]).stderr(Stdio::null()).status();

@@ -1,6 +1,7 @@
 //! A whole match in-process, as fast as the machine allows.
 
 use std::io::Write;
+use std::time::Instant;
 
 use bw4t_agents::{Agent, Driver};
 use bw4t_map::Map;
@@ -25,13 +26,13 @@ pub enum RunError {
     Match(#[from] MatchError),
     /// A seat could not join.
     #[error("player cannot join: {0}")]
-    Join(#[from] JoinError),
+    Join(JoinError),
     /// An external seat was given to an in-process match.
     #[error("external agent '{0}' needs a served match")]
     External(String),
     /// The replay could not be written.
     #[error("cannot write the replay: {0}")]
-    Replay(#[from] std::io::Error),
+    Replay(std::io::Error),
 }
 
 /// Plays a match of built-in seats in-process, recording a replay to `replay` if given;
@@ -49,7 +50,7 @@ pub fn play_builtin(
             // The recorder describes the match before anyone joins; a fresh one is that.
             let blank = Match::new(map, &config, seed)?;
             let names = seats.iter().map(|s| s.name().to_string()).collect();
-            Some(Recorder::new(out, &blank, &crate::program(), names, 100))
+            Some(Recorder::new(out, &blank, &crate::program(), names, 100, Some(max_ticks)))
         }
         None => None,
     };
@@ -62,11 +63,15 @@ pub fn play_builtin(
             SeatSpec::External { name, .. } => Err(RunError::External(name.clone())),
         })
         .collect::<Result<Vec<_>, _>>()?;
-    let (game, reason) = play_headless(map, &config, seed, players, max_ticks, recorder.as_mut())?;
+    let (mut game, mut drivers) = set_up(map, &config, seed, players, recorder.as_mut())?;
+    // `wall_ms` counts from the first tick, as in a served match.
+    let started = Instant::now();
+    let reason = play_to_end(&mut game, &mut drivers, max_ticks, recorder.as_mut());
+    let wall_ms = started.elapsed().as_millis() as u64;
     if let Some(recorder) = recorder {
-        recorder.finish(&game, reason)?;
+        recorder.finish(&game, reason).map_err(RunError::Replay)?;
     }
-    let result = MatchResult::of(&game, None, reason, 0, |_| RobotExtra::LOCAL);
+    let result = MatchResult::of(&game, None, reason, wall_ms, |_| RobotExtra::LOCAL);
     let reports = seats
         .iter()
         .filter_map(|s| match s {
@@ -88,18 +93,41 @@ pub fn play_headless(
     max_ticks: u64,
     mut recorder: Option<&mut Recorder>,
 ) -> Result<(Match, &'static str), RunError> {
+    let (mut game, mut drivers) = set_up(map, config, seed, seats, recorder.as_deref_mut())?;
+    let reason = play_to_end(&mut game, &mut drivers, max_ticks, recorder);
+    Ok((game, reason))
+}
+
+/// A new match with every seat joined, in order.
+fn set_up(
+    map: &Map,
+    config: &MatchConfig,
+    seed: u64,
+    seats: Vec<Seat>,
+    mut recorder: Option<&mut Recorder>,
+) -> Result<(Match, Vec<Driver>), RunError> {
     let mut game = Match::new(map, config, seed)?;
     let mut drivers = Vec::with_capacity(seats.len());
     for seat in seats {
-        let robot = game.join(&seat.name)?;
+        let robot = game.join(&seat.name).map_err(RunError::Join)?;
         if let Some(r) = recorder.as_deref_mut() {
             r.event(game.tick(), ReplayEvent::Join { name: seat.name.clone(), robot: robot.0 });
         }
         drivers.push(Driver::new(robot, seat.agent));
     }
-    let reason = loop {
-        for driver in &mut drivers {
-            driver.observe(&mut game);
+    Ok((game, drivers))
+}
+
+/// Plays ticks until the sequence is complete or `max_ticks` is reached; returns why it ended.
+fn play_to_end(
+    game: &mut Match,
+    drivers: &mut [Driver],
+    max_ticks: u64,
+    mut recorder: Option<&mut Recorder>,
+) -> &'static str {
+    loop {
+        for driver in drivers.iter_mut() {
+            driver.observe(game);
         }
         if game.is_complete() {
             break "completed";
@@ -107,7 +135,7 @@ pub fn play_headless(
         if game.tick() >= max_ticks {
             break "max_ticks";
         }
-        for driver in &mut drivers {
+        for driver in drivers.iter_mut() {
             for (n, action) in driver.take_queued() {
                 let outcome = game.handle_action(driver.robot, action.clone());
                 if let Some(r) = recorder.as_deref_mut() {
@@ -118,13 +146,12 @@ pub fn play_headless(
         }
         let report = game.step();
         if let Some(r) = recorder.as_deref_mut() {
-            r.stepped(&game);
+            r.stepped(game);
         }
         for end in &report.ended {
             if let Some(driver) = drivers.iter_mut().find(|d| d.robot == end.robot) {
                 driver.ended(end);
             }
         }
-    };
-    Ok((game, reason))
+    }
 }

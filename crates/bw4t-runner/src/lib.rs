@@ -1,16 +1,25 @@
 //! Whole matches: headless with built-in agents, or served to external agent processes
-//! mixed with built-in ones; and replays (verify, show).
+//! mixed with built-in ones; and replays (verify, show, frames for the viewer).
 
 mod external;
 mod headless;
+mod limit;
+mod preflight;
 mod remote;
 mod replay;
 pub mod tournament;
+mod words;
 
 pub use external::{AgentReport, SeatSpec, ServedError, ServedRun, play_served};
 pub use headless::{RunError, Seat, play_builtin, play_headless};
+pub use limit::{MIN_DEFAULT_TICKS, TickLimit};
+pub use preflight::check_command;
 pub use remote::{RemoteError, play_remote};
-pub use replay::{ReplayError, ReplaySummary, Verdict, read_replay, replay_frames, verify_replay};
+pub use replay::{
+    FRAME_CACHE_BYTES, MAX_DIGEST_EVERY, ReplayError, ReplayFrames, ReplayMessage, ReplaySummary, Verdict,
+    read_replay, verify_replay,
+};
+pub use words::plural;
 
 /// The program name and version written into replays.
 pub fn program() -> String {

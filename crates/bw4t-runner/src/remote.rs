@@ -15,10 +15,18 @@ use tokio::net::TcpStream;
 pub enum RemoteError {
     /// The connection failed.
     #[error("connection: {0}")]
-    Io(#[from] std::io::Error),
+    Io(std::io::Error),
     /// The server sent something this client cannot use.
     #[error("protocol: {0}")]
     Protocol(String),
+}
+
+// By hand rather than `#[from]`, which would also make the error its source and print it
+// twice in a chain of causes.
+impl From<std::io::Error> for RemoteError {
+    fn from(e: std::io::Error) -> Self {
+        RemoteError::Io(e)
+    }
 }
 
 /// Connects, joins as `name` (with `token` if the server wants one) and lets `agent` play

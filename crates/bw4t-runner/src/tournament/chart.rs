@@ -8,6 +8,7 @@
 
 use super::report::{fixed, shorten_start};
 use super::stats::{Summary, TeamMapStats, quantile};
+use crate::plural;
 
 /// One colour per team, in team order, repeating after the last. Okabe and Ito's
 /// colour-blind-safe set without its yellow (too faint on white), then a brown.
@@ -52,9 +53,9 @@ impl Summary {
             "No matches.".to_string()
         } else {
             format!(
-                "{} matches on {} maps, {} completed ({}%).",
-                self.matches,
-                self.maps.len(),
+                "{} on {}, {} completed ({}%).",
+                plural(self.matches, "match"),
+                plural(self.maps.len(), "map"),
                 self.completed,
                 fixed(100.0 * self.completed as f64 / self.matches as f64, 1)
             )
@@ -510,7 +511,7 @@ mod tests {
             .map(|t| {
                 row(
                     &format!("team number {t}"),
-                    "../shared/maps/a/b/c/a long, long map name.toml",
+                    "../elsewhere/maps/a/b/c/a long, long map name.toml",
                     1,
                     Some(100 + t),
                 )
@@ -520,7 +521,7 @@ mod tests {
         assert!(balanced(&svg).is_ok(), "{:?}", balanced(&svg));
         // Colours repeat after the palette; the legend wraps onto more rows.
         assert!(svg.matches(&format!("fill=\"{}\"", PALETTE[0])).count() >= 2);
-        assert!(svg.contains(">…d/maps/a/b/c/a long, long map name.toml</text>"), "{svg}");
+        assert!(svg.contains(">…e/maps/a/b/c/a long, long map name.toml</text>"), "{svg}");
     }
 
     #[test]

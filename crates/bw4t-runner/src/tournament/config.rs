@@ -15,16 +15,39 @@ pub enum Seeds {
     List(Vec<u64>),
 }
 
+/// Who plays a team's robots.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum Agents {
+    /// One entry for every robot: `builtin`, `builtin:STRATEGY` or a command line run once
+    /// per robot.
+    Each(String),
+    /// One entry per robot, in robot order, each `builtin`, `builtin:STRATEGY` or a command
+    /// line: a team that mixes built-in and external agents.
+    PerRobot(Vec<String>),
+}
+
 /// One team, as configured.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TeamConfig {
     /// Its name in the results.
     pub name: String,
-    /// `builtin`, `builtin:STRATEGY`, or a command line run once per robot.
-    pub agents: String,
+    /// `"builtin"`, `"builtin:STRATEGY"`, a command line, or a list of these, one per robot.
+    pub agents: Agents,
+    /// Robots in the team (default: the list's length, or 3).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub robots: Option<usize>,
+}
+
+/// One team, resolved: its robot count fixed.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Team {
+    /// Its name in the results.
+    pub name: String,
+    /// Who plays its robots.
+    pub agents: Agents,
     /// Robots in the team.
-    #[serde(default = "three")]
     pub robots: usize,
 }
 
@@ -43,9 +66,9 @@ pub struct TournamentConfig {
     /// Matches per team and map when seeds are derived (same as `seeds = N`).
     #[serde(default)]
     pub games: Option<u64>,
-    /// The last tick of every match.
-    #[serde(default = "max_ticks")]
-    pub max_ticks: u64,
+    /// The last tick of every match (default: each map's own, see [`crate::TickLimit`]).
+    #[serde(default)]
+    pub max_ticks: Option<u64>,
     /// Times every (team, map, seed) is played.
     #[serde(default = "one")]
     pub repetitions: u32,
@@ -57,14 +80,11 @@ pub struct TournamentConfig {
     pub teams: Vec<TeamConfig>,
 }
 
-fn three() -> usize {
-    3
-}
+/// Robots of a team that names one agent for all and no count.
+const DEFAULT_ROBOTS: usize = 3;
+
 fn one() -> u32 {
     1
-}
-fn max_ticks() -> u64 {
-    20_000
 }
 fn deadline() -> u64 {
     1000
@@ -82,14 +102,14 @@ pub struct Resolved {
     pub seeds: Vec<u64>,
     /// The master seed (also recorded when seeds were listed).
     pub master_seed: u64,
-    /// The last tick.
-    pub max_ticks: u64,
+    /// The last tick, when the configuration gives one; each map's own otherwise.
+    pub max_ticks: Option<u64>,
     /// Repetitions.
     pub repetitions: u32,
     /// Deadline for external agents.
     pub deadline_ms: u64,
     /// The teams.
-    pub teams: Vec<TeamConfig>,
+    pub teams: Vec<Team>,
 }
 
 /// One match of the tournament.
@@ -113,7 +133,7 @@ pub struct Planned {
 #[derive(Debug, thiserror::Error)]
 pub enum ConfigError {
     /// Not TOML, or a misspelt or mistyped key (with line and column).
-    #[error("{0}")]
+    #[error(transparent)]
     Syntax(#[from] toml::de::Error),
     /// A value out of range or missing.
     #[error("{0}")]
@@ -135,6 +155,7 @@ impl TournamentConfig {
         if self.teams.is_empty() {
             return bad("no teams: add at least one [[team]] with name, agents and robots".into());
         }
+        let mut teams = Vec::with_capacity(self.teams.len());
         for (i, team) in self.teams.iter().enumerate() {
             if team.name.trim().is_empty() || team.name.contains('/') {
                 return bad(format!("team {}: a name is required and may not contain '/'", i + 1));
@@ -142,10 +163,23 @@ impl TournamentConfig {
             if self.teams[..i].iter().any(|t| t.name == team.name) {
                 return bad(format!("two teams are called '{}'", team.name));
             }
-            if team.robots == 0 {
+            let robots = match (&team.agents, team.robots) {
+                (Agents::PerRobot(list), Some(n)) if n != list.len() => {
+                    return bad(format!(
+                        "team '{}': robots = {n} but agents lists {}",
+                        team.name,
+                        crate::plural(list.len(), "entry")
+                    ));
+                }
+                (Agents::PerRobot(list), _) => list.len(),
+                (Agents::Each(_), n) => n.unwrap_or(DEFAULT_ROBOTS),
+            };
+            if robots == 0 {
                 return bad(format!("team '{}': robots must be at least 1", team.name));
             }
-            seats(team).map_err(ConfigError::Invalid)?;
+            let team = Team { name: team.name.clone(), agents: team.agents.clone(), robots };
+            seats(&team).map_err(ConfigError::Invalid)?;
+            teams.push(team);
         }
         if self.repetitions == 0 {
             return bad("repetitions must be at least 1".into());
@@ -170,7 +204,7 @@ impl TournamentConfig {
             max_ticks: self.max_ticks,
             repetitions: self.repetitions,
             deadline_ms: self.deadline_ms,
-            teams: self.teams.clone(),
+            teams,
         })
     }
 }
@@ -199,26 +233,89 @@ impl Resolved {
         }
         out
     }
+
+    /// The shard (from 0) of `n` that plays match `p`. Matches are dealt round the shards
+    /// with each team starting one shard further on, so every shard gets an even share of
+    /// every team (and, in plan order, of maps and seeds); a slow team does not land on one
+    /// machine. Depends only on the match's index, so resume and merge still line up.
+    pub fn shard_of(&self, p: &Planned, n: u64) -> u64 {
+        let teams = self.teams.len().max(1) as u64;
+        // The plan puts teams innermost: index = group * teams + team.
+        let (group, team) = (p.index / teams, p.index % teams);
+        (group + team) % n.max(1)
+    }
 }
 
-/// The seats of a team.
-pub fn seats(team: &TeamConfig) -> Result<Vec<SeatSpec>, String> {
-    let agents = team.agents.trim();
-    if agents == "builtin" || agents.starts_with("builtin:") {
-        let name = agents.strip_prefix("builtin:").unwrap_or("coop");
-        let strategy = Strategy::named(name).ok_or_else(|| {
-            let known: Vec<&str> = Strategy::ALL.iter().map(|s| s.name()).collect();
-            format!("team '{}': unknown strategy '{name}' (known: {})", team.name, known.join(", "))
-        })?;
-        Ok((1..=team.robots).map(|i| SeatSpec::Builtin { name: format!("Bot{i}"), strategy }).collect())
-    } else if agents.is_empty() {
-        Err(format!("team '{}': agents is empty", team.name))
-    } else {
-        let command = agents.to_string();
-        Ok((1..=team.robots)
-            .map(|i| SeatSpec::External { name: format!("Agent{i}"), command: command.clone() })
-            .collect())
+/// The seats of a team, in robot order: built-in ones named `Bot1`, `Bot2`, ..., external
+/// ones `Agent1`, `Agent2`, ..., each kind counted on its own (as `bw4t run` names them).
+pub fn seats(team: &Team) -> Result<Vec<SeatSpec>, String> {
+    let entries: Vec<&str> = match &team.agents {
+        Agents::Each(entry) => vec![entry.as_str(); team.robots],
+        Agents::PerRobot(list) => list.iter().map(String::as_str).collect(),
+    };
+    let (mut bots, mut externals) = (0, 0);
+    let mut out = Vec::with_capacity(entries.len());
+    for entry in entries {
+        let entry = entry.trim();
+        if let Some(strategy) = builtin_strategy(entry).map_err(|e| format!("team '{}': {e}", team.name))? {
+            bots += 1;
+            out.push(SeatSpec::Builtin { name: format!("Bot{bots}"), strategy });
+        } else {
+            externals += 1;
+            out.push(SeatSpec::External { name: format!("Agent{externals}"), command: entry.to_string() });
+        }
     }
+    Ok(out)
+}
+
+/// The strategy an agents entry names (`builtin`, `builtin:STRATEGY`), `None` for a command
+/// line, or an error for an empty entry or one that looks like a misspelt `builtin`, which
+/// would otherwise be run as a command that cannot start.
+pub fn builtin_strategy(entry: &str) -> Result<Option<Strategy>, String> {
+    let known = || Strategy::ALL.iter().map(|s| s.name()).collect::<Vec<_>>().join(", ");
+    if entry.is_empty() {
+        return Err("an agents entry is empty".into());
+    }
+    if entry == "builtin" || entry.starts_with("builtin:") {
+        let name = entry.strip_prefix("builtin:").unwrap_or("coop");
+        let strategy =
+            Strategy::named(name).ok_or_else(|| format!("unknown strategy '{name}' (known: {})", known()))?;
+        return Ok(Some(strategy));
+    }
+    let first = entry.split([' ', '\t', ':']).next().unwrap_or(entry);
+    let lower = first.to_ascii_lowercase();
+    if lower.starts_with("builtin") || edit_distance(&lower, "builtin") <= 2 {
+        return Err(format!(
+            "agents \"{entry}\" looks like a misspelt built-in team: write builtin or builtin:STRATEGY \
+             (strategies: {}), or a command line",
+            known()
+        ));
+    }
+    Ok(None)
+}
+
+/// The optimal-string-alignment distance: insertions, deletions, substitutions and swaps of
+/// two neighbouring characters each count 1.
+fn edit_distance(a: &str, b: &str) -> usize {
+    let (a, b): (Vec<char>, Vec<char>) = (a.chars().collect(), b.chars().collect());
+    let mut d = vec![vec![0usize; b.len() + 1]; a.len() + 1];
+    for (i, row) in d.iter_mut().enumerate() {
+        row[0] = i;
+    }
+    for (j, cell) in d[0].iter_mut().enumerate() {
+        *cell = j;
+    }
+    for i in 1..=a.len() {
+        for j in 1..=b.len() {
+            let cost = usize::from(a[i - 1] != b[j - 1]);
+            let mut best = (d[i - 1][j] + 1).min(d[i][j - 1] + 1).min(d[i - 1][j - 1] + cost);
+            if i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1] {
+                best = best.min(d[i - 2][j - 2] + 1);
+            }
+            d[i][j] = best;
+        }
+    }
+    d[a.len()][b.len()]
 }
 
 #[cfg(test)]
@@ -279,6 +376,63 @@ mod tests {
             let err =
                 TournamentConfig::parse(&text).and_then(|c| c.resolve()).expect_err("invalid").to_string();
             assert!(err.contains(expected), "expected '{expected}' in {err}");
+        }
+    }
+
+    #[test]
+    fn a_team_can_mix_builtin_and_external_agents() {
+        let text = EXAMPLE.replace(
+            "agents = \"builtin:baseline\"\n        robots = 3",
+            "agents = [\"builtin\", \"python3 a.py\", \"builtin:baseline\"]",
+        );
+        let resolved = TournamentConfig::parse(&text).expect("parses").resolve().expect("valid");
+        let team = &resolved.teams[1];
+        assert_eq!(team.robots, 3);
+        let seats = seats(team).expect("seats");
+        assert_eq!(
+            seats,
+            [
+                SeatSpec::Builtin { name: "Bot1".into(), strategy: Strategy::Cooperative },
+                SeatSpec::External { name: "Agent1".into(), command: "python3 a.py".into() },
+                SeatSpec::Builtin { name: "Bot2".into(), strategy: Strategy::Baseline },
+            ]
+        );
+        let wrong = text.replace("\"builtin:baseline\"]", "\"builtin:baseline\"]\n        robots = 2");
+        let err = TournamentConfig::parse(&wrong).expect("parses").resolve().expect_err("count differs");
+        assert!(err.to_string().contains("robots = 2 but agents lists 3 entries"), "{err}");
+    }
+
+    #[test]
+    fn a_misspelt_builtin_is_refused_with_the_strategies() {
+        for typo in ["biultin", "bultin", "Builtin", "builtin-coop", "builtins:coop"] {
+            let text = EXAMPLE.replace("\"builtin:baseline\"", &format!("\"{typo}\""));
+            let err = TournamentConfig::parse(&text).expect("parses").resolve().expect_err(typo).to_string();
+            assert!(
+                err.contains("team 'solo'") && err.contains("misspelt") && err.contains("coop, baseline"),
+                "{err}"
+            );
+        }
+        for command in ["python3 agent.py", "./builder", "bash run.sh"] {
+            assert_eq!(builtin_strategy(command), Ok(None), "{command}");
+        }
+    }
+
+    #[test]
+    fn shards_get_an_even_share_of_every_team() {
+        let text = EXAMPLE.replace("seeds = 30", "seeds = 6");
+        let resolved = TournamentConfig::parse(&text).expect("parses").resolve().expect("valid");
+        let plan = resolved.plan();
+        for n in [2u64, 3, 4] {
+            for shard in 0..n {
+                let mine: Vec<&Planned> = plan.iter().filter(|p| resolved.shard_of(p, n) == shard).collect();
+                for team in 0..2 {
+                    let count = mine.iter().filter(|p| p.team == team).count() as f64;
+                    let even = plan.len() as f64 / 2.0 / n as f64;
+                    assert!((count - even).abs() <= 1.0, "shard {shard}/{n}, team {team}: {count} vs {even}");
+                }
+                let maps: std::collections::BTreeSet<usize> = mine.iter().map(|p| p.map).collect();
+                assert_eq!(maps.len(), 2, "shard {shard}/{n} plays every map");
+            }
         }
     }
 }

@@ -8,10 +8,15 @@ mod row;
 mod run;
 mod stats;
 
-pub use config::{ConfigError, Planned, Resolved, Seeds, TeamConfig, TournamentConfig, derive_seeds, seats};
+pub use config::{
+    Agents, ConfigError, Planned, Resolved, Seeds, Team, TeamConfig, TournamentConfig, builtin_strategy,
+    derive_seeds, seats,
+};
 pub use row::Row;
 pub use run::{
-    CSV_COLUMNS, Options, Outcome, Progress, ReplayPolicy, TournamentError, merge, run_tournament,
+    CSV_COLUMNS, Options, Outcome, Progress, ReplayPolicy, TournamentError, merge, run_tournament, setup,
 };
-pub use stats::{EndReasonCount, Interval, Method, PairStats, TeamMapStats, TeamRank, Totals};
+pub use stats::{
+    EndReasonCount, Interval, MapLimit, Method, PairStats, Setup, TeamMapStats, TeamRank, Totals,
+};
 pub use stats::{Summary, summarize};

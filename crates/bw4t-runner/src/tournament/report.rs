@@ -7,6 +7,7 @@
 use std::fmt::Write as _;
 
 use super::stats::{Interval, Summary};
+use crate::plural;
 
 /// What Markdown and the terminal show for a figure that does not exist.
 const NONE_MD: &str = "–";
@@ -26,8 +27,8 @@ impl Summary {
         let t = &self.totals;
         let _ = writeln!(
             md,
-            "**{} matches**, {} completed ({}%), {} on {}, in {}: **{} matches/min**.\n",
-            self.matches,
+            "**{}**, {} completed ({}%), {} on {}, in {}: **{} matches/min**.\n",
+            plural(self.matches, "match"),
             self.completed,
             fixed(100.0 * self.completed as f64 / self.matches as f64, 1),
             plural(t.teams, "team"),
@@ -50,6 +51,7 @@ impl Summary {
             t.crashed_agents,
             fixed(t.match_wall_ms as f64 / 1000.0, 1),
         );
+        md.push_str(&self.setup_markdown());
         let _ = writeln!(
             md,
             "Ticks to complete count completed matches only. Intervals are 95%: Wilson score for \
@@ -145,6 +147,27 @@ impl Summary {
         md
     }
 
+    /// The tick limits, and a warning for maps whose content ignores the match seed.
+    fn setup_markdown(&self) -> String {
+        let mut md = String::new();
+        let limits: Vec<String> = self
+            .setup
+            .tick_limits
+            .iter()
+            .map(|l| {
+                let how = l.explanation.as_deref().unwrap_or("from the configuration");
+                format!("{} {} ({})", md_text(&l.map), l.max_ticks, md_text(how))
+            })
+            .collect();
+        if !limits.is_empty() {
+            let _ = writeln!(md, "Tick limits: {}.\n", limits.join("; "));
+        }
+        if let Some(warning) = self.setup.fixed_content_warning() {
+            let _ = writeln!(md, "**Warning:** {}.\n", md_text(&warning));
+        }
+        md
+    }
+
     /// A compact fixed-width table for the end of a run: per team and map, completed of
     /// played, completion rate, median and mean ticks to complete, and wrong drops per match.
     pub fn terminal_table(&self) -> String {
@@ -223,10 +246,6 @@ fn with_interval(value: Option<f64>, interval: Option<Interval>, decimals: usize
 
 fn percent(i: Interval) -> Interval {
     Interval { lo: 100.0 * i.lo, hi: 100.0 * i.hi }
-}
-
-fn plural(n: usize, what: &str) -> String {
-    if n == 1 { format!("1 {what}") } else { format!("{n} {what}s") }
 }
 
 /// Seconds as `12.3 s`, `4 min 5 s` or `1 h 2 min`.
@@ -311,6 +330,32 @@ mod tests {
     }
 
     #[test]
+    fn markdown_says_the_tick_limits_and_warns_of_fixed_content() {
+        use super::super::stats::{MapLimit, Setup};
+        let setup = Setup {
+            tick_limits: vec![
+                MapLimit { map: "default".into(), max_ticks: 500, from: "config".into(), explanation: None },
+                MapLimit {
+                    map: "fixed".into(),
+                    max_ticks: 20000,
+                    from: "map".into(),
+                    explanation: Some("derived from the map".into()),
+                },
+            ],
+            fixed_content_maps: vec!["fixed".into()],
+        };
+        let md = summarize(&sample(), 120.0).with_setup(setup).to_markdown();
+        assert!(
+            md.contains(
+                "Tick limits: default 500 (from the configuration); fixed 20000 (derived from the map).\n"
+            ),
+            "{md}"
+        );
+        assert!(md.contains("**Warning:** map 'fixed' fixes its own seed"), "{md}");
+        assert!(!summarize(&sample(), 120.0).to_markdown().contains("Warning"));
+    }
+
+    #[test]
     fn markdown_escapes_names() {
         let md = summarize(&[row("a|b", "x_y", 1, None)], 1.0).to_markdown();
         assert!(md.contains("| a\\|b | x\\_y | 0/1 |"), "{md}");
@@ -340,7 +385,7 @@ mod tests {
 
     #[test]
     fn long_names_are_shortened() {
-        let long_map = "../shared/bw4t-maps/a very long map name indeed";
+        let long_map = "../original/bw4t-maps/a very long map name indeed";
         let table = summarize(&[row(&"t".repeat(40), long_map, 1, Some(5))], 1.0).terminal_table();
         assert!(table.contains(&format!("{}…", "t".repeat(23))), "{table}");
         assert!(table.contains("  …ry long map name indeed  "), "{table}");

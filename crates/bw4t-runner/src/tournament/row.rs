@@ -23,9 +23,10 @@ pub struct Row {
     pub completed: bool,
     /// Ticks simulated.
     pub ticks: u64,
-    /// The tick of completion, when completed.
+    /// The first tick whose percepts showed the sequence complete, when completed.
     pub completed_tick: Option<u64>,
-    /// Wall-clock milliseconds.
+    /// Wall-clock milliseconds from the match's first tick to its end, as in its result; 0
+    /// for a match that could not run.
     pub wall_ms: u64,
     /// Blocks delivered in order.
     pub good_drops: u32,

@@ -4,20 +4,22 @@
 use std::collections::BTreeSet;
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, mpsc};
 use std::time::{Duration, Instant};
 
 use bw4t_map::Map;
 use bw4t_protocol::MatchResult;
 use bw4t_sim::MatchConfig;
+use serde::Deserialize;
 use serde_json::{Value, json};
 
 use super::config::{Planned, Resolved, seats};
 use super::row::Row;
-use super::stats::{Summary, summarize};
+use super::stats::{MapLimit, Setup, Summary, summarize};
 use crate::external::{AgentReport, SeatSpec, ServedRun, play_served};
 use crate::headless::play_builtin;
+use crate::limit::TickLimit;
 
 /// Which replays to keep.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -56,6 +58,9 @@ pub struct Options {
     pub shard: Option<(u64, u64)>,
     /// How long external agents have to connect.
     pub connect_timeout: Duration,
+    /// Set (by a signal handler) to stop: no new match starts, matches of external agents
+    /// under way are interrupted and not recorded, so `--resume` plays them again.
+    pub stop: Arc<AtomicBool>,
 }
 
 /// Where a tournament stands, for progress displays.
@@ -88,6 +93,8 @@ pub struct Outcome {
     pub skipped: usize,
     /// The summary written.
     pub summary: Summary,
+    /// Whether the run was stopped before every match was played.
+    pub stopped: bool,
 }
 
 /// Why a tournament could not run.
@@ -159,8 +166,10 @@ pub fn run_tournament(
         previous_elapsed = old.get("elapsed_seconds").and_then(Value::as_f64).unwrap_or(0.0);
         rows = read_rows(&jsonl)?;
     }
+    let setup = setup(resolved, maps);
     let mut manifest = manifest;
     manifest["config"] = config;
+    manifest["setup"] = serde_json::to_value(&setup).map_err(|e| io("setup", e))?;
     manifest["shard"] = shard_value(options.shard);
     manifest["concurrency"] = json!(options.concurrency);
     manifest["replays"] = json!(options.replays.name());
@@ -173,7 +182,7 @@ pub fn run_tournament(
     let planned: Vec<Planned> = resolved
         .plan()
         .into_iter()
-        .filter(|p| options.shard.is_none_or(|(i, n)| p.index % n == i - 1))
+        .filter(|p| options.shard.is_none_or(|(i, n)| resolved.shard_of(p, n) == i - 1))
         .filter(|p| !done.contains(&p.key))
         .collect();
     let skipped = rows.len();
@@ -198,9 +207,12 @@ pub fn run_tournament(
         for _ in 0..options.concurrency.max(1).min(planned.len().max(1)) {
             let tx = tx.clone();
             let (planned, next) = (&planned, &next);
+            let limits = &setup.tick_limits;
             scope.spawn(move || {
-                while let Some(p) = planned.get(next.fetch_add(1, Ordering::SeqCst)) {
-                    if tx.send(play_one(resolved, maps, p, options)).is_err() {
+                while !options.stop.load(Ordering::SeqCst) {
+                    let Some(p) = planned.get(next.fetch_add(1, Ordering::SeqCst)) else { break };
+                    let max_ticks = limits[p.map].max_ticks;
+                    if tx.send(play_one(resolved, maps, p, max_ticks, options)).is_err() {
                         break;
                     }
                 }
@@ -208,6 +220,10 @@ pub fn run_tournament(
         }
         drop(tx);
         for (mut row, replay) in rx {
+            // A match cut short by a stop is played again on resume, so it leaves no row.
+            if options.stop.load(Ordering::SeqCst) && row.end_reason == "interrupted" {
+                continue;
+            }
             if let Some(bytes) = replay {
                 let keep = match options.replays {
                     ReplayPolicy::All => true,
@@ -242,8 +258,42 @@ pub fn run_tournament(
     let elapsed = previous_elapsed + started.elapsed().as_secs_f64();
     manifest["elapsed_seconds"] = json!(elapsed);
     write_json(&out.join("manifest.json"), &manifest)?;
-    let summary = write_summary(out, &rows, elapsed)?;
-    Ok(Outcome { rows, played: progress.played, skipped, summary })
+    let stopped = rows.len() < total;
+    let summary = write_summary(out, &rows, elapsed, setup)?;
+    Ok(Outcome { rows, played: progress.played, skipped, summary, stopped })
+}
+
+/// Each map's tick limit (the configuration's, or the map's own) and, when there are several
+/// seeds, the maps whose content ignores the match seed. `maps[i]` is `resolved.maps[i]` loaded.
+pub fn setup(resolved: &Resolved, maps: &[Map]) -> Setup {
+    let tick_limits = resolved
+        .maps
+        .iter()
+        .zip(maps)
+        .map(|(spec, map)| match resolved.max_ticks {
+            Some(max_ticks) => {
+                MapLimit { map: spec.clone(), max_ticks, from: "config".into(), explanation: None }
+            }
+            None => {
+                let limit = TickLimit::for_map(map, &MatchConfig::default());
+                MapLimit {
+                    map: spec.clone(),
+                    max_ticks: limit.ticks,
+                    from: "map".into(),
+                    explanation: Some(limit.explain()),
+                }
+            }
+        })
+        .collect();
+    // With one seed there is nothing to tell apart.
+    let fixed_content_maps = resolved
+        .maps
+        .iter()
+        .zip(maps)
+        .filter(|(_, map)| resolved.seeds.len() > 1 && map.seed().is_some())
+        .map(|(spec, _)| spec.clone())
+        .collect();
+    Setup { tick_limits, fixed_content_maps }
 }
 
 /// Joins shard directories into `out`: the union of their rows (one per match), with
@@ -291,12 +341,13 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Outcome, TournamentError> {
     manifest["elapsed_seconds"] = json!(elapsed);
     write_json(&out.join("manifest.json"), &manifest)?;
     rewrite_rows(out, &rows)?;
-    let summary = write_summary(out, &rows, elapsed)?;
-    Ok(Outcome { played: 0, skipped: rows.len(), rows, summary })
+    let setup = manifest.get("setup").and_then(|s| Setup::deserialize(s).ok()).unwrap_or_default();
+    let summary = write_summary(out, &rows, elapsed, setup)?;
+    Ok(Outcome { played: 0, skipped: rows.len(), rows, summary, stopped: false })
 }
 
-fn write_summary(out: &Path, rows: &[Row], elapsed: f64) -> Result<Summary, TournamentError> {
-    let summary = summarize(rows, elapsed);
+fn write_summary(out: &Path, rows: &[Row], elapsed: f64, setup: Setup) -> Result<Summary, TournamentError> {
+    let summary = summarize(rows, elapsed).with_setup(setup);
     let write = |name: &str, text: String| {
         std::fs::write(out.join(name), text).map_err(|e| io(format!("cannot write {name}"), e))
     };
@@ -414,10 +465,15 @@ fn file_safe(key: &str) -> String {
 }
 
 /// Plays one planned match; a match that cannot run becomes a row with end reason `error`.
-fn play_one(resolved: &Resolved, maps: &[Map], p: &Planned, options: &Options) -> (Row, Option<Vec<u8>>) {
+fn play_one(
+    resolved: &Resolved,
+    maps: &[Map],
+    p: &Planned,
+    max_ticks: u64,
+    options: &Options,
+) -> (Row, Option<Vec<u8>>) {
     let team = &resolved.teams[p.team];
     let map = &maps[p.map];
-    let started = Instant::now();
     let buffer = SharedBuffer::default();
     let want_replay = options.replays != ReplayPolicy::None;
     let played: Result<(MatchResult, Vec<AgentReport>), String> = seats(team).and_then(|seats| {
@@ -431,19 +487,19 @@ fn play_one(resolved: &Resolved, maps: &[Map], p: &Planned, options: &Options) -
                 game: MatchConfig::default(),
                 seed: p.seed,
                 seats,
-                max_ticks: resolved.max_ticks,
+                max_ticks,
                 deadline: (resolved.deadline_ms > 0).then(|| Duration::from_millis(resolved.deadline_ms)),
                 connect_timeout: options.connect_timeout,
                 log_dir: &log_dir,
                 replay,
+                stop: Some(options.stop.clone()),
             })
             .map_err(|e| e.to_string())
         } else {
             let replay = want_replay.then(|| Box::new(buffer.clone()) as Box<dyn Write + Send>);
-            play_builtin(map, p.seed, &seats, resolved.max_ticks, replay).map_err(|e| e.to_string())
+            play_builtin(map, p.seed, &seats, max_ticks, replay).map_err(|e| e.to_string())
         }
     });
-    let wall_ms = started.elapsed().as_millis() as u64;
     // A match that could not run is a row too, with end reason `error`.
     let mut row = Row {
         key: p.key.clone(),
@@ -456,7 +512,7 @@ fn play_one(resolved: &Resolved, maps: &[Map], p: &Planned, options: &Options) -
         completed: false,
         ticks: 0,
         completed_tick: None,
-        wall_ms,
+        wall_ms: 0,
         good_drops: 0,
         wrong_drops: 0,
         messages: 0,
@@ -471,6 +527,7 @@ fn play_one(resolved: &Resolved, maps: &[Map], p: &Planned, options: &Options) -
             row.completed = result.completed;
             row.ticks = result.ticks;
             row.completed_tick = result.completed_tick;
+            row.wall_ms = result.wall_ms;
             row.good_drops = result.good_drops;
             row.wrong_drops = result.wrong_drops;
             row.messages = result.messages;

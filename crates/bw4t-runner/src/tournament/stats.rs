@@ -9,7 +9,7 @@
 use std::collections::BTreeMap;
 
 use bw4t_map::SeededRng;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::row::Row;
 
@@ -204,6 +204,48 @@ pub struct TeamRank {
     pub ticks_mean: Option<f64>,
 }
 
+/// The tick limit matches on one map ran with.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct MapLimit {
+    /// The map, as in the rows.
+    pub map: String,
+    /// The last tick of its matches.
+    pub max_ticks: u64,
+    /// `config` when the configuration (or `--max-ticks`) gave it, `map` when derived from
+    /// the map (see `TickLimit`).
+    pub from: String,
+    /// For a derived limit, how it was found.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub explanation: Option<String>,
+}
+
+/// What the summary says about how the matches were set up, beside what the rows hold.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Setup {
+    /// Each map's tick limit.
+    pub tick_limits: Vec<MapLimit>,
+    /// Maps that fix their own seed: every match seed gives them the same blocks and
+    /// sequence, so a deterministic team plays the same match on each and its intervals
+    /// there have no width.
+    pub fixed_content_maps: Vec<String>,
+}
+
+impl Setup {
+    /// The warning for maps whose content ignores the match seed; none when there are none.
+    pub fn fixed_content_warning(&self) -> Option<String> {
+        if self.fixed_content_maps.is_empty() {
+            return None;
+        }
+        let names: Vec<String> = self.fixed_content_maps.iter().map(|m| format!("'{m}'")).collect();
+        let (them, fix) = if names.len() == 1 { ("map", "fixes its") } else { ("maps", "fix their") };
+        Some(format!(
+            "{them} {} {fix} own seed: every match seed gives the same blocks and sequence, so a \
+             deterministic team plays the same match on each, and its intervals there have no width",
+            names.join(", ")
+        ))
+    }
+}
+
 /// The summary of a tournament.
 #[derive(Clone, Debug, Serialize)]
 pub struct Summary {
@@ -229,6 +271,9 @@ pub struct Summary {
     pub ranking: Vec<TeamRank>,
     /// How the figures were computed.
     pub method: Method,
+    /// Tick limits and maps with fixed content (empty unless given with
+    /// [`Summary::with_setup`]).
+    pub setup: Setup,
 }
 
 impl Summary {
@@ -239,6 +284,12 @@ impl Summary {
         // than panic at the end of a long run.
         serde_json::to_value(self)
             .unwrap_or_else(|e| serde_json::json!({ "error": format!("summary not serialisable: {e}") }))
+    }
+
+    /// The summary with what is known of the set-up beside the rows.
+    pub fn with_setup(mut self, setup: Setup) -> Summary {
+        self.setup = setup;
+        self
     }
 
     /// The entry for `team` on `map`, if that team played that map.
@@ -301,6 +352,7 @@ pub fn summarize(rows: &[Row], wall_seconds: f64) -> Summary {
         pairs,
         ranking,
         method: Method::current(),
+        setup: Setup::default(),
     }
 }
 
