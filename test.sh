@@ -1,0 +1,166 @@
+#!/usr/bin/env bash
+# shellcheck disable=SC2015 # `A && B || C` here means "C unless both A and B succeed"
+# The one test command: every test of the project, from a fresh checkout.
+#
+#   ./test.sh
+#
+# Set-up first: checks the tools (a Rust toolchain, Python 3.9+, Node.js 20+, npm) and
+# installs what the suites need: pytest and the Python client into a virtualenv under
+# target/ (the system's Python is left alone), the browser tests' npm packages, and
+# Debian's Chromium (through apt-get, as root or with sudo that needs no password). What
+# it cannot install it names, in one line, with how to get it, and stops.
+# Then: the release binary, the Rust tests, the Python and JavaScript client suites and the
+# browser tests, all against that binary. A failing stage does not stop the later ones;
+# the exit status is 0 only when every stage passed.
+#
+# BW4T_ORIGINAL_MAPS=DIR also runs the Rust tests on the original BW4T map files in DIR
+# (without it they are listed as ignored). Runs unattended (CI=true, no input).
+set -euo pipefail
+
+# Resolve the original maps folder against the caller's directory, before moving.
+original_maps=${BW4T_ORIGINAL_MAPS:-}
+if [ -n "$original_maps" ]; then
+    if [ ! -d "$original_maps" ]; then
+        echo "test.sh: BW4T_ORIGINAL_MAPS=$original_maps is not a folder (it must name the folder of the original BW4T map files)" >&2
+        exit 2
+    fi
+    original_maps=$(cd "$original_maps" && pwd)
+fi
+
+cd "$(dirname "$0")"
+root=$PWD
+target=${CARGO_TARGET_DIR:-target}
+case $target in /*) ;; *) target=$root/$target ;; esac
+
+started=$SECONDS
+stage_started=$SECONDS
+heading() {
+    printf '\n==> %s\n' "$*"
+    stage_started=$SECONDS
+}
+took() { printf '    (%d s)\n' $((SECONDS - stage_started)); }
+# What is missing and how to get it, in one line; then stop.
+missing() {
+    echo "test.sh: missing $*" >&2
+    exit 2
+}
+# Root runs apt-get itself; anyone else needs sudo that asks for no password.
+as_root() {
+    if [ "$(id -u)" = 0 ]; then
+        "$@"
+    elif command -v sudo >/dev/null && sudo -n true 2>/dev/null; then
+        sudo "$@"
+    else
+        return 1
+    fi
+}
+apt_log=$target/test-apt.log
+apt_install() {
+    command -v apt-get >/dev/null || return 1
+    mkdir -p "$target"
+    {
+        as_root env DEBIAN_FRONTEND=noninteractive apt-get update -qq &&
+            as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "$@"
+    } >"$apt_log" 2>&1
+}
+
+heading "Set-up: tools and test dependencies"
+command -v cargo >/dev/null ||
+    missing "cargo: install a Rust toolchain (1.87 or newer) from https://rustup.rs"
+command -v python3 >/dev/null && python3 -c 'import sys; sys.exit(sys.version_info < (3, 9))' ||
+    missing "Python 3.9 or newer as python3: apt-get install python3 python3-venv (or https://www.python.org)"
+command -v node >/dev/null && node -e 'process.exit(Number(process.versions.node.split(".")[0]) >= 20 ? 0 : 1)' ||
+    missing "Node.js 20 or newer as node: https://nodejs.org (or apt-get install nodejs npm on Debian 13)"
+command -v npm >/dev/null || missing "npm (it comes with Node.js): apt-get install npm, or https://nodejs.org"
+
+# Python: pytest and the client (installed, so its packaging is tested too) in a virtualenv.
+venv=$target/test-venv
+python=$venv/bin/python
+# A virtualenv left by a Python that is gone is made anew.
+[ -x "$python" ] && "$python" -c '' 2>/dev/null || rm -rf "$venv"
+if [ ! -x "$python" ]; then
+    mkdir -p "$target"
+    if ! python3 -m venv "$venv" >/dev/null 2>&1; then
+        rm -rf "$venv"
+        # Debian keeps venv in its own package.
+        apt_install python3-venv && python3 -m venv "$venv" >/dev/null 2>&1 || rm -rf "$venv"
+    fi
+fi
+pip_log=$target/test-pip.log
+if [ -x "$python" ]; then
+    pip=("$python" -m pip install --quiet --disable-pip-version-check --no-input)
+    # The client is reinstalled every time, built offline with the virtualenv's setuptools.
+    if ! { "${pip[@]}" pytest 'setuptools>=61' wheel &&
+        "${pip[@]}" --no-deps --force-reinstall --no-build-isolation ./protocol/clients/python; } \
+        >"$pip_log" 2>&1; then
+        missing "pytest or the Python client in $venv: pip could not install them from PyPI (see $pip_log)"
+    fi
+    echo "    Python: $("$python" --version), pytest and the client in $venv"
+elif python3 -c 'import pytest' 2>/dev/null; then
+    # No virtualenv here: the system's pytest, with the client from its source folder.
+    python=python3
+    echo "    Python: no virtualenv could be made; using $(python3 --version) with its own pytest"
+else
+    missing "python3 -m venv (apt-get install python3-venv) or pytest (python3 -m pip install pytest)"
+fi
+
+# Browser tests: Debian's Chromium (where the tests look for it) and playwright-core.
+chromium=/usr/bin/chromium
+if [ ! -x "$chromium" ]; then
+    echo "    installing Debian's chromium (apt-get)"
+    apt_install chromium && [ -x "$chromium" ] ||
+        missing "Chromium at $chromium: sudo apt-get install chromium (Debian's package; this try's output is in $apt_log)"
+fi
+echo "    Chromium: $("$chromium" --version 2>/dev/null || echo "$chromium")"
+browser=tests/browser
+if [ ! "$browser/node_modules/.package-lock.json" -nt "$browser/package-lock.json" ]; then
+    (cd "$browser" && PLAYWRIGHT_SKIP_BROWSER_DOWNLOAD=1 npm ci --no-audit --no-fund --silent) ||
+        missing "the browser tests' npm packages: (cd $browser && npm ci) failed; the npm registry must be reachable"
+fi
+echo "    Node.js $(node --version), playwright-core in $browser/node_modules"
+took
+
+heading "Build the release binary: cargo build --release --locked"
+cargo build --release --locked
+export BW4T_BIN=$target/release/bw4t
+took
+
+passed=()
+failed=()
+# Runs one test stage; a failure is recorded and the next stage still runs.
+stage() {
+    local name=$1
+    shift
+    if "$@"; then passed+=("$name"); else failed+=("$name"); fi
+    took
+}
+
+heading "Rust tests: cargo test --workspace --locked"
+stage rust cargo test --workspace --locked
+
+if [ -n "$original_maps" ]; then
+    heading "Rust tests on the original BW4T maps in $original_maps"
+    stage original-maps env BW4T_ORIGINAL_MAPS="$original_maps" \
+        cargo test --locked --test main -- --ignored original_maps::
+else
+    heading "Rust tests on the original BW4T maps: skipped"
+    echo "    BW4T_ORIGINAL_MAPS is not set; the original_maps:: tests above are listed as ignored."
+    echo "    Set it to the folder of the original BW4T map files to run them."
+fi
+
+heading "Python client: pytest (protocol/clients/python)"
+# shellcheck disable=SC2016 # $1 is expanded by the inner shell
+stage python bash -c 'cd protocol/clients/python && "$1" -m pytest -q' _ "$python"
+
+heading "JavaScript client: node --test protocol/clients/js/test/"
+stage javascript node --test protocol/clients/js/test/
+
+heading "Browser tests: node --test tests/browser/ (screenshots in test-output/browser/)"
+stage browser node --test "$browser/"
+
+printf '\n==> Done in %d s\n' $((SECONDS - started))
+if [ ${#passed[@]} -gt 0 ]; then echo "    passed: ${passed[*]}"; fi
+if [ ${#failed[@]} -gt 0 ]; then
+    echo "    FAILED: ${failed[*]}"
+    exit 1
+fi
