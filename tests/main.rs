@@ -27,6 +27,9 @@ mod server;
 /// The match host over TCP: roles and tokens, seats, join/leave churn, lockstep timing.
 mod host;
 
+/// The match host on a simulated clock, without sockets: pacing, deadlines, grace, slow readers.
+mod host_clock;
+
 /// The conformance suite: example transcripts replayed against the server.
 mod conformance;
 

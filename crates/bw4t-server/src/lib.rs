@@ -1,8 +1,9 @@
 //! The BW4T match server: every TCP client gets a robot, sends JSON-lines actions and
 //! receives percept deltas each tick.
 //!
-//! One task owns the match ([`host`]); each connection has a reader and a writer task
-//! that talk to it through bounded channels ([`connection`]). The caller binds the
+//! One task owns the match: a sans-IO [`host::MatchHost`] run by its tokio driver; each
+//! connection has a reader and a writer task that talk to it through bounded channels
+//! ([`connection`]). The caller binds the
 //! listener and supplies the shutdown signal, so tests bind `127.0.0.1:0`.
 
 mod connection;
@@ -10,7 +11,8 @@ mod host;
 mod http;
 mod websocket;
 
-pub use connection::{LISTEN_BACKLOG, listen};
+pub use connection::{ConnId, LISTEN_BACKLOG, listen};
+pub use host::{HostEvent, MatchHost, QueueRoom, Transmit};
 pub use http::{FrameSource, MAX_REQUESTS, Site, serve_site};
 pub use websocket::parse_origin;
 
@@ -177,9 +179,11 @@ pub async fn serve_with(
     mut extras: Extras,
     shutdown: impl Future<Output = ()>,
 ) -> Result<MatchResult, ServerError> {
-    let (events_tx, events_rx) = mpsc::channel(host::EVENT_QUEUE);
+    let (events_tx, events_rx) = mpsc::channel(host::driver::EVENT_QUEUE);
     let http = extras.http.take();
-    let host = host::Host::new(config.clone(), events_rx, extras)?;
+    let replay = extras.replay.take().map(|out| (out, std::mem::take(&mut extras.program)));
+    let seats = std::mem::take(&mut extras.seats);
+    let host = host::MatchHost::new(config.clone(), seats, replay, std::time::Instant::now())?;
     let ids = Arc::new(AtomicU64::new(1));
     let site = http.map(|listener| {
         let site = Arc::new(Site {
@@ -192,7 +196,7 @@ pub async fn serve_with(
         tokio::spawn(http::serve(listener, site, http::MAX_REQUESTS, Some(Arc::new(live))))
     });
     let acceptor = tokio::spawn(connection::accept_loop(listener, config, events_tx, ids));
-    let result = host.run(shutdown).await;
+    let result = host::driver::run(host, events_rx, extras.gone_seats.take(), shutdown).await;
     acceptor.abort();
     if let Some(site) = site {
         site.abort();

@@ -1,27 +1,30 @@
-//! The match task: the one owner of the match. It admits players (at most `robots`),
-//! spectators and the operator, each with its own token, buffers actions until the next
-//! tick boundary, paces ticks (realtime or lockstep) and sends every client what concerns
-//! it, never waiting on any client.
+//! The match host, sans-IO: the one owner of a served match. It admits players (at most
+//! `robots`), spectators and the operator ([`admission`]), buffers actions until the next
+//! tick boundary, paces ticks (realtime or lockstep), holds percepts back from clients that
+//! do not read, throttles spectator frames, records the replay and makes the result.
+//!
+//! It does no I/O and reads no clock: the driver ([`driver`]) hands it events and the
+//! time ([`MatchHost::handle_event`], [`MatchHost::handle_timeout`]), sends what it
+//! returns ([`MatchHost::poll_transmit`]) and wakes it when it asks
+//! ([`MatchHost::poll_timeout`]). Tests drive it on a simulated clock.
 
-use std::collections::{BTreeMap, BTreeSet};
-use std::future::Future;
+mod admission;
+pub mod driver;
+
+use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::sync::Arc;
+use std::time::{Duration, Instant};
 
 use bw4t_agents::Driver;
 use bw4t_protocol::{
-    Ack, ActId, ActResult, ClientMessage, Frame, FrameMessage, Hello, MatchEnd, MatchInfo, MatchResult, Mode,
-    Percepts, Role, ServerMessage, VERSION, Welcome, action_from_act, encode, percept_to_fact,
+    Ack, ActId, ActResult, ClientMessage, Frame, FrameMessage, MatchEnd, MatchResult, Mode, Percepts,
+    ServerMessage, action_from_act, encode, percept_to_fact,
 };
 use bw4t_protocol::{Recorder, ReplayEvent, RobotExtra};
 use bw4t_sim::{Accepted, Action, Match, OrderId, Receiver, Rejection, RobotId};
-use tokio::sync::{Notify, mpsc, watch};
-use tokio::time::{Duration, Instant};
 
-use crate::connection::{ConnId, Event, Opened, Outbound, bye_line, error_line};
-use crate::{Extras, Seat, ServerConfig};
-
-/// Capacity of the channel from connections to the match task.
-pub const EVENT_QUEUE: usize = 4096;
+use crate::connection::{ConnId, bye_line, error_line};
+use crate::{Seat, ServerConfig};
 
 /// Room kept in a client's queue for acks, results and errors: percepts are held back
 /// (and later replaced by a snapshot) when less than this is free.
@@ -30,17 +33,81 @@ const RESERVE: usize = 64;
 /// How many messages a spectator frame carries at most.
 const FRAME_MESSAGES: usize = 100;
 
-/// How long the end of a match waits for clients' queues to drain.
-const FLUSH_LIMIT: Duration = Duration::from_secs(2);
+/// How much room a connection's outgoing queue has left, in lines. The driver's queue
+/// answers for a real connection; a test sets it.
+pub trait QueueRoom: Send {
+    /// Lines that can still be queued.
+    fn free(&self) -> usize;
+}
 
-/// Ticks simulated back to back (lockstep, nobody awaited) before letting other tasks run.
-const YIELD_EVERY: u64 = 64;
+/// What the host is told.
+pub enum HostEvent {
+    /// A new connection.
+    Opened {
+        /// Its id, unique for the host's life.
+        conn: ConnId,
+        /// A gauge of its outgoing queue.
+        room: Box<dyn QueueRoom>,
+    },
+    /// A well-formed message (other than `ping`, which connections answer themselves).
+    Message {
+        /// The connection it came on.
+        conn: ConnId,
+        /// The message.
+        message: ClientMessage,
+    },
+    /// The connection sent a line that is not a valid message.
+    BadInput {
+        /// The connection.
+        conn: ConnId,
+    },
+    /// The connection is gone.
+    Closed {
+        /// The connection.
+        conn: ConnId,
+    },
+    /// The player of this reserved seat will not come (its process exited), so the match
+    /// need not wait for it to start.
+    SeatAbandoned {
+        /// The seat's player name.
+        name: String,
+    },
+}
+
+/// What the host asks the driver to do.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Transmit {
+    /// Queue one encoded line for the connection.
+    Line {
+        /// The connection.
+        conn: ConnId,
+        /// The line, with its newline.
+        line: Arc<str>,
+    },
+    /// Close the connection after the lines queued before.
+    Close {
+        /// The connection.
+        conn: ConnId,
+    },
+    /// Close the connection at once, queued lines or not (it does not read).
+    Kill {
+        /// The connection.
+        conn: ConnId,
+    },
+}
 
 struct Conn {
-    tx: mpsc::Sender<Outbound>,
-    kill: Arc<Notify>,
-    done: watch::Receiver<bool>,
+    room: Box<dyn QueueRoom>,
+    /// Lines handed to [`MatchHost::poll_transmit`]'s queue but not yet taken by the driver.
+    unsent: usize,
     role: ConnRole,
+}
+
+impl Conn {
+    /// Lines this connection's queue can still take.
+    fn free(&self) -> usize {
+        self.room.free().saturating_sub(self.unsent)
+    }
 }
 
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -62,7 +129,7 @@ enum Sight {
 
 /// Which percepts to send a player.
 #[derive(Clone, Copy, PartialEq, Eq)]
-enum Send {
+enum Delivery {
     /// A full snapshot.
     Snapshot,
     /// This tick's delta: sent if anything changed, after a `result`, or with `every_tick`.
@@ -123,77 +190,77 @@ impl Player {
     }
 }
 
-/// The match and everyone connected to it.
-pub struct Host {
+/// Where the match is in its life.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Phase {
+    /// Admitting players until enough have joined, or until the start timeout.
+    Waiting { start_by: Option<Instant> },
+    /// Ticking since the first tick was due; realtime ticks fall due at `next_tick`.
+    Playing { since: Instant, next_tick: Instant },
+}
+
+/// A served match and everyone connected to it, without I/O.
+pub struct MatchHost {
     config: ServerConfig,
     game: Match,
-    events: mpsc::Receiver<Event>,
     conns: BTreeMap<ConnId, Conn>,
     players: BTreeMap<RobotId, Player>,
     late: BTreeMap<RobotId, u64>,
+    phase: Phase,
+    /// The latest time the host was given.
+    now: Instant,
     tick_sent_at: Instant,
     last_frame: Option<Instant>,
     frame_messages: Vec<FrameMessage>,
     end: Option<&'static str>,
     sessions: u64,
-    /// Writers of closed connections that may still be flushing.
-    closing: Vec<watch::Receiver<bool>>,
+    outbox: VecDeque<Transmit>,
     recorder: Option<Recorder>,
-    /// Names of reserved seats whose player will not come (its process died).
-    gone_seats: Option<mpsc::Receiver<String>>,
+    /// Names of reserved seats whose player will not come.
     abandoned: BTreeSet<String>,
     /// Figures of players that left (errors, whether they ever connected), for the result.
     gone: BTreeMap<RobotId, (u64, bool)>,
 }
 
-impl Host {
-    /// A host for a new match; nothing runs until [`Host::run`].
+impl MatchHost {
+    /// A host for a new match created at `now`, with `seats` taken in robot-id order and
+    /// the replay, if any, written to `replay`.
     pub fn new(
         config: ServerConfig,
-        events: mpsc::Receiver<Event>,
-        extras: Extras,
-    ) -> Result<Host, crate::ServerError> {
-        let tokens = [
-            ("player", &config.token),
-            ("spectator", &config.spectator_token),
-            ("operator", &config.operator_token),
-        ];
-        for (i, (a, first)) in tokens.iter().enumerate() {
-            for (b, second) in &tokens[i + 1..] {
-                if first.is_some() && first == second {
-                    return Err(crate::ServerError::SameToken(a, b));
-                }
-            }
-        }
-        if extras.seats.len() > config.robots {
-            let message =
-                format!("{} seats, but the match admits {} players", extras.seats.len(), config.robots);
+        seats: Vec<Seat>,
+        replay: Option<(Box<dyn std::io::Write + Send>, String)>,
+        now: Instant,
+    ) -> Result<MatchHost, crate::ServerError> {
+        admission::check_tokens_differ(&config)?;
+        if seats.len() > config.robots {
+            let message = format!("{} seats, but the match admits {} players", seats.len(), config.robots);
             return Err(crate::ServerError::Seat(message));
         }
         let game = Match::new(&config.map, &config.game, config.seed)?;
-        let names = extras.seats.iter().map(|s| s.name().to_string()).collect();
-        let recorder = extras.replay.map(|out| {
-            Recorder::new(out, &game, &extras.program, names, crate::REPLAY_DIGEST_EVERY, config.max_ticks)
+        let names = seats.iter().map(|s| s.name().to_string()).collect();
+        let recorder = replay.map(|(out, program)| {
+            Recorder::new(out, &game, &program, names, crate::REPLAY_DIGEST_EVERY, config.max_ticks)
         });
-        let mut host = Host {
+        let start_by = config.start_timeout.map(|t| now + t);
+        let mut host = MatchHost {
             config,
             game,
-            events,
             conns: BTreeMap::new(),
             players: BTreeMap::new(),
             late: BTreeMap::new(),
-            tick_sent_at: Instant::now(),
+            phase: Phase::Waiting { start_by },
+            now,
+            tick_sent_at: now,
             last_frame: None,
             frame_messages: Vec::new(),
             end: None,
             sessions: 0,
-            closing: Vec::new(),
+            outbox: VecDeque::new(),
             recorder,
-            gone_seats: extras.gone_seats,
             abandoned: BTreeSet::new(),
             gone: BTreeMap::new(),
         };
-        for seat in extras.seats {
+        for seat in seats {
             let (name, local) = match seat {
                 Seat::Remote(name) => (name, None),
                 Seat::Local(name, agent) => (name, Some(agent)),
@@ -204,7 +271,186 @@ impl Host {
                 player.local = local.map(|agent| Driver::new(id, agent));
             }
         }
+        host.start_if_ready(now);
         Ok(host)
+    }
+
+    /// Takes in one event at `now`.
+    pub fn handle_event(&mut self, now: Instant, event: HostEvent) {
+        self.now = self.now.max(now);
+        match event {
+            HostEvent::Opened { conn, room } => {
+                self.conns.insert(conn, Conn { room, unsent: 0, role: ConnRole::New });
+            }
+            HostEvent::Closed { conn } => self.on_closed(conn),
+            HostEvent::BadInput { conn } => self.count_error(conn),
+            HostEvent::Message { conn, message } => self.on_message(conn, message),
+            HostEvent::SeatAbandoned { name } => {
+                self.abandoned.insert(name);
+            }
+        }
+        self.start_if_ready(self.now);
+    }
+
+    /// Does what has fallen due by `now`: the start timeout, expired grace periods, a
+    /// lockstep deadline, or one tick. The driver calls it when [`Self::poll_timeout`] is
+    /// reached; calling it early does nothing that was not due.
+    pub fn handle_timeout(&mut self, now: Instant) {
+        self.now = self.now.max(now);
+        let now = self.now;
+        if self.end.is_some() {
+            return;
+        }
+        self.expire_dropped();
+        match self.phase {
+            Phase::Waiting { start_by } => {
+                if start_by.is_some_and(|t| now >= t) {
+                    self.start(now);
+                }
+            }
+            Phase::Playing { since, next_tick } => match self.config.mode {
+                Mode::Realtime if now >= next_tick => {
+                    // Ticks missed while the host was late are skipped, not made up.
+                    let period = self.tick_period();
+                    let mut next = next_tick + period;
+                    while next <= now {
+                        next += period;
+                    }
+                    self.phase = Phase::Playing { since, next_tick: next };
+                    self.advance();
+                }
+                Mode::Realtime => {}
+                Mode::Lockstep if self.awaiting_anyone() => {
+                    if self.deadline().is_some_and(|d| now >= d) {
+                        self.mark_late();
+                    }
+                }
+                Mode::Lockstep if self.paused() => {}
+                Mode::Lockstep => self.advance(),
+            },
+        }
+    }
+
+    /// The next thing to send, if any.
+    pub fn poll_transmit(&mut self) -> Option<Transmit> {
+        let transmit = self.outbox.pop_front()?;
+        if let Transmit::Line { conn, .. } = &transmit {
+            if let Some(c) = self.conns.get_mut(conn) {
+                c.unsent = c.unsent.saturating_sub(1);
+            }
+        }
+        Some(transmit)
+    }
+
+    /// When [`Self::handle_timeout`] is next due: `None` while only an event can move the
+    /// match on. In lockstep with nobody awaited, the next tick is due at once.
+    pub fn poll_timeout(&self) -> Option<Instant> {
+        if self.end.is_some() {
+            return None;
+        }
+        let expiry = self.players.values().filter_map(|p| p.dropped_at).min().map(|t| t + self.config.grace);
+        let pacing = match self.phase {
+            Phase::Waiting { start_by } => start_by,
+            Phase::Playing { next_tick, .. } => match self.config.mode {
+                Mode::Realtime => Some(next_tick),
+                Mode::Lockstep if self.awaiting_anyone() => self.deadline(),
+                Mode::Lockstep if self.paused() => None,
+                Mode::Lockstep => Some(self.now),
+            },
+        };
+        match (expiry, pacing) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        }
+    }
+
+    /// Whether the match has ended; [`Self::finish`] then gives its result.
+    pub fn is_over(&self) -> bool {
+        self.end.is_some()
+    }
+
+    /// Ends the match now (the server is stopping).
+    pub fn interrupt(&mut self) {
+        self.end.get_or_insert("interrupted");
+    }
+
+    /// The current tick.
+    pub fn tick(&self) -> u64 {
+        self.game.tick()
+    }
+
+    /// Ends the match at `now` (if it has not ended), records the end, queues `match_end`
+    /// and `bye` for every client and closes every connection; returns the result.
+    pub fn finish(&mut self, now: Instant) -> MatchResult {
+        self.now = self.now.max(now);
+        let reason = *self.end.get_or_insert("interrupted");
+        // `wall_ms` counts from the first tick: waiting for players is not playing.
+        let wall_ms = match self.phase {
+            Phase::Playing { since, .. } => self.now.saturating_duration_since(since).as_millis() as u64,
+            Phase::Waiting { .. } => 0,
+        };
+        let extra = |id: RobotId| {
+            let (errors, connected) = match self.players.get(&id) {
+                Some(p) => (p.errors, p.connected_ever || p.local.is_some()),
+                None => self.gone.get(&id).copied().unwrap_or((0, false)),
+            };
+            RobotExtra { late_ticks: self.late.get(&id).copied().unwrap_or(0), errors, connected }
+        };
+        let result = MatchResult::of(&self.game, Some(self.config.mode), reason, wall_ms, extra);
+        if let Some(recorder) = self.recorder.take() {
+            // A replay that cannot be written must not cost the match its result.
+            let _ = recorder.finish(&self.game, reason);
+        }
+        let end =
+            encode(&ServerMessage::MatchEnd(MatchEnd { reason: reason.into(), result: result.clone() }));
+        let end: Arc<str> = end.into();
+        let conns: Vec<ConnId> = self.conns.keys().copied().collect();
+        for conn in conns {
+            if matches!(
+                self.conns.get(&conn).map(|c| c.role),
+                Some(ConnRole::Agent(_) | ConnRole::Watcher(_))
+            ) {
+                self.send_line(conn, end.clone());
+            }
+            self.disconnect(conn, "match_over", "");
+        }
+        result
+    }
+
+    fn tick_period(&self) -> Duration {
+        Duration::from_secs_f64(1.0 / f64::from(self.config.game.ticks_per_second))
+    }
+
+    /// The lockstep deadline of the current tick.
+    fn deadline(&self) -> Option<Instant> {
+        self.config.deadline.map(|d| self.tick_sent_at + d)
+    }
+
+    fn awaiting_anyone(&self) -> bool {
+        self.players.values().any(|p| p.awaiting)
+    }
+
+    /// Lockstep with no player connected: there is no one to play for, so wait.
+    fn paused(&self) -> bool {
+        self.config.pause_when_empty && self.connected_players() == 0
+    }
+
+    fn connected_players(&self) -> usize {
+        self.players.values().filter(|p| p.conn.is_some() || p.local.is_some()).count()
+    }
+
+    fn start_if_ready(&mut self, now: Instant) {
+        let enough = self.connected_players() + self.abandoned.len() >= self.config.robots;
+        if self.end.is_none() && matches!(self.phase, Phase::Waiting { .. }) && enough {
+            self.start(now);
+        }
+    }
+
+    /// The first tick is due: in-process agents decide on what they were told at joining.
+    fn start(&mut self, now: Instant) {
+        self.observe_locals();
+        self.tick_sent_at = now;
+        self.phase = Phase::Playing { since: now, next_tick: now + self.tick_period() };
     }
 
     fn record(&mut self, event: ReplayEvent) {
@@ -212,107 +458,6 @@ impl Host {
         if let Some(r) = self.recorder.as_mut() {
             r.event(tick, event);
         }
-    }
-
-    /// Runs the match to its end and returns the result.
-    pub async fn run(mut self, shutdown: impl Future<Output = ()>) -> MatchResult {
-        let started = Instant::now();
-        tokio::pin!(shutdown);
-        // Before the first tick: admit players until enough have joined.
-        let start_by = self.config.start_timeout.map(|t| started + t);
-        while self.end.is_none()
-            && self.connected_players() + self.abandoned.len() < self.config.robots
-            && start_by.is_none_or(|t| Instant::now() < t)
-        {
-            tokio::select! {
-                () = &mut shutdown => self.end = Some("interrupted"),
-                event = self.events.recv() => self.on_event(event),
-                Some(name) = recv_opt(&mut self.gone_seats) => {
-                    self.abandoned.insert(name);
-                }
-                () = tokio::time::sleep(Duration::from_millis(100)) => self.expire_dropped(),
-            }
-        }
-        // `wall_ms` counts from the first tick: waiting for players is not playing.
-        let mut playing_since = None;
-        if self.end.is_none() {
-            self.observe_locals();
-            self.tick_sent_at = Instant::now();
-            playing_since = Some(self.tick_sent_at);
-            match self.config.mode {
-                Mode::Realtime => self.run_realtime(&mut shutdown).await,
-                Mode::Lockstep => self.run_lockstep(&mut shutdown).await,
-            }
-        }
-        self.finish(playing_since).await
-    }
-
-    async fn run_realtime(&mut self, shutdown: &mut std::pin::Pin<&mut impl Future<Output = ()>>) {
-        let period = Duration::from_secs_f64(1.0 / f64::from(self.config.game.ticks_per_second));
-        let mut ticks = tokio::time::interval_at(Instant::now() + period, period);
-        ticks.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
-        while self.end.is_none() {
-            tokio::select! {
-                biased;
-                () = &mut *shutdown => self.end = Some("interrupted"),
-                _ = ticks.tick() => self.advance(),
-                event = self.events.recv() => self.on_event(event),
-            }
-        }
-    }
-
-    async fn run_lockstep(&mut self, shutdown: &mut std::pin::Pin<&mut impl Future<Output = ()>>) {
-        let mut back_to_back = 0u64;
-        while self.end.is_none() {
-            let deadline = self.config.deadline.map(|d| self.tick_sent_at + d);
-            while self.end.is_none() && self.players.values().any(|p| p.awaiting) {
-                back_to_back = 0;
-                tokio::select! {
-                    biased;
-                    () = &mut *shutdown => self.end = Some("interrupted"),
-                    event = self.events.recv() => self.on_event(event),
-                    () = sleep_until_opt(deadline) => self.mark_late(),
-                }
-            }
-            // Take in what has arrived, without waiting for anyone.
-            while let Ok(event) = self.events.try_recv() {
-                self.on_event(Some(event));
-            }
-            if self.end.is_some() {
-                break;
-            }
-            // A player that joined or resynced just now was sent this tick: wait for it too.
-            if self.players.values().any(|p| p.awaiting) {
-                continue;
-            }
-            // With no player connected there is no one to play for: wait instead of spinning.
-            if self.config.pause_when_empty && self.connected_players() == 0 {
-                tokio::select! {
-                    () = &mut *shutdown => self.end = Some("interrupted"),
-                    event = self.events.recv() => self.on_event(event),
-                    () = tokio::time::sleep(Duration::from_millis(250)) => self.expire_dropped(),
-                }
-                continue;
-            }
-            // A stop request must be seen even while nobody is awaited and no event comes.
-            tokio::select! {
-                biased;
-                () = &mut *shutdown => self.end = Some("interrupted"),
-                () = std::future::ready(()) => {}
-            }
-            if self.end.is_some() {
-                break;
-            }
-            self.advance();
-            back_to_back += 1;
-            if back_to_back.is_multiple_of(YIELD_EVERY) {
-                tokio::task::yield_now().await;
-            }
-        }
-    }
-
-    fn connected_players(&self) -> usize {
-        self.players.values().filter(|p| p.conn.is_some() || p.local.is_some()).count()
     }
 
     /// In-process agents see what they were told and decide; their actions wait for the
@@ -395,9 +540,9 @@ impl Host {
                 self.send(conn, &result);
             }
         }
-        self.tick_sent_at = Instant::now();
+        self.tick_sent_at = self.now;
         for id in ids {
-            self.send_percepts(id, Send::Tick);
+            self.send_percepts(id, Delivery::Tick);
         }
         self.observe_locals();
         self.send_frames(false);
@@ -460,23 +605,24 @@ impl Host {
     }
 
     /// Sends a player what it has not been told. Returns whether anything was sent.
-    fn send_percepts(&mut self, id: RobotId, what: Send) -> bool {
+    fn send_percepts(&mut self, id: RobotId, what: Delivery) -> bool {
+        let now = self.now;
         let Some(player) = self.players.get_mut(&id) else { return false };
         let Some(conn_id) = player.conn else { return false };
         let Some(conn) = self.conns.get(&conn_id) else { return false };
-        if conn.tx.capacity() < RESERVE {
+        if conn.free() < RESERVE {
             // Not reading: hold percepts back; the next ones sent will be a full snapshot.
             // Nothing sent, nothing to answer: lockstep does not wait for it.
             player.needs_snapshot = true;
             player.awaiting = false;
-            let since = *player.full_since.get_or_insert_with(Instant::now);
-            if since.elapsed() > self.config.slow_limit {
+            let since = *player.full_since.get_or_insert(now);
+            if now.saturating_duration_since(since) > self.config.slow_limit {
                 self.disconnect(conn_id, "too_slow", "the client did not read its messages");
             }
             return false;
         }
         player.full_since = None;
-        let full = what == Send::Snapshot || std::mem::take(&mut player.needs_snapshot);
+        let full = what == Delivery::Snapshot || std::mem::take(&mut player.needs_snapshot);
         let delta = if full { self.game.snapshot(id) } else { self.game.poll_percepts(id) };
         let Some(delta) = delta else { return false };
         // A tick's messages to a player always end with its `percepts`, even an empty one
@@ -495,6 +641,7 @@ impl Host {
         true
     }
 
+    /// Sends watchers a frame, at most `spectator_hz` a second unless `force`d.
     fn send_frames(&mut self, force: bool) {
         let watchers: Vec<(ConnId, Sight)> = self
             .conns
@@ -509,10 +656,12 @@ impl Host {
         }
         let interval = Duration::from_secs_f64(1.0 / f64::from(self.config.spectator_hz.max(1)));
         // Ticks come with some jitter: allow a frame a little early rather than skip one.
-        if !force && self.last_frame.is_some_and(|t| t.elapsed() < interval.mul_f64(0.8)) {
+        let recent =
+            self.last_frame.is_some_and(|t| self.now.saturating_duration_since(t) < interval.mul_f64(0.8));
+        if !force && recent {
             return;
         }
-        self.last_frame = Some(Instant::now());
+        self.last_frame = Some(self.now);
         let mut frame = Frame::of(&self.game, std::mem::take(&mut self.frame_messages));
         let wanted = |sight| watchers.iter().any(|w| w.1 == sight);
         let line = |frame: &Frame| -> Arc<str> { encode(&ServerMessage::Frame(frame.clone())).into() };
@@ -524,23 +673,10 @@ impl Host {
             let line = if sight == Sight::Everything { &everything } else { &public };
             // Frames are whole states: one a spectator misses is replaced by the next.
             if let (Some(c), Some(line)) = (self.conns.get(&conn), line) {
-                if c.tx.capacity() > RESERVE {
-                    let _ = c.tx.try_send(Outbound::Line(line.clone()));
+                if c.free() > RESERVE {
+                    self.send_line(conn, line.clone());
                 }
             }
-        }
-    }
-
-    fn on_event(&mut self, event: Option<Event>) {
-        match event {
-            // Every sender is gone only when the acceptor has stopped; end the match.
-            None => self.end = Some("interrupted"),
-            Some(Event::Opened(Opened { conn, tx, kill, done })) => {
-                self.conns.insert(conn, Conn { tx, kill, done, role: ConnRole::New });
-            }
-            Some(Event::Closed { conn }) => self.on_closed(conn),
-            Some(Event::BadInput { conn }) => self.count_error(conn),
-            Some(Event::Message { conn, message }) => self.on_message(conn, message),
         }
     }
 
@@ -554,15 +690,12 @@ impl Host {
 
     fn on_closed(&mut self, conn: ConnId) {
         let Some(closed) = self.conns.remove(&conn) else { return };
-        // The end of the match waits for this writer too, so nothing queued is cut off.
-        self.closing.retain(|done| !*done.borrow());
-        self.closing.push(closed.done);
         if let ConnRole::Agent(id) = closed.role {
             if let Some(player) = self.players.get_mut(&id) {
                 if player.conn == Some(conn) {
                     // The robot stands still (holding what it holds) until its player returns.
                     player.conn = None;
-                    player.dropped_at = Some(Instant::now());
+                    player.dropped_at = Some(self.now);
                     player.awaiting = false;
                     player.orders.clear();
                     player.pending = vec![Pending::Stop];
@@ -609,7 +742,7 @@ impl Host {
                 }
             }
             ClientMessage::Resync(_) => {
-                self.send_percepts(robot, Send::Snapshot);
+                self.send_percepts(robot, Delivery::Snapshot);
             }
             ClientMessage::Bye(_) => {
                 self.remove_player(robot);
@@ -636,153 +769,6 @@ impl Host {
         self.send(conn, &ServerMessage::Ack(ack));
     }
 
-    fn on_hello(&mut self, conn: ConnId, role: ConnRole, hello: &Hello) {
-        if role != ConnRole::New {
-            return self.error(conn, "already_joined", "this connection has already said hello", false);
-        }
-        if hello.protocol != bw4t_protocol::PROTOCOL {
-            let message = format!("unknown protocol '{}' (this server speaks 'bw4t')", hello.protocol);
-            return self.error(conn, "bad_protocol", &message, true);
-        }
-        if !hello.versions.contains(&VERSION) {
-            let message = format!("no common protocol version (this server speaks {VERSION})");
-            return self.error(conn, "unsupported_version", &message, true);
-        }
-        if let Err(message) = self.check_token(hello) {
-            return self.error(conn, "bad_token", message, true);
-        }
-        let sight = match hello.role {
-            Role::Agent => None,
-            Role::Spectator if !self.config.spectators_see_private => Some(Sight::Public),
-            Role::Spectator | Role::Operator => Some(Sight::Everything),
-        };
-        if let Some(sight) = sight {
-            if let Some(c) = self.conns.get_mut(&conn) {
-                c.role = ConnRole::Watcher(sight);
-            }
-            self.welcome(conn, None, false, Some(sight == Sight::Everything));
-            return self.send_frames(true);
-        }
-        let every_tick = self.config.every_tick || hello.every_tick;
-        let robot = match &hello.session {
-            Some(session) => {
-                let found = self.players.iter().find(|(_, p)| &p.session == session).map(|(id, _)| *id);
-                let Some(id) = found else {
-                    return self.error(conn, "bad_session", "unknown or expired session", true);
-                };
-                if let Some(old) = self.players.get(&id).and_then(|p| p.conn) {
-                    self.disconnect(old, "replaced", "the session was taken up by a new connection");
-                }
-                id
-            }
-            None => {
-                let seat = self
-                    .players
-                    .iter()
-                    .find(|(_, p)| {
-                        p.reserved && p.conn.is_none() && Some(p.name.as_str()) == hello.name.as_deref()
-                    })
-                    .map(|(id, _)| *id);
-                match seat {
-                    Some(id) => id,
-                    None => match self.join(hello.name.as_deref()) {
-                        Ok(id) => id,
-                        Err((code, message)) => return self.error(conn, code, &message, true),
-                    },
-                }
-            }
-        };
-        if let Some(player) = self.players.get_mut(&robot) {
-            player.conn = Some(conn);
-            player.connected_ever = true;
-            player.late_in_row = 0;
-            player.dropped_at = None;
-            player.every_tick = every_tick;
-            player.full_since = None;
-        }
-        if let Some(c) = self.conns.get_mut(&conn) {
-            c.role = ConnRole::Agent(robot);
-        }
-        self.welcome(conn, Some(robot), every_tick, None);
-        self.send_percepts(robot, Send::Snapshot);
-    }
-
-    /// Checks the credential of the role `hello` asks for; the error says what is missing.
-    fn check_token(&self, hello: &Hello) -> Result<(), &'static str> {
-        let presents = |secret: &Option<String>| matches!((secret, &hello.token), (Some(s), Some(t)) if same_secret(t, s));
-        let config = &self.config;
-        match hello.role {
-            Role::Agent if config.token.is_none() || presents(&config.token) => Ok(()),
-            Role::Agent => Err("wrong or missing player token"),
-            // A local match (no player or spectator token) is open to watch.
-            Role::Spectator if config.token.is_none() && config.spectator_token.is_none() => Ok(()),
-            Role::Spectator if presents(&config.spectator_token) || presents(&config.operator_token) => {
-                Ok(())
-            }
-            Role::Spectator => Err("watching this match needs the spectator token"),
-            Role::Operator if presents(&config.operator_token) => Ok(()),
-            Role::Operator if config.operator_token.is_none() => Err("this server has no operator token"),
-            Role::Operator => Err("wrong or missing operator token"),
-        }
-    }
-
-    fn join(&mut self, name: Option<&str>) -> Result<RobotId, (&'static str, String)> {
-        let name = match name {
-            Some(n) => n.to_string(),
-            None => (1..)
-                .map(|i| format!("Player{i}"))
-                .find(|n| self.players.values().all(|p| &p.name != n))
-                .unwrap_or_default(),
-        };
-        let refusal = |e: bw4t_sim::JoinError| {
-            let code = match e {
-                bw4t_sim::JoinError::InvalidName(_) => "invalid_name",
-                bw4t_sim::JoinError::NameTaken(_) => "name_taken",
-                bw4t_sim::JoinError::Full(_) => "match_full",
-            };
-            (code, e.to_string())
-        };
-        self.game.check_name(&name).map_err(refusal)?;
-        // Every player in the match holds a seat: connected, reserved, or dropped and
-        // within its grace period.
-        let seats = self.config.robots;
-        if self.players.len() >= seats {
-            return Err(("match_full", format!("the match is full: it admits {seats} players")));
-        }
-        let id = self.game.join(&name).map_err(refusal)?;
-        self.record(ReplayEvent::Join { name: name.clone(), robot: id.0 });
-        // The id may have been another robot's: its figures belong to that one.
-        self.late.remove(&id);
-        self.gone.remove(&id);
-        self.sessions += 1;
-        let session = format!("{:016x}{:08x}", session_entropy(), self.sessions);
-        self.players.insert(id, Player::new(name, session));
-        Ok(id)
-    }
-
-    fn welcome(&mut self, conn: ConnId, robot: Option<RobotId>, every_tick: bool, private: Option<bool>) {
-        let player = robot.and_then(|r| self.players.get(&r));
-        let welcome = Welcome {
-            version: VERSION,
-            name: player.map(|p| p.name.clone()),
-            robot: robot.map(|r| r.0),
-            session: player.map(|p| p.session.clone()),
-            private_messages: private,
-            match_info: MatchInfo {
-                map: self.game.map().name().to_string(),
-                seed: self.config.seed,
-                mode: self.config.mode,
-                tick_hz: self.config.game.ticks_per_second,
-                deadline_ms: (self.config.mode == Mode::Lockstep)
-                    .then(|| self.config.deadline.map_or(0, |d| d.as_millis() as u64)),
-                players_needed: self.config.robots,
-                max_ticks: self.config.max_ticks,
-                every_tick,
-            },
-        };
-        self.send(conn, &ServerMessage::Welcome(welcome));
-    }
-
     /// Takes a player's robot out of the match, keeping its figures for the result.
     fn remove_player(&mut self, id: RobotId) {
         if let Some(player) = self.players.remove(&id) {
@@ -795,11 +781,13 @@ impl Host {
 
     /// Robots whose players stayed away longer than the grace period leave the match.
     fn expire_dropped(&mut self) {
-        let grace = self.config.grace;
+        let (grace, now) = (self.config.grace, self.now);
         let expired: Vec<RobotId> = self
             .players
             .iter()
-            .filter(|(_, p)| p.conn.is_none() && p.dropped_at.is_some_and(|t| t.elapsed() >= grace))
+            .filter(|(_, p)| {
+                p.conn.is_none() && p.dropped_at.is_some_and(|t| now.saturating_duration_since(t) >= grace)
+            })
             .map(|(id, _)| *id)
             .collect();
         for id in expired {
@@ -812,12 +800,15 @@ impl Host {
     }
 
     fn send_line(&mut self, conn: ConnId, line: Arc<str>) {
-        let Some(c) = self.conns.get(&conn) else { return };
-        if c.tx.try_send(Outbound::Line(line)).is_err() {
+        let Some(c) = self.conns.get_mut(&conn) else { return };
+        if c.free() == 0 {
             // Even the room kept for replies is used up: the client cannot keep up.
-            c.kill.notify_one();
+            self.outbox.push_back(Transmit::Kill { conn });
             self.on_closed(conn);
+            return;
         }
+        c.unsent += 1;
+        self.outbox.push_back(Transmit::Line { conn, line });
     }
 
     fn error(&mut self, conn: ConnId, code: &str, message: &str, fatal: bool) {
@@ -833,77 +824,9 @@ impl Host {
             self.send_line(conn, error_line(reason, message, true));
         }
         self.send_line(conn, bye_line(reason));
-        if let Some(c) = self.conns.get(&conn) {
-            if c.tx.try_send(Outbound::Close).is_err() {
-                c.kill.notify_one();
-            }
+        if self.conns.contains_key(&conn) {
+            self.outbox.push_back(Transmit::Close { conn });
         }
         self.on_closed(conn);
     }
-
-    async fn finish(mut self, playing_since: Option<Instant>) -> MatchResult {
-        let reason = self.end.unwrap_or("interrupted");
-        let wall_ms = playing_since.map_or(0, |t| t.elapsed().as_millis() as u64);
-        let extra = |id: RobotId| {
-            let (errors, connected) = match self.players.get(&id) {
-                Some(p) => (p.errors, p.connected_ever || p.local.is_some()),
-                None => self.gone.get(&id).copied().unwrap_or((0, false)),
-            };
-            RobotExtra { late_ticks: self.late.get(&id).copied().unwrap_or(0), errors, connected }
-        };
-        let result = MatchResult::of(&self.game, Some(self.config.mode), reason, wall_ms, extra);
-        if let Some(recorder) = self.recorder.take() {
-            // A replay that cannot be written must not cost the match its result.
-            let _ = recorder.finish(&self.game, reason);
-        }
-        let end =
-            encode(&ServerMessage::MatchEnd(MatchEnd { reason: reason.into(), result: result.clone() }));
-        let end: Arc<str> = end.into();
-        let conns: Vec<ConnId> = self.conns.keys().copied().collect();
-        for conn in conns {
-            if matches!(
-                self.conns.get(&conn).map(|c| c.role),
-                Some(ConnRole::Agent(_) | ConnRole::Watcher(_))
-            ) {
-                self.send_line(conn, end.clone());
-            }
-            self.disconnect(conn, "match_over", "");
-        }
-        let mut done = std::mem::take(&mut self.closing);
-        let flushed = async {
-            for d in &mut done {
-                let _ = d.wait_for(|d| *d).await;
-            }
-        };
-        let _ = tokio::time::timeout(FLUSH_LIMIT, flushed).await;
-        result
-    }
-}
-
-async fn recv_opt<T>(rx: &mut Option<mpsc::Receiver<T>>) -> Option<T> {
-    match rx {
-        Some(rx) => rx.recv().await,
-        None => std::future::pending().await,
-    }
-}
-
-async fn sleep_until_opt(deadline: Option<Instant>) {
-    match deadline {
-        Some(t) => tokio::time::sleep_until(t).await,
-        None => std::future::pending().await,
-    }
-}
-
-/// Whether `given` is `secret`, in a time that does not depend on where they differ.
-fn same_secret(given: &str, secret: &str) -> bool {
-    let differences = given.bytes().zip(secret.bytes()).fold(0u8, |acc, (a, b)| acc | (a ^ b));
-    given.len() == secret.len() && differences == 0
-}
-
-/// Unpredictable bits for session tokens, from the standard library's per-process keys.
-fn session_entropy() -> u64 {
-    use std::hash::{BuildHasher, Hasher};
-    let mut h = std::collections::hash_map::RandomState::new().build_hasher();
-    h.write_u64(0);
-    h.finish()
 }

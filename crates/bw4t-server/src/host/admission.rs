@@ -1,0 +1,190 @@
+//! Admission: `hello` for each role with its own token, seats (at most `robots` players,
+//! reserved names, reconnects by session), robot names and the `welcome`.
+
+use bw4t_protocol::{Hello, MatchInfo, Mode, Role, ServerMessage, VERSION, Welcome};
+use bw4t_sim::{JoinError, RobotId};
+
+use super::{ConnRole, Delivery, MatchHost, Player, Sight};
+use crate::ServerConfig;
+use crate::connection::ConnId;
+
+/// Refuses a configuration in which two roles share a token, since one role's secret
+/// would then open the other's.
+pub(super) fn check_tokens_differ(config: &ServerConfig) -> Result<(), crate::ServerError> {
+    let tokens = [
+        ("player", &config.token),
+        ("spectator", &config.spectator_token),
+        ("operator", &config.operator_token),
+    ];
+    for (i, (a, first)) in tokens.iter().enumerate() {
+        for (b, second) in &tokens[i + 1..] {
+            if first.is_some() && first == second {
+                return Err(crate::ServerError::SameToken(a, b));
+            }
+        }
+    }
+    Ok(())
+}
+
+impl MatchHost {
+    pub(super) fn on_hello(&mut self, conn: ConnId, role: ConnRole, hello: &Hello) {
+        if role != ConnRole::New {
+            return self.error(conn, "already_joined", "this connection has already said hello", false);
+        }
+        if hello.protocol != bw4t_protocol::PROTOCOL {
+            let message = format!("unknown protocol '{}' (this server speaks 'bw4t')", hello.protocol);
+            return self.error(conn, "bad_protocol", &message, true);
+        }
+        if !hello.versions.contains(&VERSION) {
+            let message = format!("no common protocol version (this server speaks {VERSION})");
+            return self.error(conn, "unsupported_version", &message, true);
+        }
+        if let Err(message) = self.check_token(hello) {
+            return self.error(conn, "bad_token", message, true);
+        }
+        let sight = match hello.role {
+            Role::Agent => None,
+            Role::Spectator if !self.config.spectators_see_private => Some(Sight::Public),
+            Role::Spectator | Role::Operator => Some(Sight::Everything),
+        };
+        if let Some(sight) = sight {
+            if let Some(c) = self.conns.get_mut(&conn) {
+                c.role = ConnRole::Watcher(sight);
+            }
+            self.welcome(conn, None, false, Some(sight == Sight::Everything));
+            return self.send_frames(true);
+        }
+        let every_tick = self.config.every_tick || hello.every_tick;
+        let robot = match &hello.session {
+            Some(session) => {
+                let found = self.players.iter().find(|(_, p)| &p.session == session).map(|(id, _)| *id);
+                let Some(id) = found else {
+                    return self.error(conn, "bad_session", "unknown or expired session", true);
+                };
+                if let Some(old) = self.players.get(&id).and_then(|p| p.conn) {
+                    self.disconnect(old, "replaced", "the session was taken up by a new connection");
+                }
+                id
+            }
+            None => {
+                let seat = self
+                    .players
+                    .iter()
+                    .find(|(_, p)| {
+                        p.reserved && p.conn.is_none() && Some(p.name.as_str()) == hello.name.as_deref()
+                    })
+                    .map(|(id, _)| *id);
+                match seat {
+                    Some(id) => id,
+                    None => match self.join(hello.name.as_deref()) {
+                        Ok(id) => id,
+                        Err((code, message)) => return self.error(conn, code, &message, true),
+                    },
+                }
+            }
+        };
+        if let Some(player) = self.players.get_mut(&robot) {
+            player.conn = Some(conn);
+            player.connected_ever = true;
+            player.late_in_row = 0;
+            player.dropped_at = None;
+            player.every_tick = every_tick;
+            player.full_since = None;
+        }
+        if let Some(c) = self.conns.get_mut(&conn) {
+            c.role = ConnRole::Agent(robot);
+        }
+        self.welcome(conn, Some(robot), every_tick, None);
+        self.send_percepts(robot, Delivery::Snapshot);
+    }
+
+    /// Checks the credential of the role `hello` asks for; the error says what is missing.
+    fn check_token(&self, hello: &Hello) -> Result<(), &'static str> {
+        let presents = |secret: &Option<String>| matches!((secret, &hello.token), (Some(s), Some(t)) if same_secret(t, s));
+        let config = &self.config;
+        match hello.role {
+            Role::Agent if config.token.is_none() || presents(&config.token) => Ok(()),
+            Role::Agent => Err("wrong or missing player token"),
+            // A local match (no player or spectator token) is open to watch.
+            Role::Spectator if config.token.is_none() && config.spectator_token.is_none() => Ok(()),
+            Role::Spectator if presents(&config.spectator_token) || presents(&config.operator_token) => {
+                Ok(())
+            }
+            Role::Spectator => Err("watching this match needs the spectator token"),
+            Role::Operator if presents(&config.operator_token) => Ok(()),
+            Role::Operator if config.operator_token.is_none() => Err("this server has no operator token"),
+            Role::Operator => Err("wrong or missing operator token"),
+        }
+    }
+
+    pub(super) fn join(&mut self, name: Option<&str>) -> Result<RobotId, (&'static str, String)> {
+        let name = match name {
+            Some(n) => n.to_string(),
+            None => (1..)
+                .map(|i| format!("Player{i}"))
+                .find(|n| self.players.values().all(|p| &p.name != n))
+                .unwrap_or_default(),
+        };
+        let refusal = |e: JoinError| {
+            let code = match e {
+                JoinError::InvalidName(_) => "invalid_name",
+                JoinError::NameTaken(_) => "name_taken",
+                JoinError::Full(_) => "match_full",
+            };
+            (code, e.to_string())
+        };
+        self.game.check_name(&name).map_err(refusal)?;
+        // Every player in the match holds a seat: connected, reserved, or dropped and
+        // within its grace period.
+        let seats = self.config.robots;
+        if self.players.len() >= seats {
+            return Err(("match_full", format!("the match is full: it admits {seats} players")));
+        }
+        let id = self.game.join(&name).map_err(refusal)?;
+        self.record(bw4t_protocol::ReplayEvent::Join { name: name.clone(), robot: id.0 });
+        // The id may have been another robot's: its figures belong to that one.
+        self.late.remove(&id);
+        self.gone.remove(&id);
+        self.sessions += 1;
+        let session = format!("{:016x}{:08x}", session_entropy(), self.sessions);
+        self.players.insert(id, Player::new(name, session));
+        Ok(id)
+    }
+
+    fn welcome(&mut self, conn: ConnId, robot: Option<RobotId>, every_tick: bool, private: Option<bool>) {
+        let player = robot.and_then(|r| self.players.get(&r));
+        let welcome = Welcome {
+            version: VERSION,
+            name: player.map(|p| p.name.clone()),
+            robot: robot.map(|r| r.0),
+            session: player.map(|p| p.session.clone()),
+            private_messages: private,
+            match_info: MatchInfo {
+                map: self.game.map().name().to_string(),
+                seed: self.config.seed,
+                mode: self.config.mode,
+                tick_hz: self.config.game.ticks_per_second,
+                deadline_ms: (self.config.mode == Mode::Lockstep)
+                    .then(|| self.config.deadline.map_or(0, |d| d.as_millis() as u64)),
+                players_needed: self.config.robots,
+                max_ticks: self.config.max_ticks,
+                every_tick,
+            },
+        };
+        self.send(conn, &ServerMessage::Welcome(welcome));
+    }
+}
+
+/// Whether `given` is `secret`, in a time that does not depend on where they differ.
+fn same_secret(given: &str, secret: &str) -> bool {
+    let differences = given.bytes().zip(secret.bytes()).fold(0u8, |acc, (a, b)| acc | (a ^ b));
+    given.len() == secret.len() && differences == 0
+}
+
+/// Unpredictable bits for session tokens, from the standard library's per-process keys.
+fn session_entropy() -> u64 {
+    use std::hash::{BuildHasher, Hasher};
+    let mut h = std::collections::hash_map::RandomState::new().build_hasher();
+    h.write_u64(0);
+    h.finish()
+}

@@ -1,0 +1,181 @@
+//! The tokio driver of a [`MatchHost`]: owns the event channel, the connections' queues
+//! and the timer, and does nothing but carry events in and transmits out.
+
+use std::collections::BTreeMap;
+use std::future::Future;
+use std::sync::Arc;
+
+use bw4t_protocol::MatchResult;
+use tokio::sync::{Notify, mpsc, watch};
+use tokio::time::{Duration, Instant};
+
+use super::{HostEvent, MatchHost, QueueRoom, Transmit};
+use crate::connection::{ConnId, Event, Opened, Outbound};
+
+/// Capacity of the channel from connections to the match task.
+pub const EVENT_QUEUE: usize = 4096;
+
+/// How long the end of a match waits for clients' queues to drain.
+const FLUSH_LIMIT: Duration = Duration::from_secs(2);
+
+/// Ticks simulated back to back (lockstep, nobody awaited) before letting other tasks run.
+const YIELD_EVERY: u64 = 64;
+
+impl QueueRoom for mpsc::Sender<Outbound> {
+    fn free(&self) -> usize {
+        self.capacity()
+    }
+}
+
+/// A connection's handles, kept by the driver.
+struct Handles {
+    tx: mpsc::Sender<Outbound>,
+    kill: Arc<Notify>,
+    done: watch::Receiver<bool>,
+}
+
+/// Runs `host` to its end on the events from `events` (and names of reserved seats whose
+/// player will not come from `gone_seats`), or until `shutdown`; returns the result once
+/// every client's queue has drained (or [`FLUSH_LIMIT`] has passed).
+pub async fn run(
+    mut host: MatchHost,
+    mut events: mpsc::Receiver<Event>,
+    mut gone_seats: Option<mpsc::Receiver<String>>,
+    shutdown: impl Future<Output = ()>,
+) -> MatchResult {
+    tokio::pin!(shutdown);
+    let mut handles: BTreeMap<ConnId, Handles> = BTreeMap::new();
+    let mut closing: Vec<watch::Receiver<bool>> = Vec::new();
+    let mut back_to_back = 0u64;
+    loop {
+        flush(&mut host, &mut handles, &mut closing);
+        if host.is_over() {
+            break;
+        }
+        let timeout = host.poll_timeout();
+        let now = Instant::now();
+        if timeout.is_some_and(|t| t <= now.into_std()) {
+            // Take in what has arrived, without waiting for anyone, before the boundary.
+            while let Ok(event) = events.try_recv() {
+                let event = accept(event, &mut handles, &mut closing);
+                host.handle_event(Instant::now().into_std(), event);
+            }
+            // A stop request must be seen even while ticks run back to back.
+            tokio::select! {
+                biased;
+                () = &mut shutdown => host.interrupt(),
+                () = std::future::ready(()) => {}
+            }
+            host.handle_timeout(Instant::now().into_std());
+            back_to_back += 1;
+            if back_to_back.is_multiple_of(YIELD_EVERY) {
+                flush(&mut host, &mut handles, &mut closing);
+                tokio::task::yield_now().await;
+            }
+            continue;
+        }
+        back_to_back = 0;
+        tokio::select! {
+            biased;
+            () = &mut shutdown => host.interrupt(),
+            () = sleep_until_opt(timeout.map(Instant::from_std)) => host.handle_timeout(Instant::now().into_std()),
+            event = events.recv() => match event {
+                Some(event) => {
+                    let event = accept(event, &mut handles, &mut closing);
+                    host.handle_event(Instant::now().into_std(), event);
+                }
+                // Every sender is gone only when the acceptor has stopped: end the match.
+                None => host.interrupt(),
+            },
+            Some(name) = recv_opt(&mut gone_seats) => {
+                host.handle_event(Instant::now().into_std(), HostEvent::SeatAbandoned { name });
+            }
+        }
+    }
+    let result = host.finish(Instant::now().into_std());
+    flush(&mut host, &mut handles, &mut closing);
+    closing.extend(handles.into_values().map(|h| h.done));
+    let drained = async {
+        for done in &mut closing {
+            let _ = done.wait_for(|d| *d).await;
+        }
+    };
+    let _ = tokio::time::timeout(FLUSH_LIMIT, drained).await;
+    result
+}
+
+/// Turns a connection's event into the host's, keeping the connection's handles here.
+fn accept(
+    event: Event,
+    handles: &mut BTreeMap<ConnId, Handles>,
+    closing: &mut Vec<watch::Receiver<bool>>,
+) -> HostEvent {
+    match event {
+        Event::Opened(Opened { conn, tx, kill, done }) => {
+            let room = Box::new(tx.clone());
+            handles.insert(conn, Handles { tx, kill, done });
+            HostEvent::Opened { conn, room }
+        }
+        Event::Message { conn, message } => HostEvent::Message { conn, message },
+        Event::BadInput { conn } => HostEvent::BadInput { conn },
+        Event::Closed { conn } => {
+            // The end of the match waits for this writer too, so nothing queued is cut off.
+            if let Some(h) = handles.remove(&conn) {
+                park(closing, h.done);
+            }
+            HostEvent::Closed { conn }
+        }
+    }
+}
+
+/// Hands every pending transmit to its connection's queue. The host only queues a line
+/// when it knows there is room, so `try_send` fails only for a connection already gone.
+fn flush(
+    host: &mut MatchHost,
+    handles: &mut BTreeMap<ConnId, Handles>,
+    closing: &mut Vec<watch::Receiver<bool>>,
+) {
+    while let Some(transmit) = host.poll_transmit() {
+        match transmit {
+            Transmit::Line { conn, line } => {
+                if let Some(h) = handles.get(&conn) {
+                    let _ = h.tx.try_send(Outbound::Line(line));
+                }
+            }
+            Transmit::Close { conn } => {
+                if let Some(h) = handles.remove(&conn) {
+                    if h.tx.try_send(Outbound::Close).is_err() {
+                        h.kill.notify_one();
+                    }
+                    park(closing, h.done);
+                }
+            }
+            Transmit::Kill { conn } => {
+                if let Some(h) = handles.remove(&conn) {
+                    h.kill.notify_one();
+                    park(closing, h.done);
+                }
+            }
+        }
+    }
+}
+
+/// Keeps a closing connection's writer to wait for at the end, forgetting those done.
+fn park(closing: &mut Vec<watch::Receiver<bool>>, done: watch::Receiver<bool>) {
+    closing.retain(|done| !*done.borrow());
+    closing.push(done);
+}
+
+async fn recv_opt<T>(rx: &mut Option<mpsc::Receiver<T>>) -> Option<T> {
+    match rx {
+        Some(rx) => rx.recv().await,
+        None => std::future::pending().await,
+    }
+}
+
+async fn sleep_until_opt(deadline: Option<Instant>) {
+    match deadline {
+        Some(t) => tokio::time::sleep_until(t).await,
+        None => std::future::pending().await,
+    }
+}

@@ -1,0 +1,379 @@
+//! The match host on a simulated clock, without sockets: the test owns time and each
+//! client's queue, hands the host events and reads what it would send.
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::{Duration, Instant};
+
+use bw4t_protocol::{Mode, ServerMessage, decode_client, decode_server};
+use bw4t_server::{ConnId, HostEvent, MatchHost, QueueRoom, Seat, ServerConfig, Transmit};
+use serde_json::{Value, json};
+
+use crate::util::{lockstep, shipped_map};
+
+/// A client's queue whose free room the test sets.
+#[derive(Clone)]
+struct Gauge(Arc<AtomicUsize>);
+
+impl QueueRoom for Gauge {
+    fn free(&self) -> usize {
+        self.0.load(Ordering::SeqCst)
+    }
+}
+
+/// What one connection was sent.
+#[derive(Default)]
+struct Inbox {
+    messages: Vec<ServerMessage>,
+    closed: bool,
+    killed: bool,
+}
+
+/// A host, the simulated time and what each connection was sent.
+struct Sim {
+    host: MatchHost,
+    start: Instant,
+    now: Instant,
+    inboxes: BTreeMap<ConnId, Inbox>,
+    gauges: BTreeMap<ConnId, Gauge>,
+}
+
+const ROOMY: usize = 1024;
+
+impl Sim {
+    fn new(config: ServerConfig) -> Sim {
+        Sim::with_seats(config, Vec::new())
+    }
+
+    fn with_seats(config: ServerConfig, seats: Vec<Seat>) -> Sim {
+        let start = Instant::now();
+        let host = MatchHost::new(config, seats, None, start).expect("a valid match");
+        Sim { host, start, now: start, inboxes: BTreeMap::new(), gauges: BTreeMap::new() }
+    }
+
+    /// The simulated time since the start.
+    fn elapsed(&self) -> Duration {
+        self.now - self.start
+    }
+
+    fn collect(&mut self) {
+        while let Some(t) = self.host.poll_transmit() {
+            match t {
+                Transmit::Line { conn, line } => {
+                    let message = decode_server(line.trim_end()).expect("the host sends valid lines");
+                    let inbox = self.inboxes.entry(conn).or_default();
+                    assert!(!inbox.closed && !inbox.killed, "a line after close to {conn}: {line}");
+                    inbox.messages.push(message);
+                }
+                Transmit::Close { conn } => self.inboxes.entry(conn).or_default().closed = true,
+                Transmit::Kill { conn } => self.inboxes.entry(conn).or_default().killed = true,
+            }
+        }
+    }
+
+    fn event(&mut self, event: HostEvent) {
+        self.host.handle_event(self.now, event);
+        self.collect();
+    }
+
+    fn open(&mut self, conn: ConnId) {
+        let gauge = Gauge(Arc::new(AtomicUsize::new(ROOMY)));
+        self.gauges.insert(conn, gauge.clone());
+        self.event(HostEvent::Opened { conn, room: Box::new(gauge) });
+    }
+
+    fn say(&mut self, conn: ConnId, message: Value) {
+        let message = decode_client(&message.to_string()).expect("a valid client message");
+        self.event(HostEvent::Message { conn, message });
+    }
+
+    /// Opens `conn` and says hello as player `name`.
+    fn join(&mut self, conn: ConnId, name: &str) {
+        self.open(conn);
+        self.say(conn, json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": name}));
+    }
+
+    fn close(&mut self, conn: ConnId) {
+        self.event(HostEvent::Closed { conn });
+    }
+
+    /// Moves the clock to `start + at`, handling every timeout that falls due on the way
+    /// at its own time. Ticks run back to back count as at most `limit` timeouts.
+    fn run_until(&mut self, at: Duration) {
+        let target = self.start + at;
+        for _ in 0..100_000 {
+            match self.host.poll_timeout() {
+                Some(t) if t <= target && !self.host.is_over() => {
+                    self.now = self.now.max(t);
+                    self.host.handle_timeout(self.now);
+                    self.collect();
+                }
+                _ => {
+                    self.now = self.now.max(target);
+                    return;
+                }
+            }
+        }
+        panic!("the host kept asking for timeouts before {at:?}");
+    }
+
+    fn messages(&self, conn: ConnId) -> &[ServerMessage] {
+        self.inboxes.get(&conn).map_or(&[], |i| &i.messages)
+    }
+
+    fn percepts(&self, conn: ConnId) -> Vec<&bw4t_protocol::Percepts> {
+        self.messages(conn)
+            .iter()
+            .filter_map(|m| if let ServerMessage::Percepts(p) = m { Some(p) } else { None })
+            .collect()
+    }
+
+    fn last_percepts_tick(&self, conn: ConnId) -> Option<u64> {
+        self.percepts(conn).last().map(|p| p.tick)
+    }
+
+    /// Answers the last `percepts` `conn` got with `ready`.
+    fn ready(&mut self, conn: ConnId) {
+        let tick = self.last_percepts_tick(conn).expect("percepts to answer");
+        self.say(conn, json!({"type": "ready", "tick": tick}));
+    }
+
+    fn bye_reason(&self, conn: ConnId) -> Option<&str> {
+        self.messages(conn)
+            .iter()
+            .rev()
+            .find_map(|m| if let ServerMessage::Bye(b) = m { Some(b.reason.as_str()) } else { None })
+    }
+
+    fn finish(&mut self) -> bw4t_protocol::MatchResult {
+        let result = self.host.finish(self.now);
+        self.collect();
+        result
+    }
+}
+
+/// Lockstep with a 1 s deadline and percepts every tick, so a player that does not answer
+/// paces the match at one tick per second of the simulated clock.
+fn lockstep_config(robots: usize) -> ServerConfig {
+    let mut config = lockstep("fixed", 3, robots);
+    config.deadline = Some(Duration::from_secs(1));
+    config.every_tick = true;
+    config.max_ticks = Some(1000);
+    config
+}
+
+fn late_ticks(result: &bw4t_protocol::MatchResult, name: &str) -> u64 {
+    result.per_robot.iter().find(|r| r.name == name).map(|r| r.late_ticks).expect("the robot's line")
+}
+
+#[test]
+fn lockstep_waits_for_ready_until_the_deadline_and_counts_late_players() {
+    let mut sim = Sim::new(lockstep_config(2));
+    sim.join(1, "Ann");
+    assert_eq!(sim.host.poll_timeout(), None, "nothing is due while a player is missing");
+    sim.join(2, "Bob");
+    // Both got their tick-0 snapshot and are awaited until the deadline.
+    assert_eq!(sim.host.poll_timeout(), Some(sim.start + Duration::from_secs(1)));
+    sim.ready(1);
+    sim.run_until(Duration::from_millis(999));
+    assert_eq!(sim.host.tick(), 0, "Bob is awaited until the deadline");
+    sim.run_until(Duration::from_millis(1000));
+    // Bob was late: tick 1 followed at once, and robots that were told nothing new are not
+    // awaited, so the match runs on back to back.
+    assert!(sim.host.tick() >= 1);
+    let result = sim.finish();
+    assert_eq!((late_ticks(&result, "Ann"), late_ticks(&result, "Bob")), (0, 1));
+}
+
+#[test]
+fn a_player_late_too_often_in_a_row_is_disconnected() {
+    let mut config = lockstep_config(1);
+    config.max_late_in_row = Some(3);
+    let mut sim = Sim::new(config);
+    sim.join(1, "Ann");
+    // Ann never answers: each deadline counts her late once more.
+    for late in 1..=3 {
+        sim.run_until(Duration::from_secs(late));
+        assert_eq!(sim.bye_reason(1).is_some(), late == 3, "after {late} deadlines");
+    }
+    assert_eq!(sim.bye_reason(1), Some("unresponsive"));
+    assert!(sim.inboxes[&1].closed);
+}
+
+#[test]
+fn a_dropped_player_keeps_its_seat_for_the_grace_period_and_can_take_it_back() {
+    let mut config = lockstep_config(2);
+    config.grace = Duration::from_secs(30);
+    let mut sim = Sim::new(config);
+    sim.join(1, "Ann");
+    sim.join(2, "Bob");
+    let session = sim
+        .messages(2)
+        .iter()
+        .find_map(|m| if let ServerMessage::Welcome(w) = m { w.session.clone() } else { None })
+        .expect("a session");
+    sim.ready(1);
+    sim.ready(2);
+    sim.run_until(Duration::from_secs(5));
+    sim.close(2);
+    let dropped_at = sim.now;
+    // The seat is kept: the grace period's end is the next thing due while nobody waits.
+    assert!(sim.host.poll_timeout().is_some());
+    sim.join(3, "Cy");
+    assert!(
+        sim.messages(3).iter().any(|m| matches!(m, ServerMessage::Error(e) if e.code == "match_full")),
+        "Bob's seat is still his"
+    );
+    // Back within the grace period, with the session: the same robot.
+    sim.run_until(Duration::from_secs(5) + Duration::from_secs(29));
+    sim.open(4);
+    sim.say(4, json!({"type": "hello", "protocol": "bw4t", "versions": [1], "session": session}));
+    let welcome = sim
+        .messages(4)
+        .iter()
+        .find_map(|m| if let ServerMessage::Welcome(w) = m { Some(w.clone()) } else { None });
+    assert_eq!(welcome.and_then(|w| w.robot), Some(1), "Bob is back on robot 1");
+    assert!(sim.now - dropped_at < Duration::from_secs(30));
+}
+
+#[test]
+fn a_seat_is_freed_when_the_grace_period_ends() {
+    let mut config = lockstep_config(2);
+    config.grace = Duration::from_secs(30);
+    config.pause_when_empty = true;
+    let mut sim = Sim::new(config);
+    sim.join(1, "Ann");
+    sim.join(2, "Bob");
+    sim.close(2);
+    let dropped = sim.elapsed();
+    sim.ready(1);
+    sim.run_until(dropped + Duration::from_millis(29_999));
+    sim.join(3, "Cy");
+    assert!(sim.messages(3).iter().any(|m| matches!(m, ServerMessage::Error(e) if e.code == "match_full")));
+    sim.run_until(dropped + Duration::from_secs(30));
+    sim.join(4, "Dee");
+    let robot =
+        sim.messages(4).iter().find_map(|m| if let ServerMessage::Welcome(w) = m { w.robot } else { None });
+    assert_eq!(robot, Some(1), "Dee takes the freed seat and its id");
+    let result = sim.finish();
+    assert!(
+        result.per_robot.iter().any(|r| r.name == "Dee") && result.per_robot.iter().all(|r| r.name != "Bob")
+    );
+}
+
+#[test]
+fn a_client_that_does_not_read_gets_a_snapshot_later_or_is_disconnected() {
+    let mut config = lockstep_config(2);
+    config.slow_limit = Duration::from_secs(5);
+    let mut sim = Sim::new(config);
+    sim.join(1, "Ann");
+    sim.join(2, "Bob");
+    // Bob reads but never answers, so ticks come once a second. Ann's queue has less than
+    // the reserve free: her percepts are held back and she is not awaited.
+    sim.ready(1);
+    sim.gauges[&1].0.store(10, Ordering::SeqCst);
+    sim.run_until(Duration::from_secs(3));
+    assert_eq!(sim.host.tick(), 3);
+    assert_eq!(sim.percepts(1).len(), 1, "only the joining snapshot");
+    // Reading again within the slow limit: her next percepts are a full snapshot.
+    sim.gauges[&1].0.store(ROOMY, Ordering::SeqCst);
+    sim.run_until(Duration::from_secs(4));
+    let latest = sim.percepts(1).last().copied().cloned().expect("percepts again");
+    assert!(latest.full && latest.tick == 4, "{latest:?}");
+    assert!(!latest.add.is_empty());
+    // Not reading for longer than the slow limit (from the first tick held back, 5 s):
+    // disconnected with too_slow.
+    sim.gauges[&1].0.store(10, Ordering::SeqCst);
+    sim.run_until(Duration::from_secs(10));
+    assert_eq!(sim.bye_reason(1), None, "5 s held back is within the limit");
+    sim.run_until(Duration::from_secs(11));
+    assert_eq!(sim.bye_reason(1), Some("too_slow"));
+    assert!(sim.inboxes[&1].closed);
+    // Ann was awaited only for the tick she was sent (tick 4), never while held back.
+    let result = sim.finish();
+    assert_eq!((late_ticks(&result, "Ann"), late_ticks(&result, "Bob")), (1, 11));
+}
+
+#[test]
+fn a_client_whose_queue_is_full_is_killed_without_waiting() {
+    let mut sim = Sim::new(lockstep_config(2));
+    sim.join(1, "Ann");
+    sim.gauges[&1].0.store(0, Ordering::SeqCst);
+    sim.join(2, "Bob");
+    // Bob's hello makes the match start; Ann's queue has no room left even for replies.
+    sim.say(1, json!({"type": "act", "id": 1, "action": "goTo", "args": ["RoomA1"]}));
+    sim.ready(2);
+    sim.run_until(Duration::from_secs(2));
+    assert!(sim.inboxes[&1].killed, "killed, not left waiting");
+    assert!(!sim.inboxes[&2].killed && !sim.inboxes[&2].closed);
+}
+
+#[test]
+fn spectator_frames_are_throttled_to_their_rate_on_the_match_clock() {
+    let mut config = ServerConfig::new(shipped_map("fixed"));
+    config.mode = Mode::Realtime;
+    config.robots = 1;
+    config.game.ticks_per_second = 20;
+    config.spectator_hz = 5;
+    let mut sim = Sim::with_seats(
+        config,
+        vec![Seat::Local("Bot1".into(), bw4t_agents::Strategy::Cooperative.agent("Bot1"))],
+    );
+    sim.open(9);
+    sim.say(9, json!({"type": "hello", "protocol": "bw4t", "versions": [1], "role": "spectator"}));
+    let frames = |sim: &Sim| sim.messages(9).iter().filter(|m| matches!(m, ServerMessage::Frame(_))).count();
+    assert_eq!(frames(&sim), 1, "a frame at once on hello");
+    sim.run_until(Duration::from_secs(2));
+    // 20 ticks a second for 2 s, frames at most 5 a second: one every 4 ticks.
+    assert_eq!(sim.host.tick(), 40);
+    assert_eq!(frames(&sim), 1 + 10, "one frame per 200 ms");
+}
+
+#[test]
+fn realtime_ticks_fall_on_the_period_and_missed_ones_are_skipped() {
+    let mut config = ServerConfig::new(shipped_map("fixed"));
+    config.mode = Mode::Realtime;
+    config.robots = 1;
+    config.game.ticks_per_second = 10;
+    let mut sim = Sim::new(config);
+    sim.join(1, "Ann");
+    assert_eq!(sim.host.poll_timeout(), Some(sim.start + Duration::from_millis(100)));
+    sim.run_until(Duration::from_millis(350));
+    assert_eq!(sim.host.tick(), 3);
+    // The driver was away for a second: one tick then, and the next on the old grid.
+    sim.now = sim.start + Duration::from_millis(1350);
+    sim.host.handle_timeout(sim.now);
+    assert_eq!(sim.host.tick(), 4);
+    assert_eq!(sim.host.poll_timeout(), Some(sim.start + Duration::from_millis(1400)));
+}
+
+#[test]
+fn the_start_timeout_starts_a_match_with_the_players_it_has() {
+    let mut config = lockstep_config(3);
+    config.start_timeout = Some(Duration::from_secs(5));
+    let mut sim = Sim::new(config);
+    sim.join(1, "Ann");
+    assert_eq!(sim.host.poll_timeout(), Some(sim.start + Duration::from_secs(5)));
+    sim.ready(1);
+    sim.run_until(Duration::from_millis(4_999));
+    assert_eq!(sim.host.tick(), 0);
+    assert_eq!(sim.percepts(1).len(), 1, "only the joining snapshot while waiting");
+    sim.run_until(Duration::from_secs(5));
+    assert!(sim.host.tick() >= 1, "started at the timeout");
+    let result = sim.finish();
+    assert_eq!(result.wall_ms, 0, "wall_ms counts from the first tick, not from the wait");
+}
+
+#[test]
+fn a_match_whose_reserved_players_will_not_come_starts_without_them() {
+    let mut sim = Sim::with_seats(lockstep_config(2), vec![Seat::Remote("Agent1".into())]);
+    sim.join(1, "Ann");
+    assert_eq!(sim.host.tick(), 0);
+    sim.ready(1);
+    sim.run_until(Duration::from_secs(1));
+    assert_eq!(sim.host.tick(), 0, "waiting for Agent1");
+    sim.event(HostEvent::SeatAbandoned { name: "Agent1".into() });
+    sim.run_until(Duration::from_secs(1));
+    assert!(sim.host.tick() >= 1);
+}
