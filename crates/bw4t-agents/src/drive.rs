@@ -3,7 +3,7 @@
 use std::collections::BTreeMap;
 
 use crate::{ActionAck, Agent, Observation, OrderDone};
-use bw4t_sim::{Accepted, Action, Match, OrderEnd, OrderId, Rejection, RobotId};
+use bw4t_sim::{Accepted, Action, Intent, Match, OrderEnd, OrderId, Rejection, RobotId, Seats};
 
 /// One in-process agent and its robot.
 pub struct Driver {
@@ -48,9 +48,10 @@ impl Driver {
         }
     }
 
-    /// Takes the actions to apply at this boundary, in the order decided.
-    pub fn take_queued(&mut self) -> Vec<(u64, Action)> {
-        std::mem::take(&mut self.queued)
+    /// Takes the actions to apply at this boundary, in the order decided, each tagged with
+    /// its number for [`Driver::answered`].
+    pub fn take_intents(&mut self, into: &mut Vec<Intent<u64>>) {
+        into.extend(self.queued.drain(..).map(|(n, action)| Intent::Act(n, action)));
     }
 
     /// Records how the match answered action number `n`.
@@ -66,6 +67,58 @@ impl Driver {
     pub fn ended(&mut self, end: &OrderEnd) {
         if let Some(n) = self.orders.remove(&end.order) {
             self.told.done.push(OrderDone { action: n, outcome: end.outcome });
+        }
+    }
+}
+
+/// In-process agents playing their robots: the [`Seats`] of a match without remote players.
+pub struct Team {
+    /// Ascending by robot id.
+    drivers: Vec<Driver>,
+}
+
+impl Team {
+    /// A team of `drivers`, whatever their order.
+    pub fn new(mut drivers: Vec<Driver>) -> Team {
+        drivers.sort_by_key(|d| d.robot);
+        Team { drivers }
+    }
+
+    /// Every agent sees what it was told and decides.
+    pub fn observe(&mut self, game: &mut Match) {
+        for driver in &mut self.drivers {
+            driver.observe(game);
+        }
+    }
+
+    fn driver(&mut self, robot: RobotId) -> Option<&mut Driver> {
+        let at = self.drivers.binary_search_by_key(&robot, |d| d.robot).ok()?;
+        self.drivers.get_mut(at)
+    }
+}
+
+impl Seats for Team {
+    type Tag = u64;
+
+    fn robots(&self, into: &mut Vec<RobotId>) {
+        into.extend(self.drivers.iter().map(|d| d.robot));
+    }
+
+    fn take(&mut self, robot: RobotId, into: &mut Vec<Intent<u64>>) {
+        if let Some(driver) = self.driver(robot) {
+            driver.take_intents(into);
+        }
+    }
+
+    fn answered(&mut self, robot: RobotId, n: u64, _: &Action, outcome: &Result<Accepted, Rejection>) {
+        if let Some(driver) = self.driver(robot) {
+            driver.answered(n, outcome);
+        }
+    }
+
+    fn ended(&mut self, end: &OrderEnd, _: u64) {
+        if let Some(driver) = self.driver(end.robot) {
+            driver.ended(end);
         }
     }
 }

@@ -11,7 +11,7 @@ use bw4t_sim::{Action, OrderOutcome, PerceptDelta};
 
 pub use baseline::Baseline;
 pub use coop::Cooperative;
-pub use drive::Driver;
+pub use drive::{Driver, Team};
 
 /// The outcome of one of the agent's actions, numbered in the order the agent returned
 /// them (0, 1, 2, ... over the whole match).

@@ -11,7 +11,7 @@
 
 use std::io::Write;
 
-use bw4t_sim::{Action, Match, MatchConfig, RobotId};
+use bw4t_sim::{Action, Applied, Journal, Match, MatchConfig, RobotId};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
@@ -115,10 +115,17 @@ pub enum ReplayEvent {
 }
 
 impl ReplayEvent {
-    /// The event for an action applied to `robot`.
-    pub fn act(robot: RobotId, action: &Action, ok: bool) -> Self {
-        let (name, args) = action_to_act(action);
-        ReplayEvent::Act { robot: robot.0, action: name.to_string(), args, ok }
+    /// The record of `what`.
+    pub fn of(what: Applied<'_>) -> Self {
+        match what {
+            Applied::Join { name, robot } => ReplayEvent::Join { name: name.to_string(), robot: robot.0 },
+            Applied::Leave { robot } => ReplayEvent::Leave { robot: robot.0 },
+            Applied::Stop { robot } => ReplayEvent::Stop { robot: robot.0 },
+            Applied::Act { robot, action, ok } => {
+                let (name, args) = action_to_act(action);
+                ReplayEvent::Act { robot: robot.0, action: name.to_string(), args, ok }
+            }
+        }
     }
 
     /// The action of an `act` event.
@@ -128,10 +135,26 @@ impl ReplayEvent {
             _ => None,
         }
     }
+
+    /// Applies this event to `game` again ([`Match::reapply`]); the error says how it went
+    /// otherwise than recorded.
+    pub fn reapply(&self, game: &mut Match) -> Result<(), String> {
+        match self {
+            ReplayEvent::Join { name, robot } => game.reapply(Applied::Join { name, robot: RobotId(*robot) }),
+            ReplayEvent::Leave { robot } => game.reapply(Applied::Leave { robot: RobotId(*robot) }),
+            ReplayEvent::Stop { robot } => game.reapply(Applied::Stop { robot: RobotId(*robot) }),
+            ReplayEvent::Act { robot, ok, .. } => match self.action() {
+                None => Err("an action this program cannot read".to_string()),
+                Some(action) => {
+                    game.reapply(Applied::Act { robot: RobotId(*robot), action: &action, ok: *ok })
+                }
+            },
+        }
+    }
 }
 
-/// Writes a replay while a match is played: call [`Recorder::event`] for everything
-/// applied, [`Recorder::stepped`] after every step and [`Recorder::finish`] at the end.
+/// Writes a replay while a match is played: it is the match's [`Journal`] (everything
+/// applied, every step); [`Recorder::finish`] writes the end.
 pub struct Recorder {
     out: Box<dyn Write + Send>,
     digest_every: u64,
@@ -175,25 +198,13 @@ impl Recorder {
         }
     }
 
-    /// Records something applied to the match at its current tick.
-    pub fn event(&mut self, tick: u64, event: ReplayEvent) {
+    /// Records something applied to the match after `tick`.
+    fn event(&mut self, tick: u64, event: ReplayEvent) {
         if tick != self.pending_tick {
             self.flush_events();
             self.pending_tick = tick;
         }
         self.pending.push(event);
-    }
-
-    /// Records a step: the events before it, and a digest when one is due.
-    pub fn stepped(&mut self, game: &Match) {
-        self.flush_events();
-        self.pending_tick = game.tick();
-        if game.tick().is_multiple_of(self.digest_every) {
-            let line = ReplayLine::Digest { tick: game.tick(), digest: format!("{:016x}", game.digest()) };
-            self.write(&line);
-            // What is written up to a digest survives the writer being killed.
-            self.flush();
-        }
     }
 
     /// Writes the last line and flushes. Returns the first write error, if any happened.
@@ -226,6 +237,24 @@ impl Recorder {
     fn write(&mut self, line: &ReplayLine) {
         if self.error.is_none() {
             self.error = write_line(&mut self.out, line).err();
+        }
+    }
+}
+
+impl Journal for Recorder {
+    fn applied(&mut self, tick: u64, what: Applied<'_>) {
+        self.event(tick, ReplayEvent::of(what));
+    }
+
+    /// Records a step: the events before it, and a digest when one is due.
+    fn stepped(&mut self, game: &Match) {
+        self.flush_events();
+        self.pending_tick = game.tick();
+        if game.tick().is_multiple_of(self.digest_every) {
+            let line = ReplayLine::Digest { tick: game.tick(), digest: format!("{:016x}", game.digest()) };
+            self.write(&line);
+            // What is written up to a digest survives the writer being killed.
+            self.flush();
         }
     }
 }

@@ -3,9 +3,9 @@
 use std::io::Write;
 use std::time::Instant;
 
-use bw4t_agents::{Agent, Driver};
+use bw4t_agents::{Agent, Driver, Team};
 use bw4t_map::Map;
-use bw4t_protocol::{MatchResult, Recorder, ReplayEvent, RobotExtra};
+use bw4t_protocol::{MatchResult, Recorder, RobotExtra};
 use bw4t_sim::{JoinError, Match, MatchConfig, MatchError};
 
 use crate::external::{AgentReport, SeatSpec};
@@ -63,10 +63,10 @@ pub fn play_builtin(
             SeatSpec::External { name, .. } => Err(RunError::External(name.clone())),
         })
         .collect::<Result<Vec<_>, _>>()?;
-    let (mut game, mut drivers) = set_up(map, &config, seed, players, recorder.as_mut())?;
+    let (mut game, mut team) = set_up(map, &config, seed, players, recorder.as_mut())?;
     // `wall_ms` counts from the first tick, as in a served match.
     let started = Instant::now();
-    let reason = play_to_end(&mut game, &mut drivers, max_ticks, recorder.as_mut());
+    let reason = play_to_end(&mut game, &mut team, max_ticks, recorder.as_mut());
     let wall_ms = started.elapsed().as_millis() as u64;
     if let Some(recorder) = recorder {
         recorder.finish(&game, reason).map_err(RunError::Replay)?;
@@ -93,8 +93,8 @@ pub fn play_headless(
     max_ticks: u64,
     mut recorder: Option<&mut Recorder>,
 ) -> Result<(Match, &'static str), RunError> {
-    let (mut game, mut drivers) = set_up(map, config, seed, seats, recorder.as_deref_mut())?;
-    let reason = play_to_end(&mut game, &mut drivers, max_ticks, recorder);
+    let (mut game, mut team) = set_up(map, config, seed, seats, recorder.as_deref_mut())?;
+    let reason = play_to_end(&mut game, &mut team, max_ticks, recorder);
     Ok((game, reason))
 }
 
@@ -105,53 +105,31 @@ fn set_up(
     seed: u64,
     seats: Vec<Seat>,
     mut recorder: Option<&mut Recorder>,
-) -> Result<(Match, Vec<Driver>), RunError> {
+) -> Result<(Match, Team), RunError> {
     let mut game = Match::new(map, config, seed)?;
     let mut drivers = Vec::with_capacity(seats.len());
     for seat in seats {
-        let robot = game.join(&seat.name).map_err(RunError::Join)?;
-        if let Some(r) = recorder.as_deref_mut() {
-            r.event(game.tick(), ReplayEvent::Join { name: seat.name.clone(), robot: robot.0 });
-        }
+        let robot = game.join_logged(&seat.name, &mut recorder).map_err(RunError::Join)?;
         drivers.push(Driver::new(robot, seat.agent));
     }
-    Ok((game, drivers))
+    Ok((game, Team::new(drivers)))
 }
 
 /// Plays ticks until the sequence is complete or `max_ticks` is reached; returns why it ended.
 fn play_to_end(
     game: &mut Match,
-    drivers: &mut [Driver],
+    team: &mut Team,
     max_ticks: u64,
     mut recorder: Option<&mut Recorder>,
 ) -> &'static str {
     loop {
-        for driver in drivers.iter_mut() {
-            driver.observe(game);
-        }
+        team.observe(game);
         if game.is_complete() {
             break "completed";
         }
         if game.tick() >= max_ticks {
             break "max_ticks";
         }
-        for driver in drivers.iter_mut() {
-            for (n, action) in driver.take_queued() {
-                let outcome = game.handle_action(driver.robot, action.clone());
-                if let Some(r) = recorder.as_deref_mut() {
-                    r.event(game.tick(), ReplayEvent::act(driver.robot, &action, outcome.is_ok()));
-                }
-                driver.answered(n, &outcome);
-            }
-        }
-        let report = game.step();
-        if let Some(r) = recorder.as_deref_mut() {
-            r.stepped(game);
-        }
-        for end in &report.ended {
-            if let Some(driver) = drivers.iter_mut().find(|d| d.robot == end.robot) {
-                driver.ended(end);
-            }
-        }
+        game.boundary(team, &mut recorder);
     }
 }

@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 
 use bw4t_map::Map;
 use bw4t_protocol::{Frame, FrameMessage, REPLAY_FORMAT, ReplayEvent, ReplayHeader, ReplayLine};
-use bw4t_sim::{Action, Match, MatchConfig, Receiver, RobotId};
+use bw4t_sim::{Action, Match, MatchConfig, Receiver};
 
 /// The longest digest interval a replay may declare. Every line lies within one interval
 /// of the previous digest, so this (times the number of lines) bounds the ticks a file can
@@ -237,29 +237,12 @@ pub fn verify_replay(text: &str) -> Result<(Verdict, ReplaySummary), ReplayError
         }
         let ReplayLine::Tick { events, .. } = line else { continue };
         for event in events {
-            let problem = match event {
-                ReplayEvent::Join { name, robot } => match game.join(name) {
-                    Ok(id) if id.0 == *robot => {
-                        players.push(name.clone());
-                        None
-                    }
-                    Ok(id) => Some(format!("{name} joined as robot {}, recorded {robot}", id.0)),
-                    Err(e) => Some(format!("{name} cannot join: {e}")),
-                },
-                ReplayEvent::Leave { robot } => game.leave(RobotId(*robot)).err().map(|e| e.to_string()),
-                ReplayEvent::Stop { robot } => game.stop(RobotId(*robot)).err().map(|e| e.to_string()),
-                ReplayEvent::Act { robot, ok, .. } => {
-                    actions += 1;
-                    match event.action() {
-                        None => Some("an action this program cannot read".to_string()),
-                        Some(action) => {
-                            let got = game.handle_action(RobotId(*robot), action).is_ok();
-                            (got != *ok)
-                                .then(|| format!("robot {robot}'s action accepted: {got}, recorded {ok}"))
-                        }
-                    }
-                }
-            };
+            let problem = event.reapply(&mut game).err();
+            match event {
+                ReplayEvent::Join { name, .. } if problem.is_none() => players.push(name.clone()),
+                ReplayEvent::Act { .. } => actions += 1,
+                _ => {}
+            }
             if let Some(problem) = problem {
                 verdict = Some(differs(tick, "the recorded outcome", problem));
                 break 'lines;
@@ -460,24 +443,9 @@ impl ReplayFrames {
             return;
         }
         cursor.next += 1;
-        let game = &mut cursor.game;
         for event in events {
-            match event {
-                ReplayEvent::Join { name, .. } => {
-                    let _ = game.join(name);
-                }
-                ReplayEvent::Leave { robot } => {
-                    let _ = game.leave(RobotId(*robot));
-                }
-                ReplayEvent::Stop { robot } => {
-                    let _ = game.stop(RobotId(*robot));
-                }
-                ReplayEvent::Act { robot, .. } => {
-                    if let Some(action) = event.action() {
-                        let _ = game.handle_action(RobotId(*robot), action);
-                    }
-                }
-            }
+            // The replay verified, so every outcome is the recorded one.
+            let _ = event.reapply(&mut cursor.game);
         }
     }
 

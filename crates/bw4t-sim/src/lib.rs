@@ -5,6 +5,7 @@
 //! config, seed and actions give the same [`Match::digest`], bit for bit.
 
 mod action;
+mod boundary;
 mod config;
 mod digest;
 mod game;
@@ -15,6 +16,7 @@ mod random_play;
 mod stats;
 
 pub use action::{Accepted, Action, OrderEnd, OrderId, OrderOutcome, Receiver, Rejection, RobotId};
+pub use boundary::{Applied, Intent, Journal, Seats};
 pub use config::{ConfigError, MatchConfig};
 pub use digest::Digest;
 pub use game::{BlockPlace, JoinError, MAX_NAME_LEN, Match, MatchError, REACH, RobotView, StepReport};

@@ -140,8 +140,7 @@ impl MatchHost {
         if self.players.len() >= seats {
             return Err(("match_full", format!("the match is full: it admits {seats} players")));
         }
-        let id = self.game.join(&name).map_err(refusal)?;
-        self.record(bw4t_protocol::ReplayEvent::Join { name: name.clone(), robot: id.0 });
+        let id = self.game.join_logged(&name, &mut self.recorder).map_err(refusal)?;
         // The id may have been another robot's: its figures belong to that one.
         self.late.remove(&id);
         self.gone.remove(&id);

@@ -20,8 +20,8 @@ use bw4t_protocol::{
     Ack, ActId, ActResult, ClientMessage, Frame, FrameMessage, MatchEnd, MatchResult, Mode, Percepts,
     ServerMessage, action_from_act, encode, percept_to_fact,
 };
-use bw4t_protocol::{Recorder, ReplayEvent, RobotExtra};
-use bw4t_sim::{Accepted, Action, Match, OrderId, Receiver, Rejection, RobotId};
+use bw4t_protocol::{Recorder, RobotExtra};
+use bw4t_sim::{Accepted, Action, Intent, Match, OrderEnd, OrderId, Receiver, Rejection, RobotId, Seats};
 
 use crate::connection::{ConnId, bye_line, error_line};
 use crate::{Seat, ServerConfig};
@@ -141,6 +141,103 @@ enum Pending {
     Act(Option<ActId>, Action),
     /// The player's connection dropped: the robot stops where it stands.
     Stop,
+}
+
+/// Who asked for an action: a remote player (with the id its `ack` names) or an in-process
+/// agent (with its driver's number).
+enum Tag {
+    Remote(Option<ActId>),
+    Local(u64),
+}
+
+/// The host's players as the tick boundary sees them. Replies wait in `replies` until the
+/// boundary is done, in the order they arose.
+struct HostSeats<'a> {
+    /// The tick the boundary applies actions after.
+    tick: u64,
+    players: &'a mut BTreeMap<RobotId, Player>,
+    frame_messages: &'a mut Vec<FrameMessage>,
+    replies: Vec<(ConnId, ServerMessage)>,
+    /// Remote players acked or sent a `result` at this boundary.
+    told: BTreeSet<RobotId>,
+}
+
+impl Seats for HostSeats<'_> {
+    type Tag = Tag;
+
+    fn robots(&self, into: &mut Vec<RobotId>) {
+        into.extend(self.players.keys().copied());
+    }
+
+    fn take(&mut self, robot: RobotId, into: &mut Vec<Intent<Tag>>) {
+        let Some(player) = self.players.get_mut(&robot) else { return };
+        player.actions_this_tick = 0;
+        into.extend(player.pending.drain(..).map(|pending| match pending {
+            Pending::Act(id, action) => Intent::Act(Tag::Remote(id), action),
+            Pending::Stop => Intent::Stop,
+        }));
+        if let Some(driver) = player.local.as_mut() {
+            let mut local = Vec::new();
+            driver.take_intents(&mut local);
+            into.extend(local.into_iter().map(|intent| match intent {
+                Intent::Act(n, action) => Intent::Act(Tag::Local(n), action),
+                Intent::Stop => Intent::Stop,
+            }));
+        }
+    }
+
+    fn answered(&mut self, robot: RobotId, tag: Tag, action: &Action, outcome: &Result<Accepted, Rejection>) {
+        let Some(player) = self.players.get_mut(&robot) else { return };
+        if let (Ok(_), Action::SendMessage { to, text }) = (outcome, action) {
+            if self.frame_messages.len() == FRAME_MESSAGES {
+                self.frame_messages.remove(0);
+            }
+            let to = match to {
+                Receiver::All => "all".into(),
+                Receiver::Player(name) => name.clone(),
+            };
+            self.frame_messages.push(FrameMessage { from: player.name.clone(), to, text: text.clone() });
+        }
+        let act_id = match tag {
+            Tag::Local(n) => {
+                if let Some(driver) = player.local.as_mut() {
+                    driver.answered(n, outcome);
+                }
+                return;
+            }
+            Tag::Remote(act_id) => act_id,
+        };
+        self.told.insert(robot);
+        if let (Ok(Accepted { order: Some(order) }), Some(id)) = (outcome, &act_id) {
+            player.orders.insert(*order, id.clone());
+        }
+        let ack = match outcome {
+            Ok(_) => Ack { id: act_id, ok: true, tick: self.tick, code: None, reason: None },
+            Err(r) => Ack {
+                id: act_id,
+                ok: false,
+                tick: self.tick,
+                code: Some(r.code().into()),
+                reason: Some(r.to_string()),
+            },
+        };
+        if let (Some(conn), None) = (player.conn, &player.local) {
+            self.replies.push((conn, ServerMessage::Ack(ack)));
+        }
+    }
+
+    fn ended(&mut self, end: &OrderEnd, tick: u64) {
+        let Some(player) = self.players.get_mut(&end.robot) else { return };
+        if let Some(driver) = player.local.as_mut() {
+            return driver.ended(end);
+        }
+        let Some(id) = player.orders.remove(&end.order) else { return };
+        if let Some(conn) = player.conn {
+            self.told.insert(end.robot);
+            let result = ActResult { id, outcome: end.outcome.name().into(), tick };
+            self.replies.push((conn, ServerMessage::Result(result)));
+        }
+    }
 }
 
 struct Player {
@@ -453,13 +550,6 @@ impl MatchHost {
         self.phase = Phase::Playing { since: now, next_tick: now + self.tick_period() };
     }
 
-    fn record(&mut self, event: ReplayEvent) {
-        let tick = self.game.tick();
-        if let Some(r) = self.recorder.as_mut() {
-            r.event(tick, event);
-        }
-    }
-
     /// In-process agents see what they were told and decide; their actions wait for the
     /// next boundary like everyone else's.
     fn observe_locals(&mut self) {
@@ -486,61 +576,29 @@ impl MatchHost {
         }
     }
 
-    /// One tick boundary: apply buffered actions in robot-id order, step, tell everyone.
+    /// One tick boundary ([`Match::boundary`]): every player's buffered actions applied in
+    /// robot-id order, a step, then everyone told what concerns them.
     fn advance(&mut self) {
-        let ids: Vec<RobotId> = self.players.keys().copied().collect();
-        // Players acked at this boundary: each gets this tick's `percepts`, so it has a tick
-        // to answer and its next actions land at a boundary its script decides.
-        let mut acked = BTreeSet::new();
-        for &id in &ids {
-            let pending =
-                self.players.get_mut(&id).map(|p| std::mem::take(&mut p.pending)).unwrap_or_default();
-            for item in pending {
-                match item {
-                    Pending::Act(act_id, action) => {
-                        let _ = self.apply(id, act_id, action);
-                        acked.insert(id);
-                    }
-                    Pending::Stop => {
-                        let _ = self.game.stop(id);
-                        self.record(ReplayEvent::Stop { robot: id.0 });
-                    }
-                }
-            }
-            let queued = self.players.get_mut(&id).and_then(|p| p.local.as_mut()).map(Driver::take_queued);
-            for (n, action) in queued.unwrap_or_default() {
-                let outcome = self.apply(id, None, action);
-                if let Some(driver) = self.players.get_mut(&id).and_then(|p| p.local.as_mut()) {
-                    driver.answered(n, &outcome);
-                }
-            }
-            if let Some(p) = self.players.get_mut(&id) {
-                p.actions_this_tick = 0;
-            }
-        }
-        let report = self.game.step();
-        let tick = report.tick;
-        if let Some(r) = self.recorder.as_mut() {
-            r.stepped(&self.game);
-        }
-        // A new tick: players are awaited again only if they are sent something now.
+        let mut seats = HostSeats {
+            tick: self.game.tick(),
+            players: &mut self.players,
+            frame_messages: &mut self.frame_messages,
+            replies: Vec::new(),
+            told: BTreeSet::new(),
+        };
+        let tick = self.game.boundary(&mut seats, &mut self.recorder);
+        let HostSeats { replies, told, .. } = seats;
+        // A new tick: players are awaited again only if they are sent something now. One
+        // acked at this boundary, or whose order ended, always gets this tick's `percepts`,
+        // so its next actions land at a boundary its own script decides.
         for (id, player) in &mut self.players {
-            player.awaiting = acked.contains(id) && player.conn.is_some();
+            player.awaiting = told.contains(id) && player.conn.is_some();
         }
-        for end in report.ended {
-            let Some(player) = self.players.get_mut(&end.robot) else { continue };
-            if let Some(driver) = player.local.as_mut() {
-                driver.ended(&end);
-                continue;
-            }
-            let Some(id) = player.orders.remove(&end.order) else { continue };
-            let result = ServerMessage::Result(ActResult { id, outcome: end.outcome.name().into(), tick });
-            if let Some(conn) = player.conn {
-                player.awaiting = true;
-                self.send(conn, &result);
-            }
+        for (conn, reply) in replies {
+            self.send(conn, &reply);
         }
         self.tick_sent_at = self.now;
+        let ids: Vec<RobotId> = self.players.keys().copied().collect();
         for id in ids {
             self.send_percepts(id, Delivery::Tick);
         }
@@ -552,56 +610,6 @@ impl MatchHost {
         } else if self.config.max_ticks.is_some_and(|max| tick >= max) {
             self.end = Some("max_ticks");
         }
-    }
-
-    fn apply(
-        &mut self,
-        robot: RobotId,
-        act_id: Option<ActId>,
-        action: Action,
-    ) -> Result<Accepted, Rejection> {
-        let message = match &action {
-            Action::SendMessage { to, text } => Some(FrameMessage {
-                from: self.players.get(&robot).map(|p| p.name.clone()).unwrap_or_default(),
-                to: match to {
-                    Receiver::All => "all".into(),
-                    Receiver::Player(name) => name.clone(),
-                },
-                text: text.clone(),
-            }),
-            _ => None,
-        };
-        let (name, args) = bw4t_protocol::action_to_act(&action);
-        let outcome = self.game.handle_action(robot, action);
-        let event = ReplayEvent::Act { robot: robot.0, action: name.to_string(), args, ok: outcome.is_ok() };
-        self.record(event);
-        let tick = self.game.tick();
-        let ack = match &outcome {
-            Ok(_) => Ack { id: act_id.clone(), ok: true, tick, code: None, reason: None },
-            Err(r) => Ack {
-                id: act_id.clone(),
-                ok: false,
-                tick,
-                code: Some(r.code().into()),
-                reason: Some(r.to_string()),
-            },
-        };
-        if let (Ok(_), Some(message)) = (&outcome, message) {
-            if self.frame_messages.len() == FRAME_MESSAGES {
-                self.frame_messages.remove(0);
-            }
-            self.frame_messages.push(message);
-        }
-        let Some(player) = self.players.get_mut(&robot) else { return outcome };
-        if let (Ok(accepted), Some(id)) = (&outcome, act_id) {
-            if let Some(order) = accepted.order {
-                player.orders.insert(order, id);
-            }
-        }
-        if let (Some(conn), None) = (player.conn, &player.local) {
-            self.send(conn, &ServerMessage::Ack(ack));
-        }
-        outcome
     }
 
     /// Sends a player what it has not been told. Returns whether anything was sent.
@@ -774,9 +782,7 @@ impl MatchHost {
         if let Some(player) = self.players.remove(&id) {
             self.gone.insert(id, (player.errors, player.connected_ever));
         }
-        if self.game.leave(id).is_ok() {
-            self.record(ReplayEvent::Leave { robot: id.0 });
-        }
+        let _ = self.game.leave_logged(id, &mut self.recorder);
     }
 
     /// Robots whose players stayed away longer than the grace period leave the match.
