@@ -108,7 +108,7 @@ impl Agent for Spy {
 }
 
 /// Plays the cooperative team of `robots`, every agent watched by a spy.
-fn play_watched(map: &Map, seed: u64, robots: usize) -> (&'static str, u64, Record) {
+fn play_watched(map: &Map, seed: u64, robots: usize) -> (bw4t_protocol::EndReason, u64, Record) {
     let record = Arc::new(Mutex::new(Record::default()));
     let seats = (1..=robots)
         .map(|i| {

@@ -25,7 +25,7 @@ async fn refusal(addr: SocketAddr, message: Value) -> String {
     let error = error.unwrap_or_else(|| panic!("no error for {message}: {rest:?}"));
     assert!(error.fatal, "{error:?}");
     assert!(matches!(rest.last(), Some(ServerMessage::Bye(_))), "bye last: {rest:?}");
-    error.code
+    error.code.to_string()
 }
 
 /// A connection that said `message` and got its `welcome`.

@@ -232,11 +232,11 @@ async fn bad_input_is_answered_and_the_connection_stays_open() {
         c.send(json!({"type": "ready", "tick": 0})).await;
         let got = c
             .until(|m| match m {
-                ServerMessage::Ack(a) => Some(a.code.clone()),
+                ServerMessage::Ack(a) => Some(a.code),
                 _ => None,
             })
             .await;
-        assert_eq!(got.as_deref(), Some(code), "for {act}");
+        assert_eq!(got.map(|c| c.as_str()), Some(code), "for {act}");
     }
     c.send(json!({"type": "ping", "id": "still-there"})).await;
     let pong = c.until(|m| if let ServerMessage::Pong(p) = m { Some(p.clone()) } else { None }).await;
@@ -315,11 +315,11 @@ async fn actions_beyond_the_per_tick_limit_are_rejected() {
     }
     let code = c
         .until(|m| match m {
-            ServerMessage::Ack(a) if !a.ok => Some(a.code.clone()),
+            ServerMessage::Ack(a) if !a.ok => Some(a.code),
             _ => None,
         })
         .await;
-    assert_eq!(code.as_deref(), Some("rate_limited"));
+    assert_eq!(code.map(|c| c.as_str()), Some("rate_limited"));
     server.stop().await;
 }
 
@@ -420,8 +420,8 @@ async fn a_client_that_never_reads_is_disconnected_and_others_play_on() {
     let error = rest
         .iter()
         .rev()
-        .find_map(|m| if let ServerMessage::Error(e) = m { Some(e.code.clone()) } else { None });
-    assert_eq!(error.as_deref(), Some("too_slow"));
+        .find_map(|m| if let ServerMessage::Error(e) = m { Some(e.code) } else { None });
+    assert_eq!(error.map(|c| c.as_str()), Some("too_slow"));
     assert!(matches!(rest.last(), Some(ServerMessage::Bye(_))));
     let_ticks_pass(&mut bob, 10).await;
     server.stop().await;
@@ -663,6 +663,6 @@ async fn the_builtin_team_over_tcp_plays_the_same_match_as_headless() {
     let (game, reason) =
         bw4t_runner::play_headless(&shipped_map("default"), &MatchConfig::default(), 21, seats, 20_000, None)
             .expect("play");
-    assert_eq!((reason, served.end_reason.as_str()), ("completed", "completed"));
+    assert_eq!((reason.as_str(), served.end_reason.as_str()), ("completed", "completed"));
     assert_eq!(format!("{:016x}", game.digest()), served.digest);
 }

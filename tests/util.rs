@@ -388,7 +388,7 @@ impl Client {
     /// The `error` code the next error message carries.
     pub async fn error_code(&mut self) -> String {
         self.until(|m| match m {
-            ServerMessage::Error(e) => Some(e.code.clone()),
+            ServerMessage::Error(e) => Some(e.code.to_string()),
             _ => None,
         })
         .await
@@ -479,7 +479,7 @@ impl AutoPlayer {
                             None
                         }
                         ServerMessage::Error(e) => {
-                            s.errors.push(e.code);
+                            s.errors.push(e.code.to_string());
                             None
                         }
                         ServerMessage::MatchEnd(_) | ServerMessage::Bye(_) => {
@@ -550,7 +550,7 @@ impl AutoPlayer {
 
     /// Waits for the `result` of an action.
     pub async fn wait_result(&mut self, id: &ActId) -> String {
-        self.wait("a result", |s| s.results.iter().find(|r| &r.id == id).map(|r| r.outcome.clone())).await
+        self.wait("a result", |s| s.results.iter().find(|r| &r.id == id).map(|r| r.outcome.to_string())).await
     }
 
     /// Waits for the `ack` of an action: `Ok(())` or the rejection code.
@@ -559,7 +559,7 @@ impl AutoPlayer {
             s.acks
                 .iter()
                 .find(|a| a.id.as_ref() == Some(id))
-                .map(|a| if a.ok { Ok(()) } else { Err(a.code.clone().unwrap_or_default()) })
+                .map(|a| if a.ok { Ok(()) } else { Err(a.code.map(|c| c.to_string()).unwrap_or_default()) })
         })
         .await
     }

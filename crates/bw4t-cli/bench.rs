@@ -153,7 +153,7 @@ fn matches(args: &BenchArgs) -> Result<serde_json::Value> {
             .collect();
         let (game, reason) =
             bw4t_runner::play_headless(&map, &config, args.seed.wrapping_add(i), seats, 20_000, None)?;
-        completed += u64::from(reason == "completed");
+        completed += u64::from(reason == bw4t_protocol::EndReason::Completed);
         ticks.push(game.tick());
     }
     let seconds = started.elapsed().as_secs_f64();

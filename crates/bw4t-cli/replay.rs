@@ -4,6 +4,7 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
 use anyhow::{Context, Result};
+use bw4t_protocol::EndReason;
 use bw4t_runner::{ReplayFrames, ReplaySummary, Verdict, verify_replay};
 use clap::{Args, Subcommand};
 
@@ -111,7 +112,7 @@ fn show(verdict: &Verdict, summary: &ReplaySummary) {
         "{} ticks, {} actions, end: {}",
         summary.game_ticks,
         summary.actions,
-        summary.reason.as_deref().unwrap_or("(none recorded)")
+        summary.reason.map_or("(none recorded)", EndReason::as_str)
     );
     outln!("sequence {}/{}: {}", summary.sequence_index, summary.sequence.len(), summary.sequence.join(" "));
     match verdict {

@@ -5,7 +5,7 @@ use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
 use bw4t_agents::Strategy;
-use bw4t_protocol::MatchResult;
+use bw4t_protocol::{EndReason, MatchResult};
 use bw4t_runner::{
     AgentReport, SeatSpec, ServedRun, TickLimit, check_command, play_builtin, play_served, plural,
 };
@@ -196,9 +196,9 @@ fn seats(args: &RunArgs) -> Result<Vec<SeatSpec>> {
 /// The readable report of a match.
 fn summary(r: &MatchResult, agents: &[AgentReport], limit: &Limit) -> String {
     let mut out = String::new();
-    let outcome = match r.end_reason.as_str() {
-        "completed" => "completed".to_string(),
-        "max_ticks" => "NOT completed: the tick limit was reached".to_string(),
+    let outcome = match r.end_reason {
+        EndReason::Completed => "completed".to_string(),
+        EndReason::MaxTicks => "NOT completed: the tick limit was reached".to_string(),
         other => format!("NOT completed: {other}"),
     };
     let at = r.completed_tick.unwrap_or(r.ticks);

@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
+use bw4t_protocol::EndReason;
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 
@@ -235,7 +236,7 @@ fn teams_without_play(resolved: &Resolved, rows: &[Row]) -> Vec<(String, usize)>
             seats(team).map_or(0, |s| s.iter().filter(|s| matches!(s, SeatSpec::External { .. })).count());
         let mine: Vec<&Row> = rows.iter().filter(|r| r.team == team.name).collect();
         let none_played =
-            mine.iter().all(|r| r.crashed_agents as usize >= external || r.end_reason.starts_with("error"));
+            mine.iter().all(|r| r.crashed_agents as usize >= external || r.end_reason == EndReason::Error);
         if external > 0 && !mine.is_empty() && none_played {
             out.push((team.name.clone(), mine.len()));
         }
@@ -357,8 +358,11 @@ fn progress(p: &Progress, terminal: bool) {
         );
         let _ = std::io::stderr().flush();
     } else if let Some(row) = &p.last {
-        let outcome =
-            if row.completed { format!("completed in {} ticks", row.ticks) } else { row.end_reason.clone() };
+        let outcome = match (&row.error, row.completed) {
+            (Some(error), _) => format!("error: {error}"),
+            (None, true) => format!("completed in {} ticks", row.ticks),
+            (None, false) => row.end_reason.to_string(),
+        };
         eprintln!(
             "[{}/{}] {} on {} seed {}: {outcome} ({} ms)",
             p.done, p.total, row.team, row.map, row.seed, row.wall_ms

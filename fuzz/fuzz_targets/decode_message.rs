@@ -35,7 +35,7 @@ where
     let message = match decode(line) {
         Ok(message) => message,
         Err(e) => {
-            assert!(CODES.contains(&e.code), "unexpected code {}", e.code);
+            assert!(CODES.contains(&e.code.as_str()), "unexpected code {}", e.code);
             assert!(!e.message.is_empty(), "an error without words");
             return;
         }

@@ -104,7 +104,7 @@ pub fn line_stream(stream: &[u8], cuts: &[usize]) {
     }
     let (expected, pending) = expected_lines(stream);
     let codes: Vec<Result<String, &'static str>> =
-        got.iter().map(|r| r.clone().map_err(|e| e.code)).collect();
+        got.iter().map(|r| r.clone().map_err(|e| e.code.as_str())).collect();
     assert_eq!(codes, expected, "lines differ from the rules");
     assert_eq!(lines.pending(), pending, "bytes pending");
     for line in got.iter().flatten() {

@@ -4,6 +4,7 @@ use serde::Serialize;
 use serde_json::Value;
 
 use crate::messages::{ClientMessage, ServerMessage};
+use crate::vocabulary::ErrorCode;
 
 /// The longest line accepted, in bytes, without its newline.
 pub const MAX_LINE: usize = 64 * 1024;
@@ -17,13 +18,14 @@ const SERVER_TYPES: &[&str] =
 #[error("{message}")]
 pub struct DecodeError {
     /// `bad_json`, `unknown_type`, `bad_message`, `line_too_long` or `bad_utf8`.
-    pub code: &'static str,
+    pub code: ErrorCode,
     /// What was wrong, in words.
     pub message: String,
 }
 
 impl DecodeError {
-    fn new(code: &'static str, message: impl Into<String>) -> Self {
+    /// An error with `code` and `message`.
+    pub fn new(code: ErrorCode, message: impl Into<String>) -> Self {
         DecodeError { code, message: message.into() }
     }
 }
@@ -47,20 +49,20 @@ pub fn decode_server(line: &str) -> Result<ServerMessage, DecodeError> {
 }
 
 fn decode<T: serde::de::DeserializeOwned>(line: &str, known: &[&str]) -> Result<T, DecodeError> {
-    let value: Value =
-        serde_json::from_str(line).map_err(|e| DecodeError::new("bad_json", format!("not JSON: {e}")))?;
+    let value: Value = serde_json::from_str(line)
+        .map_err(|e| DecodeError::new(ErrorCode::BadJson, format!("not JSON: {e}")))?;
     let Some(object) = value.as_object() else {
-        return Err(DecodeError::new("bad_message", "a message must be a JSON object"));
+        return Err(DecodeError::new(ErrorCode::BadMessage, "a message must be a JSON object"));
     };
     let Some(kind) = object.get("type").and_then(Value::as_str) else {
-        return Err(DecodeError::new("bad_message", "a message needs a string field `type`"));
+        return Err(DecodeError::new(ErrorCode::BadMessage, "a message needs a string field `type`"));
     };
     if !known.contains(&kind) {
-        return Err(DecodeError::new("unknown_type", format!("unknown message type '{kind}'")));
+        return Err(DecodeError::new(ErrorCode::UnknownType, format!("unknown message type '{kind}'")));
     }
     let kind = kind.to_string();
     serde_json::from_value(value)
-        .map_err(|e| DecodeError::new("bad_message", format!("bad '{kind}' message: {e}")))
+        .map_err(|e| DecodeError::new(ErrorCode::BadMessage, format!("bad '{kind}' message: {e}")))
 }
 
 /// Splits a byte stream into lines without ever holding more than [`MAX_LINE`] bytes:
@@ -92,7 +94,7 @@ impl LineBuffer {
                     self.buf.clear();
                     self.discarding = true;
                     out.push(Err(DecodeError::new(
-                        "line_too_long",
+                        ErrorCode::LineTooLong,
                         format!("line longer than {MAX_LINE} bytes; skipped up to its newline"),
                     )));
                 } else {
@@ -108,7 +110,7 @@ impl LineBuffer {
                     if !line.iter().all(u8::is_ascii_whitespace) {
                         out.push(
                             String::from_utf8(line)
-                                .map_err(|_| DecodeError::new("bad_utf8", "line is not valid UTF-8")),
+                                .map_err(|_| DecodeError::new(ErrorCode::BadUtf8, "line is not valid UTF-8")),
                         );
                     }
                 }
@@ -138,16 +140,16 @@ mod tests {
         let long = vec![b'x'; MAX_LINE + 10];
         let got = lines.push(&long);
         assert_eq!(got.len(), 1);
-        assert_eq!(got[0].as_ref().map_err(|e| e.code), Err("line_too_long"));
+        assert_eq!(got[0].as_ref().map_err(|e| e.code.as_str()), Err("line_too_long"));
         assert_eq!(lines.pending(), 0);
         assert!(lines.push(&long).is_empty(), "reported once per line");
         assert_eq!(lines.push(b"tail\nok\n"), vec![Ok("ok".to_string())]);
-        assert_eq!(lines.push(b"\xff\n")[0].as_ref().map_err(|e| e.code), Err("bad_utf8"));
+        assert_eq!(lines.push(b"\xff\n")[0].as_ref().map_err(|e| e.code.as_str()), Err("bad_utf8"));
     }
 
     #[test]
     fn decoding_names_what_is_wrong() {
-        let code = |line: &str| decode_client(line).map(|_| ()).map_err(|e| e.code);
+        let code = |line: &str| decode_client(line).map(|_| ()).map_err(|e| e.code.as_str());
         assert_eq!(code("{not json"), Err("bad_json"));
         assert_eq!(code("[1,2]"), Err("bad_message"));
         assert_eq!(code("{\"type\":\"dance\"}"), Err("unknown_type"));

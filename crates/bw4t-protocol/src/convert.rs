@@ -6,8 +6,8 @@ use bw4t_map::Colour;
 use bw4t_sim::{Action, MoveState, Percept, Receiver};
 use serde_json::{Value, json};
 
-use crate::codec::DecodeError;
 use crate::messages::Fact;
+use crate::vocabulary::AckCode;
 
 /// A percept as a fact array, e.g. `["color",12,"Red"]`.
 pub fn percept_to_fact(p: &Percept) -> Fact {
@@ -73,10 +73,20 @@ pub fn fact_to_percept(fact: &[Value]) -> Result<Percept, FactError> {
     })
 }
 
+/// Why an `act` names no action: `unknown_action` or `bad_args`, and in words.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("{message}")]
+pub struct ActError {
+    /// The `ack` code.
+    pub code: AckCode,
+    /// What was wrong, in words.
+    pub message: String,
+}
+
 /// The action an `act` asks for; errors carry `unknown_action` or `bad_args`.
-pub fn action_from_act(action: &str, args: &[Value]) -> Result<Action, DecodeError> {
-    let usage = |shape: &str| DecodeError {
-        code: "bad_args",
+pub fn action_from_act(action: &str, args: &[Value]) -> Result<Action, ActError> {
+    let usage = |shape: &str| ActError {
+        code: AckCode::BadArgs,
         message: format!("{action} takes {shape}, got {}", Value::from(args.to_vec())),
     };
     let block = |v: &Value| v.as_u64().and_then(|n| u32::try_from(n).ok());
@@ -96,8 +106,8 @@ pub fn action_from_act(action: &str, args: &[Value]) -> Result<Action, DecodeErr
             Ok(Action::SendMessage { to: receiver(to), text: text.clone() })
         }
         ("sendMessage", _) => Err(usage("[receiver, text]")),
-        _ => Err(DecodeError {
-            code: "unknown_action",
+        _ => Err(ActError {
+            code: AckCode::UnknownAction,
             message: format!("unknown action '{action}' (goTo, goToBlock, pickUp, putDown, sendMessage)"),
         }),
     }
@@ -165,7 +175,7 @@ mod tests {
     #[test]
     fn acts_become_actions_or_say_what_is_wrong() {
         let code = |a: &str, args: Value| {
-            action_from_act(a, args.as_array().expect("array")).map(|_| ()).map_err(|e| e.code)
+            action_from_act(a, args.as_array().expect("array")).map(|_| ()).map_err(|e| e.code.as_str())
         };
         assert_eq!(action_from_act("goTo", &[json!("RoomA1")]), Ok(Action::GoTo("RoomA1".into())));
         assert_eq!(action_from_act("pickUp", &[json!(3)]), Ok(Action::PickUp(Some(3))));

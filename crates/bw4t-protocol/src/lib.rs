@@ -10,14 +10,18 @@ mod replay;
 mod result;
 mod schema;
 mod view;
+mod vocabulary;
 
 pub use codec::{DecodeError, LineBuffer, MAX_LINE, decode_client, decode_server, encode};
-pub use convert::{FactError, action_from_act, action_to_act, fact_to_percept, percept_to_fact, receiver};
+pub use convert::{
+    ActError, FactError, action_from_act, action_to_act, fact_to_percept, percept_to_fact, receiver,
+};
 pub use messages::*;
 pub use replay::{REPLAY_FORMAT, Recorder, ReplayEvent, ReplayHeader, ReplayLine};
 pub use result::{MatchResult, RobotExtra, RobotResult};
 pub use schema::schemas;
 pub use view::map_layout;
+pub use vocabulary::{AckCode, AgentStatus, ByeReason, EndReason, ErrorCode, Leaving, MoveState, Outcome};
 
 /// The protocol's name, as sent in `hello`.
 pub const PROTOCOL: &str = "bw4t";

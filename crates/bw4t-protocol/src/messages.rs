@@ -5,6 +5,7 @@ use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
 use crate::result::MatchResult;
+use crate::vocabulary::{AckCode, ByeReason, EndReason, ErrorCode, MoveState, Outcome};
 
 /// An id chosen by the client for an `act`, echoed in its `ack` and `result`.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
@@ -241,7 +242,7 @@ pub struct Ack {
     pub tick: u64,
     /// Why not (a stable code), when rejected.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub code: Option<String>,
+    pub code: Option<AckCode>,
     /// Why not, in words, when rejected.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reason: Option<String>,
@@ -252,8 +253,8 @@ pub struct Ack {
 pub struct ActResult {
     /// The `act` id.
     pub id: ActId,
-    /// `arrived`, `collided` or `superseded`.
-    pub outcome: String,
+    /// How the order ended.
+    pub outcome: Outcome,
     /// The tick it ended at.
     pub tick: u64,
 }
@@ -262,7 +263,7 @@ pub struct ActResult {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct ErrorMessage {
     /// A stable code (see PROTOCOL.md).
-    pub code: String,
+    pub code: ErrorCode,
     /// What was wrong, in words.
     pub message: String,
     /// Whether the server closes the connection after it.
@@ -280,8 +281,8 @@ pub struct Pong {
 /// `match_end`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct MatchEnd {
-    /// `completed`, `max_ticks` or `interrupted`.
-    pub reason: String,
+    /// Why the match ended.
+    pub reason: EndReason,
     /// The results.
     pub result: MatchResult,
 }
@@ -290,7 +291,7 @@ pub struct MatchEnd {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct ServerBye {
     /// Why the connection closes.
-    pub reason: String,
+    pub reason: ByeReason,
 }
 
 /// `frame`: the god view, for spectators.
@@ -325,8 +326,8 @@ pub struct FrameRobot {
     pub x: f32,
     /// Centre y.
     pub y: f32,
-    /// `arrived`, `traveling` or `collided`.
-    pub state: String,
+    /// Its move state.
+    pub state: MoveState,
     /// The block held.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub holding: Option<u32>,

@@ -17,6 +17,7 @@ use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
 use crate::convert::{action_from_act, action_to_act};
+use crate::vocabulary::EndReason;
 
 /// The replay format version this build writes and reads.
 pub const REPLAY_FORMAT: u32 = 1;
@@ -48,7 +49,7 @@ pub enum ReplayLine {
         /// The final digest.
         digest: String,
         /// Why the match ended.
-        reason: String,
+        reason: EndReason,
     },
 }
 
@@ -208,13 +209,9 @@ impl Recorder {
     }
 
     /// Writes the last line and flushes. Returns the first write error, if any happened.
-    pub fn finish(mut self, game: &Match, reason: &str) -> std::io::Result<()> {
+    pub fn finish(mut self, game: &Match, reason: EndReason) -> std::io::Result<()> {
         self.flush_events();
-        let line = ReplayLine::End {
-            tick: game.tick(),
-            digest: format!("{:016x}", game.digest()),
-            reason: reason.into(),
-        };
+        let line = ReplayLine::End { tick: game.tick(), digest: format!("{:016x}", game.digest()), reason };
         self.write(&line);
         self.flush();
         self.error.map_or(Ok(()), Err)

@@ -4,6 +4,8 @@ use bw4t_sim::{Match, RobotId};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
+use crate::vocabulary::EndReason;
+
 use crate::messages::Mode;
 
 /// The result of a match.
@@ -20,8 +22,8 @@ pub struct MatchResult {
     pub robots: usize,
     /// Whether the whole sequence was delivered.
     pub completed: bool,
-    /// `completed`, `max_ticks` or `interrupted`.
-    pub end_reason: String,
+    /// Why the match ended.
+    pub end_reason: EndReason,
     /// Ticks simulated.
     pub ticks: u64,
     /// The first tick whose percepts show the whole sequence delivered (the tick after the
@@ -105,7 +107,7 @@ impl MatchResult {
     pub fn of(
         game: &Match,
         mode: Option<Mode>,
-        end_reason: &str,
+        end_reason: EndReason,
         wall_ms: u64,
         extra: impl Fn(RobotId) -> RobotExtra,
     ) -> Self {
@@ -134,7 +136,7 @@ impl MatchResult {
             mode,
             robots: per_robot.len(),
             completed: game.is_complete(),
-            end_reason: end_reason.to_string(),
+            end_reason,
             ticks: game.tick(),
             completed_tick: stats.completed_at,
             sim_seconds: game.config().seconds(game.tick()),

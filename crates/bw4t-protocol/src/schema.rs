@@ -4,10 +4,12 @@ use schemars::schema_for;
 use serde_json::{Value, json};
 
 use crate::messages::{ClientMessage, ServerMessage};
+use crate::vocabulary::{AckCode, AgentStatus, ByeReason, EndReason, ErrorCode, Leaving, MoveState, Outcome};
 
-/// Every message's schema as (relative path, schema): `client/hello.json`, `server/welcome.json`, ...
+/// Every message's schema as (relative path, schema): `client/hello.json`, `server/welcome.json`, ...,
+/// and `vocabulary.json`, every word list of the protocol and of bw4t's result files.
 pub fn schemas() -> Vec<(String, Value)> {
-    let mut out = Vec::new();
+    let mut out = vec![("vocabulary.json".to_string(), vocabulary())];
     for (side, whole) in [
         ("client", serde_json::to_value(schema_for!(ClientMessage))),
         ("server", serde_json::to_value(schema_for!(ServerMessage))),
@@ -43,6 +45,37 @@ pub fn schemas() -> Vec<(String, Value)> {
         }
     }
     out
+}
+
+/// One schema whose `$defs` are the word lists ([`crate::vocabulary`]).
+fn vocabulary() -> Value {
+    let words = [
+        ("ErrorCode", schema_for!(ErrorCode)),
+        ("AckCode", schema_for!(AckCode)),
+        ("ByeReason", schema_for!(ByeReason)),
+        ("Leaving", schema_for!(Leaving)),
+        ("EndReason", schema_for!(EndReason)),
+        ("Outcome", schema_for!(Outcome)),
+        ("MoveState", schema_for!(MoveState)),
+        ("AgentStatus", schema_for!(AgentStatus)),
+    ];
+    let mut defs = serde_json::Map::new();
+    for (name, schema) in words {
+        let mut schema = serde_json::to_value(schema).unwrap_or_default();
+        let Some(object) = schema.as_object_mut() else { continue };
+        object.remove("$schema");
+        object.remove("title");
+        if let Some(Value::Object(inner)) = object.remove("$defs") {
+            defs.extend(inner);
+        }
+        defs.insert(name.to_string(), schema);
+    }
+    json!({
+        "$schema": "https://json-schema.org/draft/2020-12/schema",
+        "$id": "https://bw4t.invalid/protocol/v1/vocabulary.json",
+        "title": "the words of the bw4t protocol and result files",
+        "$defs": defs,
+    })
 }
 
 /// Whether `value` refers to definition `key`, directly or through other definitions.

@@ -17,7 +17,7 @@ impl Frame {
                 name: r.name.to_string(),
                 x: r.pos.x,
                 y: r.pos.y,
-                state: r.state.name().into(),
+                state: r.state.into(),
                 holding: r.holding,
             })
             .collect();

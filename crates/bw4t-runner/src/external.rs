@@ -9,7 +9,7 @@ use std::time::Duration;
 
 use bw4t_agents::Strategy;
 use bw4t_map::Map;
-use bw4t_protocol::{MatchResult, Mode};
+use bw4t_protocol::{AgentStatus, MatchResult, Mode};
 use bw4t_server::{Extras, Seat, ServerConfig};
 use bw4t_sim::MatchConfig;
 use serde::Serialize;
@@ -52,8 +52,8 @@ pub struct AgentReport {
     /// The command, for external agents.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub command: Option<String>,
-    /// `ok`, `crashed`, `never_connected`, `unresponsive` or `bad_protocol`.
-    pub status: String,
+    /// How it fared.
+    pub status: AgentStatus,
     /// A sentence saying what happened.
     pub detail: String,
     /// The exit code, when the program exited by itself.
@@ -71,7 +71,7 @@ impl AgentReport {
             name: name.to_string(),
             kind: format!("builtin:{}", strategy.name()),
             command: None,
-            status: "ok".into(),
+            status: AgentStatus::Ok,
             detail: "played in-process".into(),
             exit_code: None,
             log: None,
@@ -298,30 +298,33 @@ fn report(seat: &SeatSpec, result: &MatchResult, children: &[Running]) -> AgentR
             let (late, errors, connected) =
                 robot.map_or((0, 0, false), |r| (r.late_ticks, r.errors, r.connected));
             let (status, detail) = match (&exited, connected) {
-                (Some(Err(e)), _) => ("crashed", format!("could not run: {e}")),
+                (Some(Err(e)), _) => (AgentStatus::Crashed, format!("could not run: {e}")),
                 (Some(Ok(code)), false) if *code != 0 => {
-                    ("crashed", format!("exited with code {code} before connecting"))
+                    (AgentStatus::Crashed, format!("exited with code {code} before connecting"))
                 }
                 (_, false) if errors > 0 => {
-                    ("bad_protocol", format!("never completed hello; {errors} invalid lines"))
+                    (AgentStatus::BadProtocol, format!("never completed hello; {errors} invalid lines"))
                 }
-                (_, false) => ("never_connected", "never connected".to_string()),
+                (_, false) => (AgentStatus::NeverConnected, "never connected".to_string()),
                 // Causes before consequences: a program dropped for garbage or silence often
                 // exits with an error afterwards.
-                _ if errors > 0 => ("bad_protocol", format!("sent {errors} invalid lines")),
+                _ if errors > 0 => (AgentStatus::BadProtocol, format!("sent {errors} invalid lines")),
                 _ if late >= u64::from(MAX_LATE_IN_ROW) => {
-                    ("unresponsive", format!("missed {late} deadlines"))
+                    (AgentStatus::Unresponsive, format!("missed {late} deadlines"))
                 }
                 (Some(Ok(code)), true) if *code != 0 && !result.completed => {
-                    ("crashed", format!("exited with code {code} during the match"))
+                    (AgentStatus::Crashed, format!("exited with code {code} during the match"))
                 }
-                _ => ("ok", if late > 0 { format!("missed {late} deadlines") } else { "played".to_string() }),
+                _ => (
+                    AgentStatus::Ok,
+                    if late > 0 { format!("missed {late} deadlines") } else { "played".to_string() },
+                ),
             };
             AgentReport {
                 name: name.clone(),
                 kind: "external".into(),
                 command: Some(command.clone()),
-                status: status.into(),
+                status,
                 detail,
                 exit_code: exited.and_then(Result::ok),
                 log: running.map(|c| c.log.clone()),

@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use bw4t_agents::{Agent, Driver, Team};
 use bw4t_map::Map;
-use bw4t_protocol::{MatchResult, Recorder, RobotExtra};
+use bw4t_protocol::{EndReason, MatchResult, Recorder, RobotExtra};
 use bw4t_sim::{JoinError, Match, MatchConfig, MatchError};
 
 use crate::external::{AgentReport, SeatSpec};
@@ -92,7 +92,7 @@ pub fn play_headless(
     seats: Vec<Seat>,
     max_ticks: u64,
     mut recorder: Option<&mut Recorder>,
-) -> Result<(Match, &'static str), RunError> {
+) -> Result<(Match, EndReason), RunError> {
     let (mut game, mut team) = set_up(map, config, seed, seats, recorder.as_deref_mut())?;
     let reason = play_to_end(&mut game, &mut team, max_ticks, recorder);
     Ok((game, reason))
@@ -121,14 +121,14 @@ fn play_to_end(
     team: &mut Team,
     max_ticks: u64,
     mut recorder: Option<&mut Recorder>,
-) -> &'static str {
+) -> EndReason {
     loop {
         team.observe(game);
         if game.is_complete() {
-            break "completed";
+            break EndReason::Completed;
         }
         if game.tick() >= max_ticks {
-            break "max_ticks";
+            break EndReason::MaxTicks;
         }
         game.boundary(team, &mut recorder);
     }

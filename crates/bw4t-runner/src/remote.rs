@@ -51,7 +51,11 @@ pub async fn play_remote(
         match message {
             ServerMessage::Ack(ack) => {
                 if let Some(ActId::Number(n)) = ack.id {
-                    let result = if ack.ok { Ok(()) } else { Err(ack.code.unwrap_or_default()) };
+                    let result = if ack.ok {
+                        Ok(())
+                    } else {
+                        Err(ack.code.map(|c| c.to_string()).unwrap_or_default())
+                    };
                     told.acks.push(ActionAck { action: n, result });
                 }
             }

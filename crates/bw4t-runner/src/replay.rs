@@ -4,7 +4,7 @@
 use std::collections::BTreeMap;
 
 use bw4t_map::Map;
-use bw4t_protocol::{Frame, FrameMessage, REPLAY_FORMAT, ReplayEvent, ReplayHeader, ReplayLine};
+use bw4t_protocol::{EndReason, Frame, FrameMessage, REPLAY_FORMAT, ReplayEvent, ReplayHeader, ReplayLine};
 use bw4t_sim::{Action, Match, MatchConfig, Receiver};
 
 /// The longest digest interval a replay may declare. Every line lies within one interval
@@ -194,7 +194,7 @@ pub struct ReplaySummary {
     /// The index reached.
     pub sequence_index: u32,
     /// Why it ended, if the replay says.
-    pub reason: Option<String>,
+    pub reason: Option<EndReason>,
     /// Actions applied.
     pub actions: usize,
     /// Players in joining order.
@@ -233,7 +233,7 @@ pub fn verify_replay(text: &str) -> Result<(Verdict, ReplaySummary), ReplayError
             digests += 1;
         }
         if let ReplayLine::End { reason: r, .. } = line {
-            reason = Some(r.clone());
+            reason = Some(*r);
         }
         let ReplayLine::Tick { events, .. } = line else { continue };
         for event in events {

@@ -7,7 +7,8 @@ use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::future::Future;
 
 use bw4t_protocol::{
-    ClientMessage, DecodeError, ErrorMessage, LineBuffer, Pong, ServerBye, ServerMessage, encode,
+    ByeReason, ClientMessage, DecodeError, ErrorCode, ErrorMessage, LineBuffer, Pong, ServerBye,
+    ServerMessage, encode,
 };
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::tcp::{OwnedReadHalf, OwnedWriteHalf};
@@ -100,19 +101,20 @@ pub async fn accept_loop(
 }
 
 async fn refuse(mut stream: TcpStream, limit: usize) {
-    let error = error_line("server_full", &format!("the server takes at most {limit} connections"), true);
+    let error =
+        error_line(ErrorCode::ServerFull, &format!("the server takes at most {limit} connections"), true);
     let _ = stream.write_all(error.as_bytes()).await;
     let _ = stream.shutdown().await;
 }
 
 /// An encoded `error` message.
-pub fn error_line(code: &str, message: &str, fatal: bool) -> Arc<str> {
-    let msg = ServerMessage::Error(ErrorMessage { code: code.into(), message: message.into(), fatal });
+pub fn error_line(code: ErrorCode, message: &str, fatal: bool) -> Arc<str> {
+    let msg = ServerMessage::Error(ErrorMessage { code, message: message.into(), fatal });
     encode(&msg).into()
 }
 
 /// An encoded `bye` message.
-pub fn bye_line(reason: &str) -> Arc<str> {
+pub fn bye_line(reason: impl Into<ByeReason>) -> Arc<str> {
     encode(&ServerMessage::Bye(ServerBye { reason: reason.into() })).into()
 }
 
@@ -292,7 +294,7 @@ pub async fn run(
             incoming = source.next() => incoming,
             _ = done.wait_for(|d| *d) => break 'read,
             () = tokio::time::sleep_until(hello_deadline), if !greeted => {
-                refuse_fatally(&tx, "hello_timeout", "no hello in time");
+                refuse_fatally(&tx, ErrorCode::HelloTimeout, "no hello in time");
                 break 'read;
             }
         };
@@ -317,7 +319,7 @@ pub async fn run(
 }
 
 /// Queues a fatal `error` and its `bye` (best effort: the connection closes next anyway).
-fn refuse_fatally(tx: &mpsc::Sender<Outbound>, code: &str, message: &str) {
+fn refuse_fatally(tx: &mpsc::Sender<Outbound>, code: ErrorCode, message: &str) {
     let _ = tx.try_send(Outbound::Line(error_line(code, message, true)));
     let _ = tx.try_send(Outbound::Line(bye_line(code)));
 }

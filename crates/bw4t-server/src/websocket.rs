@@ -12,7 +12,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
 
-use bw4t_protocol::{DecodeError, MAX_LINE};
+use bw4t_protocol::{DecodeError, ErrorCode, MAX_LINE};
 use futures_util::stream::{SplitSink, SplitStream};
 use futures_util::{SinkExt, StreamExt};
 use tokio::io::AsyncWriteExt;
@@ -131,18 +131,18 @@ impl LineSource for WsLines {
             return match self.0.next().await {
                 Some(Ok(Message::Text(text))) => Incoming::Lines(vec![Ok(text.as_str().to_owned())]),
                 Some(Ok(Message::Binary(_))) => {
-                    Incoming::Lines(vec![Err(error("bad_message", "send text frames".into()))])
+                    Incoming::Lines(vec![Err(error(ErrorCode::BadMessage, "send text frames".into()))])
                 }
                 // Pings are answered by the library; pongs and raw frames mean nothing here.
                 Some(Ok(Message::Ping(_) | Message::Pong(_) | Message::Frame(_))) => continue,
                 Some(Ok(Message::Close(_))) | None => Incoming::Closed,
                 // The rest of the message is not read, so the connection cannot go on.
                 Some(Err(WsError::Capacity(_))) => Incoming::Fatal(error(
-                    "line_too_long",
+                    ErrorCode::LineTooLong,
                     format!("message longer than {MAX_LINE} bytes; the WebSocket is closed"),
                 )),
                 Some(Err(WsError::Utf8(_))) => {
-                    Incoming::Fatal(error("bad_utf8", "text frame is not valid UTF-8".into()))
+                    Incoming::Fatal(error(ErrorCode::BadUtf8, "text frame is not valid UTF-8".into()))
                 }
                 Some(Err(_)) => Incoming::Closed,
             };

@@ -12,10 +12,8 @@ pub use config::{
     Agents, ConfigError, Planned, Resolved, Seeds, Team, TeamConfig, TournamentConfig, builtin_strategy,
     derive_seeds, seats,
 };
-pub use row::Row;
-pub use run::{
-    CSV_COLUMNS, Options, Outcome, Progress, ReplayPolicy, TournamentError, merge, run_tournament, setup,
-};
+pub use row::{CSV_COLUMNS, Row};
+pub use run::{Options, Outcome, Progress, ReplayPolicy, TournamentError, merge, run_tournament, setup};
 pub use stats::{
     EndReasonCount, Interval, MapLimit, Method, PairStats, Setup, TeamMapStats, TeamRank, Totals,
 };

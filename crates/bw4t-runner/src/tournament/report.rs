@@ -37,7 +37,7 @@ impl Summary {
             fixed(self.matches_per_min, 1),
         );
         let reasons: Vec<String> =
-            t.end_reasons.iter().map(|r| format!("{} {}", md_text(&r.reason), r.matches)).collect();
+            t.end_reasons.iter().map(|r| format!("{} {}", md_text(r.reason.as_str()), r.matches)).collect();
         let _ = writeln!(
             md,
             "End reasons: {}. Over all matches: {} ticks simulated, {} blocks delivered in order and \

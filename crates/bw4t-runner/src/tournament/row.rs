@@ -1,5 +1,6 @@
 //! One finished match of a tournament, as written to `matches.jsonl` and `matches.csv`.
 
+use bw4t_protocol::EndReason;
 use serde::{Deserialize, Serialize};
 
 /// One finished match.
@@ -38,10 +39,60 @@ pub struct Row {
     pub late_agents: u32,
     /// Agents that crashed, never connected, hung or talked garbage.
     pub crashed_agents: u32,
-    /// `completed`, `max_ticks`, `interrupted` or `error`.
-    pub end_reason: String,
+    /// Why the match ended; `error` when it could not be played.
+    pub end_reason: EndReason,
+    /// Why the match could not be played, when `end_reason` is `error`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
     /// The final state digest.
     pub digest: String,
     /// The replay file, relative to the tournament directory, when kept.
     pub replay: Option<String>,
+}
+
+/// How a row fills one column of `matches.csv`.
+pub type CsvField = fn(&Row) -> String;
+
+/// The columns of `matches.csv`, in order, each with how a row fills it.
+pub const CSV_COLUMNS: &[(&str, CsvField)] = &[
+    ("index", |r| r.index.to_string()),
+    ("team", |r| csv_field(&r.team)),
+    ("map", |r| csv_field(&r.map)),
+    ("seed", |r| r.seed.to_string()),
+    ("repetition", |r| r.repetition.to_string()),
+    ("robots", |r| r.robots.to_string()),
+    ("completed", |r| r.completed.to_string()),
+    ("ticks", |r| r.ticks.to_string()),
+    ("completed_tick", |r| r.completed_tick.map(|t| t.to_string()).unwrap_or_default()),
+    ("wall_ms", |r| r.wall_ms.to_string()),
+    ("good_drops", |r| r.good_drops.to_string()),
+    ("wrong_drops", |r| r.wrong_drops.to_string()),
+    ("messages", |r| r.messages.to_string()),
+    ("late_agents", |r| r.late_agents.to_string()),
+    ("crashed_agents", |r| r.crashed_agents.to_string()),
+    ("end_reason", |r| r.end_reason.to_string()),
+    ("error", |r| csv_field(r.error.as_deref().unwrap_or(""))),
+    ("digest", |r| r.digest.clone()),
+    ("replay", |r| csv_field(r.replay.as_deref().unwrap_or(""))),
+];
+
+impl Row {
+    /// The header line of `matches.csv`.
+    pub fn csv_header() -> String {
+        CSV_COLUMNS.iter().map(|(name, _)| *name).collect::<Vec<_>>().join(",")
+    }
+
+    /// This row as a line of `matches.csv`.
+    pub fn csv_line(&self) -> String {
+        CSV_COLUMNS.iter().map(|(_, field)| field(self)).collect::<Vec<_>>().join(",")
+    }
+}
+
+/// A CSV field, quoted when it holds a comma, a quote or a line break.
+fn csv_field(text: &str) -> String {
+    if text.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", text.replace('"', "\"\""))
+    } else {
+        text.to_string()
+    }
 }

@@ -9,7 +9,7 @@ use std::sync::{Arc, Mutex, mpsc};
 use std::time::{Duration, Instant};
 
 use bw4t_map::Map;
-use bw4t_protocol::MatchResult;
+use bw4t_protocol::{AgentStatus, EndReason, MatchResult};
 use bw4t_sim::MatchConfig;
 use serde::Deserialize;
 use serde_json::{Value, json};
@@ -112,28 +112,6 @@ fn io(what: impl std::fmt::Display, e: impl std::fmt::Display) -> TournamentErro
     TournamentError::Io(format!("{what}: {e}"))
 }
 
-/// The columns of `matches.csv`, in order.
-pub const CSV_COLUMNS: &[&str] = &[
-    "index",
-    "team",
-    "map",
-    "seed",
-    "repetition",
-    "robots",
-    "completed",
-    "ticks",
-    "completed_tick",
-    "wall_ms",
-    "good_drops",
-    "wrong_drops",
-    "messages",
-    "late_agents",
-    "crashed_agents",
-    "end_reason",
-    "digest",
-    "replay",
-];
-
 /// Runs (or resumes) a tournament. `maps[i]` is `resolved.maps[i]` loaded; `manifest`
 /// holds what the caller knows of the program and machine.
 pub fn run_tournament(
@@ -221,7 +199,7 @@ pub fn run_tournament(
         drop(tx);
         for (mut row, replay) in rx {
             // A match cut short by a stop is played again on resume, so it leaves no row.
-            if options.stop.load(Ordering::SeqCst) && row.end_reason == "interrupted" {
+            if options.stop.load(Ordering::SeqCst) && row.end_reason == EndReason::Interrupted {
                 continue;
             }
             if let Some(bytes) = replay {
@@ -413,7 +391,7 @@ impl RowFiles {
         let csv_new = !out.join("matches.csv").exists();
         let mut csv = open("matches.csv")?;
         if csv_new {
-            writeln!(csv, "{}", CSV_COLUMNS.join(",")).map_err(|e| io("matches.csv", e))?;
+            writeln!(csv, "{}", Row::csv_header()).map_err(|e| io("matches.csv", e))?;
         }
         Ok(RowFiles { jsonl: open("matches.jsonl")?, csv })
     }
@@ -423,39 +401,9 @@ impl RowFiles {
         writeln!(self.jsonl, "{line}")
             .and_then(|()| self.jsonl.flush())
             .map_err(|e| io("matches.jsonl", e))?;
-        let opt = |v: Option<u64>| v.map(|v| v.to_string()).unwrap_or_default();
-        let fields = [
-            row.index.to_string(),
-            csv_field(&row.team),
-            csv_field(&row.map),
-            row.seed.to_string(),
-            row.repetition.to_string(),
-            row.robots.to_string(),
-            row.completed.to_string(),
-            row.ticks.to_string(),
-            opt(row.completed_tick),
-            row.wall_ms.to_string(),
-            row.good_drops.to_string(),
-            row.wrong_drops.to_string(),
-            row.messages.to_string(),
-            row.late_agents.to_string(),
-            row.crashed_agents.to_string(),
-            csv_field(&row.end_reason),
-            row.digest.clone(),
-            csv_field(row.replay.as_deref().unwrap_or("")),
-        ];
-        writeln!(self.csv, "{}", fields.join(","))
+        writeln!(self.csv, "{}", row.csv_line())
             .and_then(|()| self.csv.flush())
             .map_err(|e| io("matches.csv", e))
-    }
-}
-
-/// A CSV field, quoted when it holds a comma, a quote or a line break.
-fn csv_field(text: &str) -> String {
-    if text.contains([',', '"', '\n', '\r']) {
-        format!("\"{}\"", text.replace('"', "\"\""))
-    } else {
-        text.to_string()
     }
 }
 
@@ -518,7 +466,8 @@ fn play_one(
         messages: 0,
         late_agents: 0,
         crashed_agents: 0,
-        end_reason: String::new(),
+        end_reason: EndReason::Error,
+        error: None,
         digest: String::new(),
         replay: None,
     };
@@ -532,11 +481,11 @@ fn play_one(
             row.wrong_drops = result.wrong_drops;
             row.messages = result.messages;
             row.late_agents = result.per_robot.iter().filter(|r| r.late_ticks > 0).count() as u32;
-            row.crashed_agents = agents.iter().filter(|a| a.status != "ok").count() as u32;
+            row.crashed_agents = agents.iter().filter(|a| a.status != AgentStatus::Ok).count() as u32;
             row.end_reason = result.end_reason;
             row.digest = result.digest;
         }
-        Err(message) => row.end_reason = format!("error: {message}"),
+        Err(message) => row.error = Some(message),
     }
     let bytes = want_replay.then(|| buffer.take()).filter(|b| !b.is_empty());
     (row, bytes)

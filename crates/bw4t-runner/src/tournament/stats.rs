@@ -9,6 +9,7 @@
 use std::collections::BTreeMap;
 
 use bw4t_map::SeededRng;
+use bw4t_protocol::EndReason;
 use serde::{Deserialize, Serialize};
 
 use super::row::Row;
@@ -77,7 +78,7 @@ impl Method {
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct EndReasonCount {
     /// The end reason, as in the rows.
-    pub reason: String,
+    pub reason: EndReason,
     /// Matches that ended so.
     pub matches: usize,
 }
@@ -492,7 +493,7 @@ fn totals(rows: &[Row], teams: usize, maps: usize) -> Totals {
         totals.match_wall_ms += row.wall_ms;
         match totals.end_reasons.iter_mut().find(|c| c.reason == row.end_reason) {
             Some(count) => count.matches += 1,
-            None => totals.end_reasons.push(EndReasonCount { reason: row.end_reason.clone(), matches: 1 }),
+            None => totals.end_reasons.push(EndReasonCount { reason: row.end_reason, matches: 1 }),
         }
     }
     totals
@@ -581,7 +582,8 @@ pub(super) mod tests {
             messages: 30,
             late_agents: 0,
             crashed_agents: 0,
-            end_reason: if done.is_some() { "completed" } else { "max_ticks" }.to_string(),
+            end_reason: if done.is_some() { EndReason::Completed } else { EndReason::MaxTicks },
+            error: None,
             digest: "0".to_string(),
             replay: None,
         }
@@ -612,6 +614,21 @@ pub(super) mod tests {
 
     fn close(a: f64, b: f64) -> bool {
         (a - b).abs() < 1e-3
+    }
+
+    #[test]
+    fn matches_that_could_not_be_played_count_as_one_end_reason_whatever_their_error() {
+        let mut rows = sample();
+        for (i, message) in ["cannot start `x`: no such file", "port in use"].into_iter().enumerate() {
+            let mut failed = row("coop", "default", 10 + i as u64, None);
+            failed.end_reason = EndReason::Error;
+            failed.error = Some(message.to_string());
+            rows.push(failed);
+        }
+        let s = summarize(&rows, 1.0);
+        let errors: Vec<_> = s.totals.end_reasons.iter().filter(|c| c.reason == EndReason::Error).collect();
+        assert_eq!(errors, [&EndReasonCount { reason: EndReason::Error, matches: 2 }]);
+        assert_eq!(s.totals.end_reasons.len(), 3, "{:?}", s.totals.end_reasons);
     }
 
     #[test]
@@ -696,8 +713,8 @@ pub(super) mod tests {
 
         assert_eq!((s.matches, s.completed), (16, 9));
         assert_eq!(s.matches_per_min, 16.0);
-        assert_eq!(s.totals.end_reasons[0], EndReasonCount { reason: "completed".into(), matches: 9 });
-        assert_eq!(s.totals.end_reasons[1], EndReasonCount { reason: "max_ticks".into(), matches: 7 });
+        assert_eq!(s.totals.end_reasons[0], EndReasonCount { reason: EndReason::Completed, matches: 9 });
+        assert_eq!(s.totals.end_reasons[1], EndReasonCount { reason: EndReason::MaxTicks, matches: 7 });
     }
 
     #[test]

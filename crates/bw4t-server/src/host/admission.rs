@@ -1,7 +1,7 @@
 //! Admission: `hello` for each role with its own token, seats (at most `robots` players,
 //! reserved names, reconnects by session), robot names and the `welcome`.
 
-use bw4t_protocol::{Hello, MatchInfo, Mode, Role, ServerMessage, VERSION, Welcome};
+use bw4t_protocol::{ErrorCode, Hello, MatchInfo, Mode, Role, ServerMessage, VERSION, Welcome};
 use bw4t_sim::{JoinError, RobotId};
 
 use super::{ConnRole, Delivery, MatchHost, Player, Sight};
@@ -29,18 +29,23 @@ pub(super) fn check_tokens_differ(config: &ServerConfig) -> Result<(), crate::Se
 impl MatchHost {
     pub(super) fn on_hello(&mut self, conn: ConnId, role: ConnRole, hello: &Hello) {
         if role != ConnRole::New {
-            return self.error(conn, "already_joined", "this connection has already said hello", false);
+            return self.error(
+                conn,
+                ErrorCode::AlreadyJoined,
+                "this connection has already said hello",
+                false,
+            );
         }
         if hello.protocol != bw4t_protocol::PROTOCOL {
             let message = format!("unknown protocol '{}' (this server speaks 'bw4t')", hello.protocol);
-            return self.error(conn, "bad_protocol", &message, true);
+            return self.error(conn, ErrorCode::BadProtocol, &message, true);
         }
         if !hello.versions.contains(&VERSION) {
             let message = format!("no common protocol version (this server speaks {VERSION})");
-            return self.error(conn, "unsupported_version", &message, true);
+            return self.error(conn, ErrorCode::UnsupportedVersion, &message, true);
         }
         if let Err(message) = self.check_token(hello) {
-            return self.error(conn, "bad_token", message, true);
+            return self.error(conn, ErrorCode::BadToken, message, true);
         }
         let sight = match hello.role {
             Role::Agent => None,
@@ -59,10 +64,15 @@ impl MatchHost {
             Some(session) => {
                 let found = self.players.iter().find(|(_, p)| &p.session == session).map(|(id, _)| *id);
                 let Some(id) = found else {
-                    return self.error(conn, "bad_session", "unknown or expired session", true);
+                    return self.error(conn, ErrorCode::BadSession, "unknown or expired session", true);
                 };
                 if let Some(old) = self.players.get(&id).and_then(|p| p.conn) {
-                    self.disconnect(old, "replaced", "the session was taken up by a new connection");
+                    self.error(
+                        old,
+                        ErrorCode::Replaced,
+                        "the session was taken up by a new connection",
+                        true,
+                    );
                 }
                 id
             }
@@ -117,7 +127,7 @@ impl MatchHost {
         }
     }
 
-    pub(super) fn join(&mut self, name: Option<&str>) -> Result<RobotId, (&'static str, String)> {
+    pub(super) fn join(&mut self, name: Option<&str>) -> Result<RobotId, (ErrorCode, String)> {
         let name = match name {
             Some(n) => n.to_string(),
             None => (1..)
@@ -127,9 +137,9 @@ impl MatchHost {
         };
         let refusal = |e: JoinError| {
             let code = match e {
-                JoinError::InvalidName(_) => "invalid_name",
-                JoinError::NameTaken(_) => "name_taken",
-                JoinError::Full(_) => "match_full",
+                JoinError::InvalidName(_) => ErrorCode::InvalidName,
+                JoinError::NameTaken(_) => ErrorCode::NameTaken,
+                JoinError::Full(_) => ErrorCode::MatchFull,
             };
             (code, e.to_string())
         };
@@ -138,7 +148,7 @@ impl MatchHost {
         // within its grace period.
         let seats = self.config.robots;
         if self.players.len() >= seats {
-            return Err(("match_full", format!("the match is full: it admits {seats} players")));
+            return Err((ErrorCode::MatchFull, format!("the match is full: it admits {seats} players")));
         }
         let id = self.game.join_logged(&name, &mut self.recorder).map_err(refusal)?;
         // The id may have been another robot's: its figures belong to that one.

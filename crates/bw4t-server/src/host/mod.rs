@@ -20,7 +20,7 @@ use bw4t_protocol::{
     Ack, ActId, ActResult, ClientMessage, Frame, FrameMessage, MatchEnd, MatchResult, Mode, Percepts,
     ServerMessage, action_from_act, encode, percept_to_fact,
 };
-use bw4t_protocol::{Recorder, RobotExtra};
+use bw4t_protocol::{AckCode, ByeReason, EndReason, ErrorCode, Leaving, Recorder, RobotExtra};
 use bw4t_sim::{Accepted, Action, Intent, Match, OrderEnd, OrderId, Receiver, Rejection, RobotId, Seats};
 
 use crate::connection::{ConnId, bye_line, error_line};
@@ -217,7 +217,7 @@ impl Seats for HostSeats<'_> {
                 id: act_id,
                 ok: false,
                 tick: self.tick,
-                code: Some(r.code().into()),
+                code: Some(AckCode::from(r)),
                 reason: Some(r.to_string()),
             },
         };
@@ -234,7 +234,7 @@ impl Seats for HostSeats<'_> {
         let Some(id) = player.orders.remove(&end.order) else { return };
         if let Some(conn) = player.conn {
             self.told.insert(end.robot);
-            let result = ActResult { id, outcome: end.outcome.name().into(), tick };
+            let result = ActResult { id, outcome: end.outcome.into(), tick };
             self.replies.push((conn, ServerMessage::Result(result)));
         }
     }
@@ -309,7 +309,7 @@ pub struct MatchHost {
     tick_sent_at: Instant,
     last_frame: Option<Instant>,
     frame_messages: Vec<FrameMessage>,
-    end: Option<&'static str>,
+    end: Option<EndReason>,
     sessions: u64,
     outbox: VecDeque<Transmit>,
     recorder: Option<Recorder>,
@@ -468,7 +468,7 @@ impl MatchHost {
 
     /// Ends the match now (the server is stopping).
     pub fn interrupt(&mut self) {
-        self.end.get_or_insert("interrupted");
+        self.end.get_or_insert(EndReason::Interrupted);
     }
 
     /// The current tick.
@@ -480,7 +480,7 @@ impl MatchHost {
     /// and `bye` for every client and closes every connection; returns the result.
     pub fn finish(&mut self, now: Instant) -> MatchResult {
         self.now = self.now.max(now);
-        let reason = *self.end.get_or_insert("interrupted");
+        let reason = *self.end.get_or_insert(EndReason::Interrupted);
         // `wall_ms` counts from the first tick: waiting for players is not playing.
         let wall_ms = match self.phase {
             Phase::Playing { since, .. } => self.now.saturating_duration_since(since).as_millis() as u64,
@@ -498,8 +498,7 @@ impl MatchHost {
             // A replay that cannot be written must not cost the match its result.
             let _ = recorder.finish(&self.game, reason);
         }
-        let end =
-            encode(&ServerMessage::MatchEnd(MatchEnd { reason: reason.into(), result: result.clone() }));
+        let end = encode(&ServerMessage::MatchEnd(MatchEnd { reason, result: result.clone() }));
         let end: Arc<str> = end.into();
         let conns: Vec<ConnId> = self.conns.keys().copied().collect();
         for conn in conns {
@@ -509,7 +508,7 @@ impl MatchHost {
             ) {
                 self.send_line(conn, end.clone());
             }
-            self.disconnect(conn, "match_over", "");
+            self.disconnect(conn, Leaving::MatchOver.into());
         }
         result
     }
@@ -572,7 +571,7 @@ impl MatchHost {
             }
         }
         for conn in unresponsive {
-            self.disconnect(conn, "unresponsive", "no ready for too many ticks in a row");
+            self.error(conn, ErrorCode::Unresponsive, "no ready for too many ticks in a row", true);
         }
     }
 
@@ -606,9 +605,9 @@ impl MatchHost {
         self.send_frames(false);
         self.expire_dropped();
         if self.game.is_complete() {
-            self.end = Some("completed");
+            self.end = Some(EndReason::Completed);
         } else if self.config.max_ticks.is_some_and(|max| tick >= max) {
-            self.end = Some("max_ticks");
+            self.end = Some(EndReason::MaxTicks);
         }
     }
 
@@ -625,7 +624,7 @@ impl MatchHost {
             player.awaiting = false;
             let since = *player.full_since.get_or_insert(now);
             if now.saturating_duration_since(since) > self.config.slow_limit {
-                self.disconnect(conn_id, "too_slow", "the client did not read its messages");
+                self.error(conn_id, ErrorCode::TooSlow, "the client did not read its messages", true);
             }
             return false;
         }
@@ -718,12 +717,12 @@ impl MatchHost {
             (_, ClientMessage::Hello(hello)) => return self.on_hello(conn, role, hello),
             (ConnRole::Agent(id), _) => id,
             (ConnRole::Watcher(_) | ConnRole::New, ClientMessage::Bye(_)) => {
-                return self.disconnect(conn, "goodbye", "");
+                return self.disconnect(conn, Leaving::Goodbye.into());
             }
             (ConnRole::Watcher(_), _) => {
-                return self.error(conn, "not_a_player", "spectators cannot act", false);
+                return self.error(conn, ErrorCode::NotAPlayer, "spectators cannot act", false);
             }
-            (ConnRole::New, _) => return self.error(conn, "no_hello", "say hello first", false),
+            (ConnRole::New, _) => return self.error(conn, ErrorCode::NoHello, "say hello first", false),
         };
         match message {
             ClientMessage::Act(act) => match action_from_act(&act.action, &act.args) {
@@ -743,10 +742,10 @@ impl MatchHost {
                     }
                 } else if ready.tick < now {
                     let message = format!("tick {} is over; the match is at tick {now}", ready.tick);
-                    self.error(conn, "late_ready", &message, false);
+                    self.error(conn, ErrorCode::LateReady, &message, false);
                 } else {
                     let message = format!("tick {} has not happened; the match is at tick {now}", ready.tick);
-                    self.error(conn, "bad_tick", &message, false);
+                    self.error(conn, ErrorCode::BadTick, &message, false);
                 }
             }
             ClientMessage::Resync(_) => {
@@ -754,7 +753,7 @@ impl MatchHost {
             }
             ClientMessage::Bye(_) => {
                 self.remove_player(robot);
-                self.disconnect(conn, "goodbye", "");
+                self.disconnect(conn, Leaving::Goodbye.into());
             }
             ClientMessage::Hello(_) | ClientMessage::Ping(_) => {}
         }
@@ -765,15 +764,15 @@ impl MatchHost {
         let Some(player) = self.players.get_mut(&robot) else { return };
         if player.actions_this_tick >= limit {
             let reason = format!("at most {limit} actions and messages per tick");
-            return self.reject(conn, id, "rate_limited", &reason);
+            return self.reject(conn, id, AckCode::RateLimited, &reason);
         }
         player.actions_this_tick += 1;
         player.pending.push(Pending::Act(id, action));
     }
 
-    fn reject(&mut self, conn: ConnId, id: Option<ActId>, code: &str, reason: &str) {
+    fn reject(&mut self, conn: ConnId, id: Option<ActId>, code: AckCode, reason: &str) {
         let tick = self.game.tick();
-        let ack = Ack { id, ok: false, tick, code: Some(code.into()), reason: Some(reason.into()) };
+        let ack = Ack { id, ok: false, tick, code: Some(code), reason: Some(reason.into()) };
         self.send(conn, &ServerMessage::Ack(ack));
     }
 
@@ -817,18 +816,16 @@ impl MatchHost {
         self.outbox.push_back(Transmit::Line { conn, line });
     }
 
-    fn error(&mut self, conn: ConnId, code: &str, message: &str, fatal: bool) {
+    /// Sends an `error`; a fatal one is followed by `bye` with its code and the close.
+    fn error(&mut self, conn: ConnId, code: ErrorCode, message: &str, fatal: bool) {
         self.send_line(conn, error_line(code, message, fatal));
         if fatal {
-            self.disconnect(conn, code, "");
+            self.disconnect(conn, code.into());
         }
     }
 
-    /// Says `bye` (after an error, when `message` is given) and closes the connection.
-    fn disconnect(&mut self, conn: ConnId, reason: &str, message: &str) {
-        if !message.is_empty() {
-            self.send_line(conn, error_line(reason, message, true));
-        }
+    /// Says `bye` and closes the connection.
+    fn disconnect(&mut self, conn: ConnId, reason: ByeReason) {
         self.send_line(conn, bye_line(reason));
         if self.conns.contains_key(&conn) {
             self.outbox.push_back(Transmit::Close { conn });
