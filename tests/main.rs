@@ -1,5 +1,8 @@
 //! The integration tests, in one binary.
 
+// Helpers are shared between test modules; which of them a module uses is not an API.
+#![allow(unreachable_pub)]
+
 /// Shared helpers: loading maps, and the scenario runner the rule tests are written in.
 mod util;
 

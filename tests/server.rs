@@ -417,10 +417,8 @@ async fn a_client_that_never_reads_is_disconnected_and_others_play_on() {
     flood(&mut bob, 20, "a").await;
     let_ticks_pass(&mut bob, 400).await;
     let rest = ann.drain().await;
-    let error = rest
-        .iter()
-        .rev()
-        .find_map(|m| if let ServerMessage::Error(e) = m { Some(e.code) } else { None });
+    let error =
+        rest.iter().rev().find_map(|m| if let ServerMessage::Error(e) = m { Some(e.code) } else { None });
     assert_eq!(error.map(|c| c.as_str()), Some("too_slow"));
     assert!(matches!(rest.last(), Some(ServerMessage::Bye(_))));
     let_ticks_pass(&mut bob, 10).await;

@@ -9,7 +9,7 @@ use serde_json::json;
 
 /// Options of `bw4t bench`.
 #[derive(Args)]
-pub struct BenchArgs {
+pub(crate) struct BenchArgs {
     /// Cases to run (all when none is given).
     #[arg(value_enum)]
     cases: Vec<Case>,
@@ -56,7 +56,7 @@ enum Case {
 }
 
 /// Runs the chosen cases and prints their figures.
-pub fn run(args: &BenchArgs) -> Result<()> {
+pub(crate) fn run(args: &BenchArgs) -> Result<()> {
     let cases = if args.cases.is_empty() { Case::value_variants().to_vec() } else { args.cases.clone() };
     for case in cases {
         match case {

@@ -14,7 +14,7 @@ use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader};
 use tokio::net::TcpStream;
 
 /// `lockstep`: players that answer at once, with a message each tick.
-pub fn lockstep(map: &str, seed: u64, players: usize, ticks: u64) -> Result<Value> {
+pub(crate) fn lockstep(map: &str, seed: u64, players: usize, ticks: u64) -> Result<Value> {
     let map = crate::maps::load(map)?;
     let mut config = ServerConfig::new(map);
     config.seed = seed;
@@ -87,7 +87,7 @@ async fn lockstep_player(addr: SocketAddr, index: usize, seed: u64) -> Result<Ve
 
 /// `realtime`: a `bw4t serve` child process with `robots` connected players at 20 ticks/s;
 /// its CPU time (from `/proc`) over `seconds` of wall-clock time.
-pub fn realtime(seed: u64, robots: usize, seconds: f64) -> Result<Value> {
+pub(crate) fn realtime(seed: u64, robots: usize, seconds: f64) -> Result<Value> {
     let dir = std::env::temp_dir().join(format!("bw4t-bench-{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
     let map_path = dir.join("crowded.toml");

@@ -12,7 +12,7 @@ use crate::maps;
 
 /// Options of `bw4t map`.
 #[derive(Args)]
-pub struct MapArgs {
+pub(crate) struct MapArgs {
     #[command(subcommand)]
     command: MapCommand,
 }
@@ -76,7 +76,7 @@ enum MapCommand {
 }
 
 /// Runs a map command.
-pub fn run(args: &MapArgs) -> Result<()> {
+pub(crate) fn run(args: &MapArgs) -> Result<()> {
     match &args.command {
         MapCommand::Check { files, robots } => check(files, *robots),
         MapCommand::Show { map, seed } => {

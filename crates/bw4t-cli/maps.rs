@@ -5,7 +5,7 @@ use anyhow::{Context, Result, bail};
 use bw4t_map::{CheckError, MAX_MAP_BYTES, Map};
 
 /// The maps shipped in `maps/`, by name, as built into the binary.
-pub const BUILTIN: &[(&str, &str)] = &[
+pub(crate) const BUILTIN: &[(&str, &str)] = &[
     ("default", include_str!("../../maps/default.toml")),
     ("fixed", include_str!("../../maps/fixed.toml")),
     ("rooms12", include_str!("../../maps/rooms12.toml")),
@@ -19,7 +19,7 @@ pub const BUILTIN: &[(&str, &str)] = &[
 /// shipped map. The map is checked as `bw4t map check` checks it, before anything is built
 /// from it: any error refuses it, each error on a line as `map check` prints it; warnings
 /// are printed to standard error and the map is played.
-pub fn load(spec: &str) -> Result<Map> {
+pub(crate) fn load(spec: &str) -> Result<Map> {
     let source = read(spec)?;
     match Map::parse_checked(&source.text, &source.name, None) {
         Ok((map, warnings)) => {
@@ -44,13 +44,13 @@ pub fn load(spec: &str) -> Result<Map> {
 
 /// Loads `spec` as its file says, refused only for what loading refuses, so that a map the
 /// check rejects can still be shown or drawn.
-pub fn load_as_is(spec: &str) -> Result<Map> {
+pub(crate) fn load_as_is(spec: &str) -> Result<Map> {
     let source = read(spec)?;
     Map::parse(&source.text, &source.name).with_context(|| format!("{} is not a valid map", source.origin))
 }
 
 /// A map's text, found as [`load`] finds it, before it is parsed.
-pub struct Source {
+pub(crate) struct Source {
     /// The file's (or built-in map's) text.
     pub text: String,
     /// The name a map without a name of its own gets: the file name without extension.
@@ -62,7 +62,7 @@ pub struct Source {
 /// Reads `spec` as [`load`] does (a file if one exists there, else a shipped map's name),
 /// without parsing it, so the caller can check it or report its problems. A file larger
 /// than [`MAX_MAP_BYTES`] is refused unread.
-pub fn read(spec: &str) -> Result<Source> {
+pub(crate) fn read(spec: &str) -> Result<Source> {
     let path = std::path::Path::new(spec);
     if path.is_file() {
         let len = std::fs::metadata(path).with_context(|| format!("cannot read map file '{spec}'"))?.len();

@@ -6,7 +6,7 @@ use std::io::Write;
 
 /// Writes `args` to standard output; exits on a closed pipe, or with an error on any other
 /// failure to write.
-pub fn write(args: std::fmt::Arguments<'_>) {
+pub(crate) fn write(args: std::fmt::Arguments<'_>) {
     let Err(e) = std::io::stdout().lock().write_fmt(args) else { return };
     if e.kind() == std::io::ErrorKind::BrokenPipe {
         std::process::exit(crate::status::BROKEN_PIPE);

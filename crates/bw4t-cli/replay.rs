@@ -21,7 +21,7 @@ const VERIFY_EXIT_STATUS: &str = "Exit status:
 
 /// Options of `bw4t replay`.
 #[derive(Args)]
-pub struct ReplayArgs {
+pub(crate) struct ReplayArgs {
     #[command(subcommand)]
     command: ReplayCommand,
 }
@@ -55,7 +55,7 @@ enum ReplayCommand {
 }
 
 /// Runs a replay command; its exit status says the verdict (`VERIFY_EXIT_STATUS`).
-pub fn run(args: &ReplayArgs) -> Result<u8> {
+pub(crate) fn run(args: &ReplayArgs) -> Result<u8> {
     match &args.command {
         ReplayCommand::Verify { file } => {
             let (verdict, _) = verified(file)?;
@@ -186,7 +186,7 @@ fn view(file: &Path, bind: std::net::IpAddr, port: u16) -> Result<u8> {
 }
 
 /// A buffered file for a replay, or none without a path.
-pub fn writer(path: Option<&std::path::Path>) -> Result<Option<Box<dyn std::io::Write + Send>>> {
+pub(crate) fn writer(path: Option<&std::path::Path>) -> Result<Option<Box<dyn std::io::Write + Send>>> {
     let Some(path) = path else { return Ok(None) };
     let file = std::fs::File::create(path)
         .with_context(|| format!("cannot create replay file {}", path.display()))?;

@@ -16,7 +16,7 @@ use crate::status;
 
 /// Options of `bw4t run`.
 #[derive(Args)]
-pub struct RunArgs {
+pub(crate) struct RunArgs {
     /// Map: a shipped map's name, a native map file or an original BW4T map file.
     #[arg(long, default_value = "default")]
     map: String,
@@ -59,7 +59,7 @@ pub struct RunArgs {
 }
 
 /// Runs one match and reports it; returns the exit status (see `status`).
-pub fn run(args: &RunArgs) -> Result<u8> {
+pub(crate) fn run(args: &RunArgs) -> Result<u8> {
     let map = crate::maps::load(&args.map)?;
     let seed = args.seed.unwrap_or_else(crate::random_seed);
     let seats = seats(args)?;

@@ -12,7 +12,7 @@ use clap::{Args, ValueEnum};
 
 /// Options of `bw4t serve`.
 #[derive(Args)]
-pub struct ServeArgs {
+pub(crate) struct ServeArgs {
     /// Map: a shipped map's name or a file path.
     #[arg(long, default_value = "default")]
     map: String,
@@ -85,7 +85,7 @@ pub struct ServeArgs {
     /// TCP port; 0 picks a free one. Off by default.
     #[arg(long, value_name = "PORT")]
     http: Option<u16>,
-    /// Let pages from this origin (like http://example.org:8080) open WebSockets on the
+    /// Let pages from this origin (like `http://example.org:8080`) open WebSockets on the
     /// --http port, besides the page's own; repeatable; `*` lets any page in.
     #[arg(long, value_name = "URL", value_parser = bw4t_server::parse_origin)]
     allow_origin: Vec<String>,
@@ -101,7 +101,7 @@ enum PaceArg {
 }
 
 /// Serves one match and writes its result.
-pub fn run(args: &ServeArgs) -> Result<()> {
+pub(crate) fn run(args: &ServeArgs) -> Result<()> {
     let map = crate::maps::load(&args.map)?;
     let seed = args.seed.unwrap_or_else(crate::random_seed);
     let mut config = ServerConfig::new(map);
@@ -216,7 +216,7 @@ pub fn run(args: &ServeArgs) -> Result<()> {
 
 /// Listens on `addr` (with a deep queue, see [`bw4t_server::listen`]); returns the listener
 /// and its address, the port chosen if `addr` had port 0.
-pub fn listen(addr: SocketAddr) -> Result<(tokio::net::TcpListener, SocketAddr)> {
+pub(crate) fn listen(addr: SocketAddr) -> Result<(tokio::net::TcpListener, SocketAddr)> {
     let listener = bw4t_server::listen(addr).with_context(|| format!("cannot listen on {addr}"))?;
     let local = listener.local_addr().context("no local address")?;
     Ok((listener, local))
@@ -225,7 +225,7 @@ pub fn listen(addr: SocketAddr) -> Result<(tokio::net::TcpListener, SocketAddr)>
 /// Installs the Ctrl-C and SIGTERM handlers now, so that a signal sent as soon as the
 /// address is printed is not missed, and returns what resolves at the first of them.
 /// Must be called inside the runtime.
-pub fn stop_signal() -> impl std::future::Future<Output = ()> {
+pub(crate) fn stop_signal() -> impl std::future::Future<Output = ()> {
     #[cfg(unix)]
     {
         use tokio::signal::unix::{Signal, SignalKind, signal};

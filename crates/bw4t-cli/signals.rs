@@ -6,11 +6,11 @@ use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
 
 /// Which signal arrived, once one has.
 #[derive(Clone, Default)]
-pub struct Received(Arc<AtomicU8>);
+pub(crate) struct Received(Arc<AtomicU8>);
 
 impl Received {
     /// The signal's number (2 for SIGINT, 15 for SIGTERM), if one arrived.
-    pub fn number(&self) -> Option<u8> {
+    pub(crate) fn number(&self) -> Option<u8> {
         Some(self.0.load(Ordering::SeqCst)).filter(|&n| n != 0)
     }
 }
@@ -19,7 +19,7 @@ impl Received {
 /// status 128 + its number. Returns once the handlers are in place, so a signal sent after
 /// that is never lost.
 #[cfg(unix)]
-pub fn watch(stop: Arc<AtomicBool>) -> Received {
+pub(crate) fn watch(stop: Arc<AtomicBool>) -> Received {
     use tokio::signal::unix::{SignalKind, signal};
     let received = Received::default();
     let seen = received.clone();

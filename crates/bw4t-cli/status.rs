@@ -2,36 +2,36 @@
 //! script or grader can tell outcomes apart without reading JSON.
 
 /// The match completed the sequence (`run`); the command did what was asked (all others).
-pub const SUCCESS: u8 = 0;
+pub(crate) const SUCCESS: u8 = 0;
 /// An error: a bad option value, map or configuration, or a file that cannot be read or
 /// written. The message on standard error names it. (A command line clap cannot read at
 /// all, such as an unknown option, exits with clap's status 2.)
-pub const ERROR: u8 = 1;
+pub(crate) const ERROR: u8 = 1;
 /// `run`: the match ended without completing the sequence (tick limit reached).
-pub const NOT_COMPLETED: u8 = 3;
+pub(crate) const NOT_COMPLETED: u8 = 3;
 /// `run`: none of the external agents played (each crashed, never connected, broke the
 /// protocol or stopped answering). `tournament`: a team's external agents played in none of
 /// its matches.
-pub const NO_AGENT_PLAYED: u8 = 4;
+pub(crate) const NO_AGENT_PLAYED: u8 = 4;
 /// `replay verify`: the re-simulation differs from the recording.
-pub const REPLAY_DIFFERS: u8 = 3;
+pub(crate) const REPLAY_DIFFERS: u8 = 3;
 /// `replay verify`: the replay has no end record (everything up to its last tick matched).
-pub const REPLAY_INCOMPLETE: u8 = 4;
+pub(crate) const REPLAY_INCOMPLETE: u8 = 4;
 /// Stopped by SIGINT (Ctrl-C) or SIGTERM: 128 plus the signal's number (130, 143).
-pub const SIGNAL_BASE: u8 = 128;
+pub(crate) const SIGNAL_BASE: u8 = 128;
 /// Standard output was closed early: 128 + SIGPIPE (13), what a shell reports for a
 /// program ended by SIGPIPE.
-pub const BROKEN_PIPE: i32 = 141;
+pub(crate) const BROKEN_PIPE: i32 = 141;
 
 /// The exit statuses of `bw4t run`, for its `--help`.
-pub const RUN_HELP: &str = "Exit status: 0 the match completed the sequence; 1 an error (bad option, map, \
+pub(crate) const RUN_HELP: &str = "Exit status: 0 the match completed the sequence; 1 an error (bad option, map, \
      file); 2 a command line that cannot be read; 3 the match did not complete (tick limit \
      reached); 4 none of the external agents played (crashed, never connected, broke the \
      protocol or stopped answering); 130/143 stopped by SIGINT/SIGTERM; 141 standard output \
      closed early.";
 
 /// The exit statuses of `bw4t tournament`, for its `--help`.
-pub const TOURNAMENT_HELP: &str = "Exit status: 0 every match was played (whatever its outcome); 1 an error (bad \
+pub(crate) const TOURNAMENT_HELP: &str = "Exit status: 0 every match was played (whatever its outcome); 1 an error (bad \
      configuration, map, agent command or output directory); 2 a command line that cannot \
      be read; 4 a team's external agents played in none of its matches; 130/143 stopped by \
      SIGINT/SIGTERM (the rows so far are kept; the message says how to resume); 141 \

@@ -22,7 +22,7 @@ use crate::status;
 /// Options of `bw4t tournament`.
 #[derive(Args)]
 #[command(args_conflicts_with_subcommands = true)]
-pub struct TournamentArgs {
+pub(crate) struct TournamentArgs {
     #[command(subcommand)]
     command: Option<TournamentCommand>,
     /// The tournament configuration (TOML); flags below override or replace it.
@@ -102,7 +102,7 @@ fn parse_shard(text: &str) -> Result<(u64, u64), String> {
 }
 
 /// Runs a tournament command; returns the exit status (see `status`).
-pub fn run(args: &TournamentArgs) -> Result<u8> {
+pub(crate) fn run(args: &TournamentArgs) -> Result<u8> {
     if let Some(TournamentCommand::Merge { dirs, out }) = &args.command {
         let out = out.clone().unwrap_or_else(|| default_out("merged"));
         let outcome = merge(dirs, &out)?;

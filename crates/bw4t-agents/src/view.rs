@@ -6,13 +6,13 @@ use bw4t_map::Colour;
 use bw4t_sim::{Beliefs, MoveState, Percept};
 
 /// The name of the drop zone, fixed by the spec.
-pub const DROP_ZONE: &str = "DropZone";
+pub(crate) const DROP_ZONE: &str = "DropZone";
 /// Where robots wait for their turn at the drop zone, when the map has it.
-pub const FRONT_DROP_ZONE: &str = "FrontDropZone";
+pub(crate) const FRONT_DROP_ZONE: &str = "FrontDropZone";
 
 /// The robot's situation, read from its beliefs.
 #[derive(Debug, Default)]
-pub struct View {
+pub(crate) struct View {
     pub places: Vec<String>,
     pub players: Vec<String>,
     pub sequence: Vec<Colour>,
@@ -28,7 +28,7 @@ pub struct View {
 }
 
 impl View {
-    pub fn read(beliefs: &Beliefs) -> View {
+    pub(crate) fn read(beliefs: &Beliefs) -> View {
         let mut v = View::default();
         for p in beliefs.facts() {
             match p {
@@ -56,7 +56,7 @@ impl View {
     /// Rooms that may hold blocks. The interface does not say which places are rooms; the
     /// spec's names (`RoomA1`...) start with `Room`, which every known map follows. On a map
     /// without such names every place but the drop zone is a candidate.
-    pub fn rooms(&self) -> Vec<String> {
+    pub(crate) fn rooms(&self) -> Vec<String> {
         let named: Vec<String> = self.places.iter().filter(|p| p.starts_with("Room")).cloned().collect();
         if named.is_empty() {
             self.places.iter().filter(|p| p.as_str() != DROP_ZONE).cloned().collect()
@@ -66,12 +66,12 @@ impl View {
     }
 
     /// Whether the whole sequence has been delivered.
-    pub fn complete(&self) -> bool {
+    pub(crate) fn complete(&self) -> bool {
         !self.sequence.is_empty() && self.index >= self.sequence.len()
     }
 
     /// Where to wait outside the drop zone: its front corridor when the map has one.
-    pub fn waiting_place(&self, fallback: Option<&String>) -> String {
+    pub(crate) fn waiting_place(&self, fallback: Option<&String>) -> String {
         if self.places.iter().any(|p| p == FRONT_DROP_ZONE) {
             FRONT_DROP_ZONE.to_string()
         } else {
@@ -80,14 +80,14 @@ impl View {
     }
 
     /// The colour of a block held, from what the robot saw before taking it.
-    pub fn in_drop_zone(&self) -> bool {
+    pub(crate) fn in_drop_zone(&self) -> bool {
         self.room.as_deref() == Some(DROP_ZONE)
     }
 }
 
 /// `items` rotated so that player `me` (by its rank among all players' names) starts at
 /// its own share, which spreads a team over the rooms without talking.
-pub fn rotated<T: Clone>(items: &[T], me: &str, players: &[String]) -> Vec<T> {
+pub(crate) fn rotated<T: Clone>(items: &[T], me: &str, players: &[String]) -> Vec<T> {
     if items.is_empty() {
         return Vec::new();
     }

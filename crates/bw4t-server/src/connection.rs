@@ -22,7 +22,7 @@ pub type ConnId = u64;
 
 /// What a connection's writer sends.
 #[derive(Debug)]
-pub enum Outbound {
+pub(crate) enum Outbound {
     /// One encoded line.
     Line(Arc<str>),
     /// Flush and close the connection.
@@ -31,7 +31,7 @@ pub enum Outbound {
 
 /// A new connection's handles.
 #[derive(Debug)]
-pub struct Opened {
+pub(crate) struct Opened {
     /// Its id.
     pub conn: ConnId,
     /// Its queue of outgoing lines.
@@ -44,7 +44,7 @@ pub struct Opened {
 
 /// What connections tell the match task.
 #[derive(Debug)]
-pub enum Event {
+pub(crate) enum Event {
     /// A new connection.
     Opened(Opened),
     /// A well-formed message (other than `ping`, answered by the connection itself).
@@ -72,7 +72,7 @@ pub fn listen(addr: std::net::SocketAddr) -> std::io::Result<TcpListener> {
 }
 
 /// Accepts connections until aborted, refusing those beyond the limit.
-pub async fn accept_loop(
+pub(crate) async fn accept_loop(
     listener: TcpListener,
     config: ServerConfig,
     events: mpsc::Sender<Event>,
@@ -108,18 +108,18 @@ async fn refuse(mut stream: TcpStream, limit: usize) {
 }
 
 /// An encoded `error` message.
-pub fn error_line(code: ErrorCode, message: &str, fatal: bool) -> Arc<str> {
+pub(crate) fn error_line(code: ErrorCode, message: &str, fatal: bool) -> Arc<str> {
     let msg = ServerMessage::Error(ErrorMessage { code, message: message.into(), fatal });
     encode(&msg).into()
 }
 
 /// An encoded `bye` message.
-pub fn bye_line(reason: impl Into<ByeReason>) -> Arc<str> {
+pub(crate) fn bye_line(reason: impl Into<ByeReason>) -> Arc<str> {
     encode(&ServerMessage::Bye(ServerBye { reason: reason.into() })).into()
 }
 
 /// Where a connection's outgoing lines go: a TCP socket or a WebSocket.
-pub trait LineSink: Send + 'static {
+pub(crate) trait LineSink: Send + 'static {
     /// Sends one encoded line; false when the peer is gone.
     fn send_line(&mut self, line: Arc<str>) -> impl Future<Output = bool> + Send;
     /// Ends the connection's sending side.
@@ -150,7 +150,7 @@ struct Outgoing {
 
 impl Outgoing {
     /// The handles the match task gets in [`Event::Opened`].
-    pub fn opened(&self) -> Opened {
+    pub(crate) fn opened(&self) -> Opened {
         Opened { conn: self.conn, tx: self.tx.clone(), kill: self.kill.clone(), done: self.done.clone() }
     }
 }
@@ -231,13 +231,13 @@ async fn finish(conn: ConnId, outgoing: Outgoing, events: &mpsc::Sender<Event>) 
 }
 
 /// Where a connection's incoming lines come from: a TCP socket or a WebSocket.
-pub trait LineSource: Send {
+pub(crate) trait LineSource: Send {
     /// What arrived next. Must be cancel-safe: it is raced against the hello deadline.
     fn next(&mut self) -> impl Future<Output = Incoming> + Send;
 }
 
 /// What a [`LineSource`] read.
-pub enum Incoming {
+pub(crate) enum Incoming {
     /// Complete lines (possibly none yet), or errors for lines that are not usable.
     Lines(Vec<Result<String, DecodeError>>),
     /// Input the connection cannot recover from: sent as a fatal `error` and `bye`, then
@@ -273,7 +273,7 @@ async fn handle(stream: TcpStream, conn: ConnId, config: &ServerConfig, events: 
 /// (bad input and `ping` are answered here), queued lines go to `sink`. A connection that
 /// has not said `hello` within `hello_timeout` gets `error` and `bye` `hello_timeout` and is
 /// closed.
-pub async fn run(
+pub(crate) async fn run(
     conn: ConnId,
     hello_timeout: std::time::Duration,
     queue: usize,

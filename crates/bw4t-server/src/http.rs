@@ -211,18 +211,18 @@ impl Reply {
     }
 
     /// A plain-text answer; the text gets a newline.
-    pub fn text(status: StatusCode, text: impl Into<String>) -> Reply {
+    pub(crate) fn text(status: StatusCode, text: impl Into<String>) -> Reply {
         Reply::new(status, "text/plain; charset=utf-8", text.into() + "\n")
     }
 
     /// `503 Service Unavailable` with `Retry-After`.
-    pub fn busy(why: &str) -> Reply {
+    pub(crate) fn busy(why: &str) -> Reply {
         Reply::text(StatusCode::SERVICE_UNAVAILABLE, format!("{why}; try again shortly"))
             .with("Retry-After", RETRY_AFTER_S.to_string())
     }
 
     /// The answer with one more header.
-    pub fn with(mut self, name: &'static str, value: String) -> Reply {
+    pub(crate) fn with(mut self, name: &'static str, value: String) -> Reply {
         self.headers.push((name, value));
         self
     }

@@ -1,10 +1,10 @@
 //! The BW4T match server: every TCP client gets a robot, sends JSON-lines actions and
 //! receives percept deltas each tick.
 //!
-//! One task owns the match: a sans-IO [`host::MatchHost`] run by its tokio driver; each
-//! connection has a reader and a writer task that talk to it through bounded channels
-//! ([`connection`]). The caller binds the
-//! listener and supplies the shutdown signal, so tests bind `127.0.0.1:0`.
+//! One task owns the match: a sans-IO [`MatchHost`] run by its tokio driver; each
+//! connection has a reader and a writer task that talk to it through bounded channels.
+//! The caller binds the listener and supplies the shutdown signal, so tests bind
+//! `127.0.0.1:0`.
 
 mod connection;
 mod host;

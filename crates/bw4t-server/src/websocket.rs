@@ -53,7 +53,11 @@ pub(crate) struct Live {
 
 impl Live {
     /// The WebSocket side of a match served with `config`.
-    pub fn new(config: &crate::ServerConfig, events: mpsc::Sender<Event>, ids: Arc<AtomicU64>) -> Live {
+    pub(crate) fn new(
+        config: &crate::ServerConfig,
+        events: mpsc::Sender<Event>,
+        ids: Arc<AtomicU64>,
+    ) -> Live {
         Live {
             events,
             ids,
@@ -175,7 +179,7 @@ pub(crate) struct OriginPolicy {
 
 impl OriginPolicy {
     /// The policy for a list of origins as [`parse_origin`] gives them.
-    pub fn new(allowed: &[String]) -> OriginPolicy {
+    pub(crate) fn new(allowed: &[String]) -> OriginPolicy {
         let origins: Vec<String> = allowed.iter().filter_map(|o| parse_origin(o).ok()).collect();
         let hosts = origins
             .iter()
@@ -185,7 +189,7 @@ impl OriginPolicy {
     }
 
     /// Why a handshake with these `Origin` and `Host` headers is refused, if it is.
-    pub fn refusal(&self, origin: Option<&str>, host: Option<&str>) -> Option<String> {
+    pub(crate) fn refusal(&self, origin: Option<&str>, host: Option<&str>) -> Option<String> {
         let origin = origin?.trim().to_ascii_lowercase();
         if self.any {
             return None;

@@ -23,3 +23,4 @@ pub use game::{BlockPlace, JoinError, MAX_NAME_LEN, Match, MatchError, REACH, Ro
 pub use percept::{Beliefs, BlockId, MoveState, Percept, PerceptDelta, SendType};
 pub use physics::ROBOT_HALF;
 pub use random_play::{PlayCounts, RandomPlay};
+pub use stats::{MatchStats, RobotStats};

@@ -15,7 +15,7 @@ use crate::physics::{ROBOT_HALF, SKIN, WALL_HALF};
 const DOOR_APPROACH: f32 = 1.6;
 
 /// Precomputed shortest routes between every pair of zones of one map.
-pub struct Navigator {
+pub(crate) struct Navigator {
     centres: Vec<Vec2>,
     rects: Vec<Rect>,
     walled: Vec<bool>,
@@ -26,7 +26,7 @@ pub struct Navigator {
 
 impl Navigator {
     /// Routes for every pair of zones; blockades and doorless walled zones are never used.
-    pub fn new(map: &Map) -> Self {
+    pub(crate) fn new(map: &Map) -> Self {
         let zones = map.zones();
         let usable: Vec<bool> = zones
             .iter()
@@ -50,18 +50,18 @@ impl Navigator {
     }
 
     /// The point of `zone` nearest to `p` where a robot's centre can stand clear of walls.
-    pub fn standable(&self, zone: ZoneIdx, p: Vec2) -> Vec2 {
+    pub(crate) fn standable(&self, zone: ZoneIdx, p: Vec2) -> Vec2 {
         self.rects[zone].shrunk(ROBOT_HALF + WALL_HALF + 2.0 * SKIN).clamp(p)
     }
 
     /// The centre of a zone (where `goTo` leads).
-    pub fn centre(&self, zone: ZoneIdx) -> Vec2 {
+    pub(crate) fn centre(&self, zone: ZoneIdx) -> Vec2 {
         self.standable(zone, self.centres[zone])
     }
 
     /// Fills `out` with the waypoints from zone `from` to `target` inside zone `to`.
     /// Returns false (leaving `out` empty) when no route exists.
-    pub fn waypoints(&self, from: ZoneIdx, to: ZoneIdx, target: Vec2, out: &mut Vec<Vec2>) -> bool {
+    pub(crate) fn waypoints(&self, from: ZoneIdx, to: ZoneIdx, target: Vec2, out: &mut Vec<Vec2>) -> bool {
         out.clear();
         let mut here = from;
         while here != to {

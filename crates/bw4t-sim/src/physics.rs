@@ -12,13 +12,13 @@ use rapier2d::prelude::*;
 /// Half the side of a robot's 2 x 2 square.
 pub const ROBOT_HALF: f32 = 1.0;
 /// Half the thickness of a wall (walls are centred on their room's edge).
-pub const WALL_HALF: f32 = 0.05;
+pub(crate) const WALL_HALF: f32 = 0.05;
 /// The gap the character controller keeps to obstacles.
-pub const SKIN: f32 = 0.01;
+pub(crate) const SKIN: f32 = 0.01;
 
 /// What a collider stands for, stored in its `user_data`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Tag {
+pub(crate) enum Tag {
     /// A piece of a room's wall.
     Wall,
     /// The guard of a door of the room with this zone index.
@@ -48,13 +48,13 @@ impl Tag {
 
 /// Handles of one robot's body and collider.
 #[derive(Clone, Copy, Debug)]
-pub struct RobotBody {
+pub(crate) struct RobotBody {
     body: RigidBodyHandle,
 }
 
 /// What a single move of a robot did.
 #[derive(Clone, Copy, Debug)]
-pub struct Moved {
+pub(crate) struct Moved {
     /// The translation actually applied.
     pub translation: Vec2,
     /// The first guard or robot that stopped the move, if any.
@@ -62,7 +62,7 @@ pub struct Moved {
 }
 
 /// The physical world of a match.
-pub struct Physics {
+pub(crate) struct Physics {
     world: PhysicsWorld,
     controller: KinematicCharacterController,
     robot_shape: SharedShape,
@@ -71,7 +71,7 @@ pub struct Physics {
 
 impl Physics {
     /// Builds walls (with openings at doors) and door guards for every walled zone.
-    pub fn new(map: &Map, robots_collide: bool) -> Self {
+    pub(crate) fn new(map: &Map, robots_collide: bool) -> Self {
         let mut world = PhysicsWorld::new();
         world.gravity = Vector::ZERO;
         for (idx, zone) in map.zones().iter().enumerate() {
@@ -112,7 +112,7 @@ impl Physics {
     }
 
     /// Adds a robot's kinematic body at `pos`.
-    pub fn add_robot(&mut self, id: u32, pos: Vec2) -> RobotBody {
+    pub(crate) fn add_robot(&mut self, id: u32, pos: Vec2) -> RobotBody {
         let body = self.world.insert_body(RigidBodyBuilder::kinematic_position_based().translation(pos));
         let collider = ColliderBuilder::new(self.robot_shape.clone()).user_data(Tag::Robot(id).encode());
         // The broad phase learns of it at the next step, as of any other change.
@@ -121,13 +121,13 @@ impl Physics {
     }
 
     /// Removes a robot's body.
-    pub fn remove_robot(&mut self, robot: RobotBody) {
+    pub(crate) fn remove_robot(&mut self, robot: RobotBody) {
         self.world.remove_body_with_colliders(robot.body, true);
     }
 
     /// Moves a robot from `pos` by up to `desired`, stopped by walls, by the guards for
     /// which `guard_closed(room)` holds, and (when enabled) by other robots.
-    pub fn move_robot(
+    pub(crate) fn move_robot(
         &self,
         id: u32,
         pos: Vec2,
@@ -166,25 +166,25 @@ impl Physics {
     }
 
     /// Places a robot's body at its new position for the next step.
-    pub fn place_robot(&mut self, robot: RobotBody, pos: Vec2) {
+    pub(crate) fn place_robot(&mut self, robot: RobotBody, pos: Vec2) {
         if let Some(body) = self.world.bodies.get_mut(robot.body) {
             body.set_next_kinematic_translation(pos);
         }
     }
 
     /// Advances rapier by one fixed step, bringing colliders and the broad phase up to date.
-    pub fn step(&mut self) {
+    pub(crate) fn step(&mut self) {
         self.world.step();
     }
 
     /// Bodies and colliders in the world (walls, guards, robots).
     #[cfg(test)]
-    pub fn object_count(&self) -> (usize, usize) {
+    pub(crate) fn object_count(&self) -> (usize, usize) {
         (self.world.bodies.len(), self.world.colliders.len())
     }
 
     /// The position of a robot's body as rapier holds it.
-    pub fn body_position(&self, robot: RobotBody) -> Vec2 {
+    pub(crate) fn body_position(&self, robot: RobotBody) -> Vec2 {
         self.world.bodies.get(robot.body).map_or(Vec2::ZERO, |b| b.translation())
     }
 }

@@ -91,7 +91,7 @@ fn deadline() -> u64 {
 }
 
 /// The master seed when the configuration names none.
-pub const DEFAULT_MASTER_SEED: u64 = 2026;
+pub(super) const DEFAULT_MASTER_SEED: u64 = 2026;
 
 /// A configuration with everything resolved: the seed list, team seats.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

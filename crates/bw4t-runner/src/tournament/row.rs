@@ -51,7 +51,7 @@ pub struct Row {
 }
 
 /// How a row fills one column of `matches.csv`.
-pub type CsvField = fn(&Row) -> String;
+pub(super) type CsvField = fn(&Row) -> String;
 
 /// The columns of `matches.csv`, in order, each with how a row fills it.
 pub const CSV_COLUMNS: &[(&str, CsvField)] = &[

@@ -13,7 +13,7 @@ use super::{HostEvent, MatchHost, QueueRoom, Transmit};
 use crate::connection::{ConnId, Event, Opened, Outbound};
 
 /// Capacity of the channel from connections to the match task.
-pub const EVENT_QUEUE: usize = 4096;
+pub(crate) const EVENT_QUEUE: usize = 4096;
 
 /// How long the end of a match waits for clients' queues to drain.
 const FLUSH_LIMIT: Duration = Duration::from_secs(2);
@@ -21,9 +21,12 @@ const FLUSH_LIMIT: Duration = Duration::from_secs(2);
 /// Ticks simulated back to back (lockstep, nobody awaited) before letting other tasks run.
 const YIELD_EVERY: u64 = 64;
 
-impl QueueRoom for mpsc::Sender<Outbound> {
+/// A connection's queue, as the host sees it: how much room it has.
+struct ConnQueue(mpsc::Sender<Outbound>);
+
+impl QueueRoom for ConnQueue {
     fn free(&self) -> usize {
-        self.capacity()
+        self.0.capacity()
     }
 }
 
@@ -37,7 +40,7 @@ struct Handles {
 /// Runs `host` to its end on the events from `events` (and names of reserved seats whose
 /// player will not come from `gone_seats`), or until `shutdown`; returns the result once
 /// every client's queue has drained (or [`FLUSH_LIMIT`] has passed).
-pub async fn run(
+pub(crate) async fn run(
     mut host: MatchHost,
     mut events: mpsc::Receiver<Event>,
     mut gone_seats: Option<mpsc::Receiver<String>>,
@@ -112,7 +115,7 @@ fn accept(
 ) -> HostEvent {
     match event {
         Event::Opened(Opened { conn, tx, kill, done }) => {
-            let room = Box::new(tx.clone());
+            let room = Box::new(ConnQueue(tx.clone()));
             handles.insert(conn, Handles { tx, kill, done });
             HostEvent::Opened { conn, room }
         }

@@ -9,7 +9,7 @@
 //! ([`MatchHost::poll_timeout`]). Tests drive it on a simulated clock.
 
 mod admission;
-pub mod driver;
+pub(crate) mod driver;
 
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::sync::Arc;
