@@ -312,29 +312,33 @@ fn a_replay_cut_short_is_incomplete_not_ok() {
 
 #[test]
 fn the_replay_of_a_killed_server_is_incomplete() {
+    use std::io::{BufRead, BufReader, Write};
     use std::process::{Command, Stdio};
     let dir = temp_dir("replay-killed");
     let file = dir.join("served.jsonl");
     let mut server = Command::new(env!("CARGO_BIN_EXE_bw4t"))
         .args(["serve", "--port", "0", "--map", "fixed", "--seed", "4", "--builtin", "1", "--robots", "1"])
         .args(["--tick-hz", "200", "--max-ticks", "100000", "--replay", file.to_str().expect("utf-8")])
-        .stdout(Stdio::null())
+        .stdout(Stdio::piped())
         .stderr(Stdio::null())
         .spawn()
         .expect("start bw4t serve");
-    // The recorder flushes at every digest: wait (bounded) for the third one.
-    let deadline = std::time::Instant::now() + Duration::from_secs(30);
-    let has_third_digest = || {
-        std::fs::read_to_string(&file)
-            .is_ok_and(|text| text.lines().any(|l| l.contains("\"type\":\"digest\"") && tick_of(l) >= 300))
-    };
-    while !has_third_digest() {
-        if std::time::Instant::now() > deadline {
-            let _ = server.kill();
-            panic!("the served match's replay has no digest at tick 300 after 30 s");
-        }
-        std::thread::sleep(Duration::from_millis(50));
-    }
+    // The recorder flushes at every digest, before the tick's frames go out: watch the match
+    // as a spectator until a frame shows tick 300 passed.
+    let mut stdout = BufReader::new(server.stdout.take().expect("stdout"));
+    let mut first = String::new();
+    stdout.read_line(&mut first).expect("address line");
+    let addr = first.trim().strip_prefix("listening on ").expect("listening on ADDR").to_string();
+    let stream = std::net::TcpStream::connect(&addr).expect("connect");
+    stream.set_read_timeout(Some(Duration::from_secs(30))).expect("timeout");
+    let mut writer = stream.try_clone().expect("clone");
+    writeln!(writer, r#"{{"type":"hello","protocol":"bw4t","versions":[1],"role":"spectator"}}"#)
+        .expect("hello");
+    let frames = BufReader::new(stream).lines().map(|l| l.expect("a frame within 30 s"));
+    let past_300 = frames
+        .filter_map(|l| serde_json::from_str::<Value>(&l).ok())
+        .any(|m| m["type"] == "frame" && m["tick"].as_u64().is_some_and(|t| t > 300));
+    assert!(past_300, "the match ended before tick 300");
     server.kill().expect("kill the server");
     server.wait().expect("the server ended");
     let text = std::fs::read_to_string(&file).expect("replay");

@@ -1,6 +1,6 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use serde_json::Value;
 
@@ -165,23 +165,29 @@ fn resume_plays_only_what_is_missing_even_after_a_kill() {
             "1",
         ])
         .stdout(Stdio::null())
-        .stderr(Stdio::null())
+        .stderr(Stdio::piped())
         .spawn()
         .expect("start");
-    let started = Instant::now();
-    loop {
-        let done =
-            std::fs::read_to_string(killed.join("matches.jsonl")).map(|t| t.lines().count()).unwrap_or(0);
-        if done >= 5 || child.try_wait().expect("wait").is_some() {
-            break;
+    // Each row is flushed before its progress line (`[N/M] ...`) is printed: wait for the
+    // fifth line, or for the run to end, whichever comes first.
+    let stderr = child.stderr.take().expect("piped");
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        use std::io::BufRead;
+        for line in std::io::BufReader::new(stderr).lines().map_while(Result::ok) {
+            if line.starts_with("[5/") && tx.send(()).is_err() {
+                break;
+            }
         }
-        assert!(started.elapsed() < LIMIT, "no rows appeared");
-        std::thread::sleep(Duration::from_millis(5));
-    }
+        // The run ended (or the test stopped listening): wake the test either way.
+        let _ = tx.send(());
+    });
+    rx.recv_timeout(LIMIT).expect("five rows or the end of the run in time");
     let _ = child.kill();
     let _ = child.wait();
     // A kill can also leave half a line: the resume must cope.
     let partial = rows(&killed).len();
+    assert!((5..expected.len()).contains(&partial), "killed mid-run: {partial} of {} rows", expected.len());
     let mut file = std::fs::OpenOptions::new().append(true).open(killed.join("matches.jsonl")).expect("open");
     std::io::Write::write_all(&mut file, b"{\"key\":\"coop/def").expect("append");
     drop(file);
