@@ -9,6 +9,7 @@ mod messages;
 mod replay;
 mod result;
 mod schema;
+mod table;
 mod view;
 mod vocabulary;
 
@@ -20,6 +21,9 @@ pub use messages::*;
 pub use replay::{REPLAY_FORMAT, Recorder, ReplayEvent, ReplayHeader, ReplayLine};
 pub use result::{MatchResult, RobotExtra, RobotResult};
 pub use schema::schemas;
+pub use table::{
+    ACTIONS, ActionRow, PERCEPTS, PerceptRow, Scope, SendType, action_row, percept_row, table_json,
+};
 pub use view::map_layout;
 pub use vocabulary::{AckCode, AgentStatus, ByeReason, EndReason, ErrorCode, Leaving, MoveState, Outcome};
 

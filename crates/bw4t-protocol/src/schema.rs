@@ -7,9 +7,13 @@ use crate::messages::{ClientMessage, ServerMessage};
 use crate::vocabulary::{AckCode, AgentStatus, ByeReason, EndReason, ErrorCode, Leaving, MoveState, Outcome};
 
 /// Every message's schema as (relative path, schema): `client/hello.json`, `server/welcome.json`, ...,
-/// and `vocabulary.json`, every word list of the protocol and of bw4t's result files.
+/// `vocabulary.json`, every word list of the protocol and of bw4t's result files, and
+/// `table.json`, the percepts and actions ([`crate::table`]).
 pub fn schemas() -> Vec<(String, Value)> {
-    let mut out = vec![("vocabulary.json".to_string(), vocabulary())];
+    let mut out = vec![
+        ("vocabulary.json".to_string(), vocabulary()),
+        ("table.json".to_string(), crate::table::table_json()),
+    ];
     for (side, whole) in [
         ("client", serde_json::to_value(schema_for!(ClientMessage))),
         ("server", serde_json::to_value(schema_for!(ServerMessage))),

@@ -114,7 +114,8 @@ import { BW4TError, ActionRejected } from './errors.js';
  */
 
 const MAX_LINE_BYTES = 65536;
-const DURATIVE = new Set(['goTo', 'goToBlock']);
+/** Actions whose order ends later with a `result`. @type {ReadonlySet<string>} */
+export const DURATIVE = new Set(['goTo', 'goToBlock']);
 
 /**
  * A promise with its settle functions; its rejection is marked handled so that an
