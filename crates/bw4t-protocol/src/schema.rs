@@ -8,7 +8,7 @@ use crate::vocabulary::{AckCode, AgentStatus, ByeReason, EndReason, ErrorCode, L
 
 /// Every message's schema as (relative path, schema): `client/hello.json`, `server/welcome.json`, ...,
 /// `vocabulary.json`, every word list of the protocol and of bw4t's result files, and
-/// `table.json`, the percepts and actions ([`crate::table`]).
+/// `table.json`, the percepts and actions ([`PERCEPTS`](crate::PERCEPTS), [`ACTIONS`](crate::ACTIONS)).
 pub fn schemas() -> Vec<(String, Value)> {
     let mut out = vec![
         ("vocabulary.json".to_string(), vocabulary()),
