@@ -175,6 +175,21 @@ async fn the_page_and_the_map_layout_are_served() {
         (Some(10.0), Some(10.0), Some(10.0))
     );
     assert_eq!(room["doors"].as_array().map(Vec::len), Some(1));
+    // The walls and openings are the map crate's, so the page draws what the physics has.
+    let map = crate::util::shipped_map("fixed");
+    let number = |v: &Value| v.as_f64().expect("a number") as f32;
+    let walls: Vec<[f32; 4]> = layout["walls"]
+        .as_array()
+        .expect("walls")
+        .iter()
+        .map(|w| [number(&w[0]), number(&w[1]), number(&w[2]), number(&w[3])])
+        .collect();
+    let expected: Vec<[f32; 4]> =
+        map.walls().iter().map(|w| w.ends()).map(|(a, b)| [a.x, a.y, b.x, b.y]).collect();
+    assert!(!walls.is_empty() && walls == expected, "{walls:?}");
+    let door = &room["doors"][0];
+    let (a, b) = map.zones()[map.zone_named("RoomA1").expect("RoomA1")].doors[0].opening();
+    assert_eq!(door["opening"], serde_json::json!([a.x, a.y, b.x, b.y]));
     assert_eq!(get(http, "/nothing-here").await.status, 404);
     server.stop().await;
 }

@@ -13,6 +13,7 @@ mod model;
 mod native;
 mod render;
 mod rng;
+mod walls;
 
 pub use bw4t_xml::{MapLoadError, XmlError, XmlPlace};
 pub use check::{CheckError, Problem, Severity, check_parts, check_text, parse_parts};
@@ -27,3 +28,4 @@ pub use model::{DROP_ZONE, Map, MapError, MapParts, Spawn, Zone, ZoneIdx, ZoneKi
 pub use native::NativeError;
 pub use render::render_svg;
 pub use rng::SeededRng;
+pub use walls::{Wall, zone_walls};

@@ -9,8 +9,9 @@ use std::fmt::Write as _;
 
 use crate::colour::Colour;
 use crate::content::Content;
-use crate::geometry::{Door, Orientation, Rect, Vec2};
+use crate::geometry::{Rect, Vec2};
 use crate::model::{Map, Zone, ZoneKind};
+use crate::walls::zone_walls;
 
 /// Pixels per map unit.
 const SCALE: f32 = 10.0;
@@ -172,49 +173,14 @@ fn zone_style(zone: &Zone, is_drop_zone: bool) -> (&'static str, &'static str) {
     }
 }
 
-/// The walls of a walled zone as path data: each edge, less the openings of the doors on it.
+/// The walls of a walled zone as path data ([`zone_walls`]).
 fn wall_path(zone: &Zone) -> String {
-    let (min, max) = (zone.rect.min(), zone.rect.max());
     let mut d = String::new();
-    // (door orientation on this edge, whether the edge runs along x, fixed coordinate, from, to)
-    let edges = [
-        (Orientation::Horizontal, true, min.y, min.x, max.x),
-        (Orientation::Horizontal, true, max.y, min.x, max.x),
-        (Orientation::Vertical, false, min.x, min.y, max.y),
-        (Orientation::Vertical, false, max.x, min.y, max.y),
-    ];
-    for (orientation, along_x, fixed, from, to) in edges {
-        let mut gaps: Vec<(f32, f32)> = zone
-            .doors
-            .iter()
-            .filter(|door| door.orientation == orientation)
-            .filter_map(|door| {
-                let (across, along) =
-                    if along_x { (door.centre.y, door.centre.x) } else { (door.centre.x, door.centre.y) };
-                ((across - fixed).abs() < 1e-3)
-                    .then_some((along - Door::WIDTH / 2.0, along + Door::WIDTH / 2.0))
-            })
-            .collect();
-        gaps.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let mut pos = from;
-        let mut pieces = Vec::new();
-        for (g0, g1) in gaps {
-            if g0 > pos {
-                pieces.push((pos, g0.min(to)));
-            }
-            pos = pos.max(g1);
-        }
-        if pos < to {
-            pieces.push((pos, to));
-        }
-        for (a, b) in pieces.into_iter().filter(|(a, b)| b > a) {
-            // Writing to a String cannot fail.
-            let _ = if along_x {
-                write!(d, "M{} {}H{}", num(a), num(fixed), num(b))
-            } else {
-                write!(d, "M{} {}V{}", num(fixed), num(a), num(b))
-            };
-        }
+    for wall in zone_walls(zone, 0.0) {
+        let (a, b) = (num(wall.from), num(wall.to));
+        let fixed = num(wall.fixed);
+        // Writing to a String cannot fail.
+        let _ = if wall.horizontal { write!(d, "M{a} {fixed}H{b}") } else { write!(d, "M{fixed} {a}V{b}") };
     }
     d
 }
@@ -417,6 +383,7 @@ fn escape(s: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::{Door, Orientation};
 
     #[test]
     fn numbers_are_short_and_stable() {

@@ -50,8 +50,9 @@ impl Frame {
     }
 }
 
-/// The map's layout for drawing: zones as top-left boxes in map units (y down), doors,
-/// spawn points.
+/// The map's layout for drawing: zones as top-left boxes in map units (y down), doors with
+/// the opening each makes in its wall, the walls themselves (`[x1, y1, x2, y2]`, from
+/// [`Map::walls`]), spawn points. The page draws what it is given.
 pub fn map_layout(map: &Map) -> Value {
     let zones: Vec<Value> = map
         .zones()
@@ -69,7 +70,8 @@ pub fn map_layout(map: &Map) -> Value {
                 .iter()
                 .map(|d| {
                     let r = d.rect();
-                    json!({"x": r.min().x, "y": r.min().y, "w": r.size.x, "h": r.size.y})
+                    let (a, b) = d.opening();
+                    json!({"x": r.min().x, "y": r.min().y, "w": r.size.x, "h": r.size.y, "opening": [a.x, a.y, b.x, b.y]})
                 })
                 .collect();
             json!({"name": z.name, "kind": kind, "x": min.x, "y": min.y, "w": size.x, "h": size.y, "doors": doors})
@@ -79,6 +81,10 @@ pub fn map_layout(map: &Map) -> Value {
         "name": map.name(),
         "area": [map.area().x, map.area().y],
         "zones": zones,
+        "walls": map.walls().iter().map(|w| {
+            let (a, b) = w.ends();
+            [a.x, a.y, b.x, b.y]
+        }).collect::<Vec<_>>(),
         "spawns": map.spawns().iter().map(|s| [s.pos.x, s.pos.y]).collect::<Vec<_>>(),
         "drop_zone": map.zones()[map.drop_zone()].name,
     })

@@ -83,10 +83,9 @@ function setView(view) {
 
 // ---- 2. map geometry -----------------------------------------------------------------
 //
-// /map.json gives zones as top-left boxes in map units, y downwards, and doors as boxes
-// on a room's edge. From it we derive the drawing bounds, the wall segments of each room
-// (its edges minus the door openings) and the openings themselves, drawn as bars when the
-// room is occupied.
+// /map.json gives zones as top-left boxes in map units, y downwards, doors as boxes on a
+// room's edge with the opening each makes, and the walls as segments. From it we derive
+// only the drawing bounds; the openings are drawn as bars when the room is occupied.
 
 function buildMap(json) {
   const zones = json.zones.map((z) => ({
@@ -106,33 +105,8 @@ function buildMap(json) {
     maxY = Math.max(maxY, z.y + z.h);
   }
   [minX, minY, maxX, maxY] = [minX - margin, minY - margin, maxX + margin, maxY + margin];
-  const walls = []; // [x1, y1, x2, y2]
-  const openings = new Map(); // room name -> [[x1, y1, x2, y2], ...]
-  for (const z of zones.filter((zone) => zone.isRoom)) {
-    const gaps = { top: [], bottom: [], left: [], right: [] };
-    const mine = [];
-    for (const d of z.doors) {
-      const cx = d.x + d.w / 2;
-      const cy = d.y + d.h / 2;
-      if (d.w >= d.h) {
-        // A horizontal door sits on the top or bottom edge, whichever is nearer.
-        const top = Math.abs(cy - z.y) <= Math.abs(cy - (z.y + z.h));
-        const y = top ? z.y : z.y + z.h;
-        gaps[top ? 'top' : 'bottom'].push([d.x, d.x + d.w]);
-        mine.push([d.x, y, d.x + d.w, y]);
-      } else {
-        const left = Math.abs(cx - z.x) <= Math.abs(cx - (z.x + z.w));
-        const x = left ? z.x : z.x + z.w;
-        gaps[left ? 'left' : 'right'].push([d.y, d.y + d.h]);
-        mine.push([x, d.y, x, d.y + d.h]);
-      }
-    }
-    openings.set(z.name, mine);
-    for (const [a, b] of subtractGaps(z.x, z.x + z.w, gaps.top)) walls.push([a, z.y, b, z.y]);
-    for (const [a, b] of subtractGaps(z.x, z.x + z.w, gaps.bottom)) walls.push([a, z.y + z.h, b, z.y + z.h]);
-    for (const [a, b] of subtractGaps(z.y, z.y + z.h, gaps.left)) walls.push([z.x, a, z.x, b]);
-    for (const [a, b] of subtractGaps(z.y, z.y + z.h, gaps.right)) walls.push([z.x + z.w, a, z.x + z.w, b]);
-  }
+  // Walls and door openings come computed with the map (bw4t-map owns the geometry).
+  const openings = new Map(zones.filter((z) => z.isRoom).map((z) => [z.name, z.doors.map((d) => d.opening)]));
   return {
     name: json.name,
     zones,
@@ -140,21 +114,9 @@ function buildMap(json) {
     dropZone: json.drop_zone,
     spawns: json.spawns || [],
     bounds: { x: minX, y: minY, w: maxX - minX, h: maxY - minY },
-    walls,
+    walls: json.walls,
     openings,
   };
-}
-
-/** The parts of [start, end] not covered by any gap. */
-function subtractGaps(start, end, gaps) {
-  const parts = [];
-  let at = start;
-  for (const [a, b] of [...gaps].sort((p, q) => p[0] - q[0])) {
-    if (a > at) parts.push([at, Math.min(a, end)]);
-    at = Math.max(at, b);
-  }
-  if (at < end) parts.push([at, end]);
-  return parts;
 }
 
 /** The zone under a map point: the smallest box containing it (zones should not overlap,

@@ -5,7 +5,7 @@
 //! whether it blocks is decided per query (a filter predicate), so no collider is ever
 //! switched on or off and the broad phase stays untouched by door changes.
 
-use bw4t_map::{Map, Vec2, ZoneKind};
+use bw4t_map::{Map, Vec2};
 use rapier2d::control::{CharacterLength, KinematicCharacterController};
 use rapier2d::prelude::*;
 
@@ -78,13 +78,13 @@ impl Physics {
             if !zone.kind.is_walled() {
                 continue;
             }
-            let doors = if zone.kind == ZoneKind::Room { zone.doors.as_slice() } else { &[] };
-            for (centre, half) in wall_pieces(zone.rect.min(), zone.rect.max(), doors) {
+            // Each edge overhangs its corners by half a wall, so corners close.
+            for (centre, half) in bw4t_map::zone_walls(zone, WALL_HALF).iter().map(wall_box) {
                 let wall =
                     ColliderBuilder::cuboid(half.x, half.y).translation(centre).user_data(Tag::Wall.encode());
                 world.insert_collider(wall, None);
             }
-            for door in doors {
+            for door in &zone.doors {
                 let half = door.rect().size / 2.0;
                 let guard = ColliderBuilder::cuboid(half.x, half.y)
                     .translation(door.centre)
@@ -189,67 +189,12 @@ impl Physics {
     }
 }
 
-/// The wall pieces of a box's four edges, leaving openings at `doors`, as (centre, half extents).
-fn wall_pieces(min: Vec2, max: Vec2, doors: &[bw4t_map::Door]) -> Vec<(Vec2, Vec2)> {
-    let mut pieces = Vec::new();
-    let half_door = bw4t_map::Door::WIDTH / 2.0;
-    // Horizontal edges run along x at a fixed y; vertical ones along y at a fixed x.
-    let edges = [
-        (true, min.y, min.x, max.x),
-        (true, max.y, min.x, max.x),
-        (false, min.x, min.y, max.y),
-        (false, max.x, min.y, max.y),
-    ];
-    for (horizontal, fixed, from, to) in edges {
-        let mut openings: Vec<(f32, f32)> = doors
-            .iter()
-            .filter(|d| {
-                let (along, across) =
-                    if horizontal { (d.centre.x, d.centre.y) } else { (d.centre.y, d.centre.x) };
-                let fits = if horizontal {
-                    d.orientation == bw4t_map::Orientation::Horizontal
-                } else {
-                    d.orientation == bw4t_map::Orientation::Vertical
-                };
-                fits && (across - fixed).abs() < 1e-3 && (from..=to).contains(&along)
-            })
-            .map(|d| {
-                let along = if horizontal { d.centre.x } else { d.centre.y };
-                (along - half_door, along + half_door)
-            })
-            .collect();
-        openings.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let mut start = from - WALL_HALF;
-        for (open_from, open_to) in openings.into_iter().chain([(to + WALL_HALF, to + WALL_HALF)]) {
-            if open_from > start {
-                let (mid, half_len) = ((start + open_from) / 2.0, (open_from - start) / 2.0);
-                let (centre, half) = if horizontal {
-                    (Vec2::new(mid, fixed), Vec2::new(half_len, WALL_HALF))
-                } else {
-                    (Vec2::new(fixed, mid), Vec2::new(WALL_HALF, half_len))
-                };
-                pieces.push((centre, half));
-            }
-            start = start.max(open_to);
-        }
-    }
-    pieces
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use bw4t_map::{Door, Orientation};
-
-    #[test]
-    fn walls_leave_an_opening_at_each_door() {
-        let door = Door { centre: Vec2::new(15.0, 10.0), orientation: Orientation::Horizontal };
-        let pieces = wall_pieces(Vec2::new(10.0, 10.0), Vec2::new(20.0, 20.0), &[door]);
-        // The top edge splits in two around x = 13..17; the other three edges are whole.
-        assert_eq!(pieces.len(), 5);
-        let top: Vec<_> = pieces.iter().filter(|(c, h)| c.y == 10.0 && h.y == WALL_HALF).collect();
-        assert_eq!(top.len(), 2);
-        assert!((top[0].0.x + top[0].1.x - 13.0).abs() < 1e-5);
-        assert!((top[1].0.x - top[1].1.x - 17.0).abs() < 1e-5);
+/// A wall as a box `WALL_HALF` thick: (centre, half extents).
+fn wall_box(wall: &bw4t_map::Wall) -> (Vec2, Vec2) {
+    let (mid, half_len) = ((wall.from + wall.to) / 2.0, (wall.to - wall.from) / 2.0);
+    if wall.horizontal {
+        (Vec2::new(mid, wall.fixed), Vec2::new(half_len, WALL_HALF))
+    } else {
+        (Vec2::new(wall.fixed, mid), Vec2::new(WALL_HALF, half_len))
     }
 }
