@@ -78,10 +78,10 @@ pub(crate) async fn run(
             continue;
         }
         back_to_back = 0;
+        // Events before the timer: a ready event is taken without arming the timer at all.
         tokio::select! {
             biased;
             () = &mut shutdown => host.interrupt(),
-            () = sleep_until_opt(timeout.map(Instant::from_std)) => host.handle_timeout(Instant::now().into_std()),
             event = events.recv() => match event {
                 Some(event) => {
                     let event = accept(event, &mut handles, &mut closing);
@@ -93,6 +93,7 @@ pub(crate) async fn run(
             Some(name) = recv_opt(&mut gone_seats) => {
                 host.handle_event(Instant::now().into_std(), HostEvent::SeatAbandoned { name });
             }
+            () = sleep_until_opt(timeout.map(Instant::from_std)) => host.handle_timeout(Instant::now().into_std()),
         }
     }
     let result = host.finish(Instant::now().into_std());

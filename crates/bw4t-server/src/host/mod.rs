@@ -312,6 +312,8 @@ pub struct MatchHost {
     end: Option<EndReason>,
     sessions: u64,
     outbox: VecDeque<Transmit>,
+    /// Players whose percepts of the current tick are still to be made.
+    percepts_due: VecDeque<RobotId>,
     recorder: Option<Recorder>,
     /// Names of reserved seats whose player will not come.
     abandoned: BTreeSet<String>,
@@ -353,6 +355,7 @@ impl MatchHost {
             end: None,
             sessions: 0,
             outbox: VecDeque::new(),
+            percepts_due: VecDeque::new(),
             recorder,
             abandoned: BTreeSet::new(),
             gone: BTreeMap::new(),
@@ -374,6 +377,7 @@ impl MatchHost {
 
     /// Takes in one event at `now`.
     pub fn handle_event(&mut self, now: Instant, event: HostEvent) {
+        self.settle();
         self.now = self.now.max(now);
         match event {
             HostEvent::Opened { conn, room } => {
@@ -393,6 +397,7 @@ impl MatchHost {
     /// lockstep deadline, or one tick. The driver calls it when [`Self::poll_timeout`] is
     /// reached; calling it early does nothing that was not due.
     pub fn handle_timeout(&mut self, now: Instant) {
+        self.settle();
         self.now = self.now.max(now);
         let now = self.now;
         if self.end.is_some() {
@@ -430,18 +435,43 @@ impl MatchHost {
 
     /// The next thing to send, if any.
     pub fn poll_transmit(&mut self) -> Option<Transmit> {
-        let transmit = self.outbox.pop_front()?;
-        if let Transmit::Line { conn, .. } = &transmit {
-            if let Some(c) = self.conns.get_mut(conn) {
-                c.unsent = c.unsent.saturating_sub(1);
+        loop {
+            if let Some(transmit) = self.outbox.pop_front() {
+                if let Transmit::Line { conn, .. } = &transmit {
+                    if let Some(c) = self.conns.get_mut(conn) {
+                        c.unsent = c.unsent.saturating_sub(1);
+                    }
+                }
+                return Some(transmit);
             }
+            let id = self.percepts_due.pop_front()?;
+            self.send_percepts(id, Delivery::Tick);
         }
-        Some(transmit)
+    }
+
+    /// Makes the percepts of the tick not yet taken by [`Self::poll_transmit`], so that
+    /// what comes next sees every player as told.
+    fn settle(&mut self) {
+        while let Some(id) = self.percepts_due.pop_front() {
+            self.send_percepts(id, Delivery::Tick);
+        }
+    }
+
+    /// Whether a dropped player's grace period is over.
+    fn any_expired(&self) -> bool {
+        self.players.values().any(|p| self.grace_over(p))
+    }
+
+    /// Whether `player` dropped and its grace period is over.
+    fn grace_over(&self, player: &Player) -> bool {
+        let since = |t: Instant| self.now.saturating_duration_since(t);
+        player.conn.is_none() && player.dropped_at.is_some_and(|t| since(t) >= self.config.grace)
     }
 
     /// When [`Self::handle_timeout`] is next due: `None` while only an event can move the
     /// match on. In lockstep with nobody awaited, the next tick is due at once.
-    pub fn poll_timeout(&self) -> Option<Instant> {
+    pub fn poll_timeout(&mut self) -> Option<Instant> {
+        self.settle();
         if self.end.is_some() {
             return None;
         }
@@ -479,6 +509,7 @@ impl MatchHost {
     /// Ends the match at `now` (if it has not ended), records the end, queues `match_end`
     /// and `bye` for every client and closes every connection; returns the result.
     pub fn finish(&mut self, now: Instant) -> MatchResult {
+        self.settle();
         self.now = self.now.max(now);
         let reason = *self.end.get_or_insert(EndReason::Interrupted);
         // `wall_ms` counts from the first tick: waiting for players is not playing.
@@ -597,13 +628,16 @@ impl MatchHost {
             self.send(conn, &reply);
         }
         self.tick_sent_at = self.now;
-        let ids: Vec<RobotId> = self.players.keys().copied().collect();
-        for id in ids {
-            self.send_percepts(id, Delivery::Tick);
-        }
+        // Each player's percepts are made as the driver takes them (`poll_transmit`), so
+        // the first player's are on their way while the others' are still being made.
+        self.percepts_due = self.players.keys().copied().collect();
         self.observe_locals();
         self.send_frames(false);
-        self.expire_dropped();
+        if self.any_expired() {
+            // A leave changes what the others perceive: this tick's percepts come first.
+            self.settle();
+            self.expire_dropped();
+        }
         if self.game.is_complete() {
             self.end = Some(EndReason::Completed);
         } else if self.config.max_ticks.is_some_and(|max| tick >= max) {
@@ -786,15 +820,8 @@ impl MatchHost {
 
     /// Robots whose players stayed away longer than the grace period leave the match.
     fn expire_dropped(&mut self) {
-        let (grace, now) = (self.config.grace, self.now);
-        let expired: Vec<RobotId> = self
-            .players
-            .iter()
-            .filter(|(_, p)| {
-                p.conn.is_none() && p.dropped_at.is_some_and(|t| now.saturating_duration_since(t) >= grace)
-            })
-            .map(|(id, _)| *id)
-            .collect();
+        let expired: Vec<RobotId> =
+            self.players.iter().filter(|(_, p)| self.grace_over(p)).map(|(id, _)| *id).collect();
         for id in expired {
             self.remove_player(id);
         }
