@@ -1,5 +1,5 @@
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Output};
 use std::time::Duration;
 
 use serde_json::Value;
@@ -102,20 +102,8 @@ fn text(bytes: &[u8]) -> String {
 
 /// Runs `command` to its end, failing the test if it takes longer than [`LIMIT`] (the
 /// process is then killed).
-fn finish(mut command: Command, what: &str) -> Output {
-    let child = command.stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("start");
-    let pid = child.id();
-    let (tx, rx) = std::sync::mpsc::channel();
-    std::thread::spawn(move || {
-        let _ = tx.send(child.wait_with_output());
-    });
-    match rx.recv_timeout(LIMIT) {
-        Ok(output) => output.expect("output"),
-        Err(_) => {
-            let _ = Command::new("kill").args(["-KILL", &pid.to_string()]).status();
-            panic!("{what} did not finish within {LIMIT:?}");
-        }
-    }
+fn finish(command: Command, what: &str) -> Output {
+    crate::util::output_within(command, LIMIT, what)
 }
 
 fn bw4t(args: &[&str]) -> Output {

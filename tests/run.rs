@@ -461,25 +461,9 @@ fn bench_scale_reports_ticks_per_second_with_100_robots() {
 
 /// Runs `bw4t ARGS` with extra environment variables, bounded like [`bw4t`].
 fn bw4t_env(args: &[&str], env: &[(&str, &str)]) -> Output {
-    use std::process::Stdio;
     let mut command = Command::new(env!("CARGO_BIN_EXE_bw4t"));
-    command.args(args).current_dir(env!("CARGO_MANIFEST_DIR")).stdout(Stdio::piped()).stderr(Stdio::piped());
-    for (key, value) in env {
-        command.env(key, value);
-    }
-    let child = command.spawn().expect("start bw4t");
-    let pid = child.id();
-    let (tx, rx) = std::sync::mpsc::channel();
-    std::thread::spawn(move || {
-        let _ = tx.send(child.wait_with_output());
-    });
-    match rx.recv_timeout(RUN_LIMIT) {
-        Ok(output) => output.expect("output"),
-        Err(_) => {
-            let _ = Command::new("kill").args(["-KILL", &pid.to_string()]).status();
-            panic!("bw4t {args:?} did not finish within {RUN_LIMIT:?}");
-        }
-    }
+    command.args(args).current_dir(env!("CARGO_MANIFEST_DIR")).envs(env.iter().copied());
+    crate::util::output_within(command, RUN_LIMIT, &format!("bw4t {args:?}"))
 }
 
 #[test]

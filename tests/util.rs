@@ -576,14 +576,20 @@ impl AutoPlayer {
 /// Runs `bw4t ARGS` from the repository root and returns its output, failing the test if it
 /// has not ended within `limit` (the process is then killed).
 pub fn bw4t_within(args: &[&str], limit: Duration) -> std::process::Output {
-    use std::process::{Command, Stdio};
-    let child = Command::new(env!("CARGO_BIN_EXE_bw4t"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("start bw4t");
+    let mut command = std::process::Command::new(env!("CARGO_BIN_EXE_bw4t"));
+    command.args(args).current_dir(env!("CARGO_MANIFEST_DIR"));
+    output_within(command, limit, &format!("bw4t {args:?}"))
+}
+
+/// Runs `command` to its end with its output captured, failing the test (and killing the
+/// process) if it takes longer than `limit`; `what` names it in the failure.
+pub fn output_within(
+    mut command: std::process::Command,
+    limit: Duration,
+    what: &str,
+) -> std::process::Output {
+    use std::process::Stdio;
+    let child = command.stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("start");
     let pid = child.id();
     let (tx, rx) = std::sync::mpsc::channel();
     std::thread::spawn(move || {
@@ -592,8 +598,8 @@ pub fn bw4t_within(args: &[&str], limit: Duration) -> std::process::Output {
     match rx.recv_timeout(limit) {
         Ok(output) => output.expect("output"),
         Err(_) => {
-            let _ = Command::new("kill").args(["-KILL", &pid.to_string()]).status();
-            panic!("bw4t {args:?} did not finish within {limit:?}");
+            let _ = std::process::Command::new("kill").args(["-KILL", &pid.to_string()]).status();
+            panic!("{what} did not finish within {limit:?}");
         }
     }
 }

@@ -48,10 +48,10 @@ impl Driver {
         }
     }
 
-    /// Takes the actions to apply at this boundary, in the order decided, each tagged with
-    /// its number for [`Driver::answered`].
-    pub fn take_intents(&mut self, into: &mut Vec<Intent<u64>>) {
-        into.extend(self.queued.drain(..).map(|(n, action)| Intent::Act(n, action)));
+    /// Takes the actions to apply at this boundary, in the order decided, each tagged by
+    /// `tag` from its number (which [`Driver::answered`] takes back).
+    pub fn take_intents<T>(&mut self, into: &mut Vec<Intent<T>>, tag: impl Fn(u64) -> T) {
+        into.extend(self.queued.drain(..).map(|(n, action)| Intent::Act(tag(n), action)));
     }
 
     /// Records how the match answered action number `n`.
@@ -106,7 +106,7 @@ impl Seats for Team {
 
     fn take(&mut self, robot: RobotId, into: &mut Vec<Intent<u64>>) {
         if let Some(driver) = self.driver(robot) {
-            driver.take_intents(into);
+            driver.take_intents(into, |n| n);
         }
     }
 

@@ -177,12 +177,7 @@ impl Seats for HostSeats<'_> {
             Pending::Stop => Intent::Stop,
         }));
         if let Some(driver) = player.local.as_mut() {
-            let mut local = Vec::new();
-            driver.take_intents(&mut local);
-            into.extend(local.into_iter().map(|intent| match intent {
-                Intent::Act(n, action) => Intent::Act(Tag::Local(n), action),
-                Intent::Stop => Intent::Stop,
-            }));
+            driver.take_intents(into, Tag::Local);
         }
     }
 
