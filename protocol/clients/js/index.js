@@ -1,6 +1,7 @@
 // bw4t-client: a dependency-free Node.js client for the bw4t protocol (version 1).
 // See README.md for usage and ../../PROTOCOL.md for the protocol.
 
-export { connect, Client, ActionHandle, DURATIVE } from './src/client.js';
-export { Beliefs, SINGLE_VALUED, EVENTS } from './src/beliefs.js';
+export { connect, Client, ActionHandle } from './src/client.js';
+export { Beliefs } from './src/beliefs.js';
+export { SINGLE_VALUED, EVENTS, DURATIVE } from './src/table.js';
 export { BW4TError, ActionRejected } from './src/errors.js';

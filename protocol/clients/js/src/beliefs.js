@@ -1,5 +1,8 @@
 // The belief base: the facts a player holds, kept from `percepts` deltas exactly as
-// protocol/README.md ("Keeping the state") describes.
+// protocol/README.md ("Keeping the state") describes. No Node imports: the browser page
+// keeps its player's beliefs with this same file.
+
+import { EVENTS, SINGLE_VALUED } from './table.js';
 
 /**
  * A fact (percept) as it travels on the wire: `[name, ...args]`,
@@ -13,19 +16,6 @@
  * @property {string} from the sender's name
  * @property {string} text the text
  */
-
-/**
- * The on-change facts: single-valued, a new one replaces the stored one of the same
- * name, and they never appear in `not`.
- * @type {ReadonlySet<string>}
- */
-export const SINGLE_VALUED = new Set(['at', 'state', 'sequenceIndex']);
-
-/**
- * Facts that are events: delivered once in `add`, never stored.
- * @type {ReadonlySet<string>}
- */
-export const EVENTS = new Set(['message']);
 
 /** @param {Fact} fact */
 function keyOf(fact) {
@@ -52,6 +42,14 @@ function sameValue(a, b) {
 export class Beliefs {
   /** @type {Map<string, Map<string, Fact>>} name -> (fact key -> fact) */
   #byName = new Map();
+
+  /**
+   * Block id -> colour, from every `color` fact ever applied. A block's colour never
+   * changes, and a player may remember what it was told: so the colour of a block out of
+   * sight, or held, is still known.
+   * @type {Map<number, string>}
+   */
+  #colours = new Map();
 
   /** The tick of the last `percepts` applied, or `null` before the first one. */
   tick = /** @type {number | null} */ (null);
@@ -81,6 +79,7 @@ export class Beliefs {
         messages.push({ from: fact[1], text: fact[2] });
         continue;
       }
+      if (name === 'color') this.#colours.set(fact[1], fact[2]);
       let facts = this.#byName.get(name);
       if (!facts) {
         facts = new Map();
@@ -94,10 +93,22 @@ export class Beliefs {
     return messages;
   }
 
-  /** Forget everything. */
+  /** Forget everything, remembered colours included. */
   clear() {
     this.#byName.clear();
+    this.#colours.clear();
     this.tick = null;
+  }
+
+  /**
+   * The colour of a block as last perceived (a `color` fact), whether or not that fact
+   * still holds: `undefined` for a block never seen. Full snapshots keep these (the
+   * colours are facts of the match), `clear()` forgets them.
+   * @param {number} block
+   * @returns {string | undefined}
+   */
+  colourOf(block) {
+    return this.#colours.get(block);
   }
 
   /**
@@ -165,11 +176,12 @@ export class Beliefs {
   }
 
   /**
-   * An independent copy.
+   * An independent copy, remembered colours included.
    * @returns {Beliefs}
    */
   clone() {
     const copy = new Beliefs();
+    copy.#colours = new Map(this.#colours);
     copy.apply({ tick: this.tick ?? 0, add: this.facts(), not: [], full: true });
     copy.tick = this.tick;
     return copy;

@@ -4,6 +4,7 @@
 import net from 'node:net';
 import { EventEmitter } from 'node:events';
 import { Beliefs } from './beliefs.js';
+import { DURATIVE } from './table.js';
 import { BW4TError, ActionRejected } from './errors.js';
 
 /** @typedef {import('./beliefs.js').Fact} Fact */
@@ -114,8 +115,6 @@ import { BW4TError, ActionRejected } from './errors.js';
  */
 
 const MAX_LINE_BYTES = 65536;
-/** Actions whose order ends later with a `result`. @type {ReadonlySet<string>} */
-export const DURATIVE = new Set(['goTo', 'goToBlock']);
 
 /**
  * A promise with its settle functions; its rejection is marked handled so that an

@@ -85,6 +85,24 @@ test('clone, equals and diff', () => {
   assert.ok(b.holds('in', 'RoomA1'), 'the original is unchanged');
 });
 
+test('the colour of a block is remembered after its color fact goes, until clear()', () => {
+  const b = new Beliefs();
+  b.apply({ tick: 0, add: [['in', 'RoomA1'], ['color', 11, 'Yellow'], ['color', 12, 'Blue']], not: [], full: true });
+  // Picked up: the block is no longer seen in the room, but it is held.
+  b.apply({ tick: 1, add: [['holding', 11]], not: [['color', 11, 'Yellow']] });
+  assert.ok(!b.holds('color', 11));
+  assert.equal(b.colourOf(11), 'Yellow');
+  // A full snapshot (a resync) elsewhere: the colours are still the match's.
+  b.apply({ tick: 2, add: [['in', 'RoomB1'], ['color', 20, 'Red']], not: [], full: true });
+  assert.deepEqual([b.colourOf(11), b.colourOf(12), b.colourOf(20)], ['Yellow', 'Blue', 'Red']);
+  assert.equal(b.colourOf(13), undefined, 'never seen');
+  assert.equal(b.size, 2, 'remembered colours are not held facts');
+  const copy = b.clone();
+  b.clear();
+  assert.equal(b.colourOf(11), undefined);
+  assert.equal(copy.colourOf(11), 'Yellow', 'a clone keeps its own memory');
+});
+
 test('replaying examples/fetch-and-deliver.jsonl gives the expected end state', () => {
   const file = path.join(REPO, 'protocol', 'examples', 'fetch-and-deliver.jsonl');
   const b = new Beliefs();
