@@ -50,8 +50,9 @@ enum Case {
     Realtime,
     /// Whole default-map matches played headless by the built-in team of 3, one thread.
     Match,
-    /// A generated 10 x 10-room map with 100 robots kept moving, every robot polled every
-    /// tick; one thread.
+    /// Generated maps with many robots kept moving, every robot polled every tick: 100
+    /// robots on 10 x 10 rooms, and 10, 30 and 100 on the largest generated map
+    /// (`MAX_ROWS` x `MAX_COLUMNS` rooms). One thread.
     Scale,
 }
 
@@ -77,7 +78,11 @@ pub(crate) fn run(args: &BenchArgs) -> Result<()> {
                 outln!("{}", crate::bench_net::realtime(args.seed, 100, args.realtime_seconds)?)
             }
             Case::Match => outln!("{}", matches(args)?),
-            Case::Scale => outln!("{}", scale(args)?),
+            Case::Scale => {
+                for (rows, cols, robots) in SCALE_CASES {
+                    outln!("{}", scale(args, rows, cols, robots)?);
+                }
+            }
         }
     }
     Ok(())
@@ -169,9 +174,16 @@ fn matches(args: &BenchArgs) -> Result<serde_json::Value> {
     }))
 }
 
-fn scale(args: &BenchArgs) -> Result<serde_json::Value> {
-    let robots = 100;
-    let map = bw4t_map::generate(10, 10, robots, args.seed)?;
+/// The `scale` case's maps (rows x columns of rooms) and robot counts.
+const SCALE_CASES: [(usize, usize, usize); 4] = [
+    (10, 10, 100),
+    (bw4t_map::MAX_ROWS, bw4t_map::MAX_COLUMNS, 10),
+    (bw4t_map::MAX_ROWS, bw4t_map::MAX_COLUMNS, 30),
+    (bw4t_map::MAX_ROWS, bw4t_map::MAX_COLUMNS, 100),
+];
+
+fn scale(args: &BenchArgs, rows: usize, cols: usize, robots: usize) -> Result<serde_json::Value> {
+    let map = bw4t_map::generate(cols, rows, robots, args.seed)?;
     let mut game = Match::new(&map, &MatchConfig::default(), args.seed).context("cannot create the match")?;
     let ids: Vec<RobotId> = (0..robots)
         .map(|i| game.join(&format!("Bot{}", i + 1)))
@@ -191,9 +203,11 @@ fn scale(args: &BenchArgs) -> Result<serde_json::Value> {
     Ok(json!({
         "case": "scale",
         "map": map.name(),
+        "rooms": rows * cols,
         "robots": robots,
         "ticks": args.scale_ticks,
         "ticks_per_s": (args.scale_ticks as f64 / seconds).round(),
+        "ms_per_tick": (per_tick_ms * 1000.0).round() / 1000.0,
         // Share of one core a match at 20 ticks/s would use: 20 ticks' time per second.
         "core_percent_at_20_hz": (per_tick_ms * 20.0 / 1000.0 * 100.0 * 100.0).round() / 100.0,
         "moves": play.accepted().moves,

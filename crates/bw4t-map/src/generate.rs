@@ -8,9 +8,9 @@ use crate::model::{DROP_ZONE, Map, MapError, MapParts, Spawn, Zone, ZoneKind};
 
 /// Rows, at most; with the columns, this keeps a generated map within
 /// [`MAX_ZONES`](crate::MAX_ZONES).
-pub(crate) const MAX_ROWS: usize = 40;
+pub const MAX_ROWS: usize = 40;
 /// Columns per row, at most.
-pub(crate) const MAX_COLUMNS: usize = 40;
+pub const MAX_COLUMNS: usize = 40;
 
 /// Spacing of spawn points: robots (2 x 2) placed this far apart never overlap.
 const SPAWN_SPACING: f32 = 3.0;

@@ -9,6 +9,7 @@ mod content;
 mod generate;
 mod geometry;
 mod limits;
+mod locate;
 mod model;
 mod native;
 mod render;
@@ -21,7 +22,7 @@ pub use colour::{Colour, UnknownColour};
 pub use content::{
     BLOCK_SPACING, Content, ContentError, MAX_BLOCKS_PER_ROOM, PlacedBlock, block_area, spot_is_clear,
 };
-pub use generate::generate;
+pub use generate::{MAX_COLUMNS, MAX_ROWS, generate};
 pub use geometry::{Door, Orientation, Rect, Vec2};
 pub use limits::{MAX_COORDINATE, MAX_MAP_BYTES, MAX_SPAWNS, MAX_ZONES, coordinate_problem};
 pub use model::{DROP_ZONE, Map, MapError, MapParts, Spawn, Zone, ZoneIdx, ZoneKind};

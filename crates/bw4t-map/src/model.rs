@@ -7,6 +7,7 @@ use crate::colour::Colour;
 use crate::content::MAX_BLOCKS_PER_ROOM;
 use crate::geometry::{Door, Orientation, Rect, Vec2};
 use crate::limits::{MAX_SPAWNS, MAX_ZONES, limit_problems};
+use crate::locate::{ZoneGrid, is_room};
 
 /// Index of a zone in [`Map::zones`].
 pub type ZoneIdx = usize;
@@ -102,6 +103,9 @@ pub struct Map {
     parts: MapParts,
     adjacency: Vec<Vec<ZoneIdx>>,
     drop_zone: ZoneIdx,
+    /// Zone indices by name.
+    names: BTreeMap<String, ZoneIdx>,
+    grid: ZoneGrid,
 }
 
 impl Map {
@@ -129,7 +133,9 @@ impl Map {
             list.dedup();
         }
         let drop_zone = index[DROP_ZONE];
-        Ok(Map { parts, adjacency, drop_zone })
+        let names = index.into_iter().map(|(name, i)| (name.to_string(), i)).collect();
+        let grid = ZoneGrid::new(&parts.zones);
+        Ok(Map { parts, adjacency, drop_zone, names, grid })
     }
 
     /// The map's short name.
@@ -159,12 +165,17 @@ impl Map {
 
     /// The zone with this exact name.
     pub fn zone_named(&self, name: &str) -> Option<ZoneIdx> {
-        self.parts.zones.iter().position(|z| z.name == name)
+        self.names.get(name).copied()
     }
 
     /// The first zone (in file order) whose box contains `p`.
     pub fn zone_at(&self, p: Vec2) -> Option<ZoneIdx> {
-        self.parts.zones.iter().position(|z| z.rect.contains(p))
+        self.grid.first(&self.parts.zones, p, |_| true)
+    }
+
+    /// The first room (in file order) whose box contains `p`.
+    pub fn room_at(&self, p: Vec2) -> Option<ZoneIdx> {
+        self.grid.first(&self.parts.zones, p, is_room)
     }
 
     /// Spawn points in the order robots take them.

@@ -4,24 +4,24 @@
 //! (applied at once, so drivers apply a tick's actions in robot-id order); time advances
 //! only by [`Match::step`]; outputs are polled with [`Match::poll_percepts`].
 
+mod motion;
+mod perception;
+mod rules;
+
 use std::sync::Arc;
 
-use bw4t_map::{Colour, ContentError, Map, Vec2, ZoneIdx, ZoneKind, block_area};
+use bw4t_map::{Colour, ContentError, Map, Vec2, ZoneIdx};
 
-use crate::action::{Accepted, Action, OrderEnd, OrderId, OrderOutcome, Receiver, Rejection, RobotId};
+use crate::action::{OrderEnd, OrderId, Rejection, RobotId};
 use crate::config::{ConfigError, MatchConfig};
 use crate::digest::Digest;
 use crate::nav::Navigator;
-use crate::percept::{BlockId, Fact, MoveState, Percept, PerceptDelta, diff};
+use crate::percept::{BlockId, Fact, MoveState, Percept};
 use crate::physics::{Physics, RobotBody};
 use crate::stats::{MatchStats, RobotStats};
 
-/// How close (centre to centre) a robot must be to a block to pick it up.
-pub const REACH: f32 = 1.0;
-/// Within this distance a waypoint counts as reached.
-const ARRIVE_EPS: f32 = 1e-3;
-/// A move that achieves less than this share of its step is stuck against a wall.
-const STALL_FRACTION: f32 = 0.05;
+pub use self::rules::REACH;
+
 /// Longest accepted player name, in bytes.
 pub const MAX_NAME_LEN: usize = 64;
 
@@ -284,41 +284,6 @@ impl Match {
         Ok(())
     }
 
-    /// Stops a robot where it stands: its current order ends as superseded.
-    pub fn stop(&mut self, id: RobotId) -> Result<(), Rejection> {
-        let robot =
-            self.robots.get_mut(id.0 as usize).and_then(Option::as_mut).ok_or(Rejection::UnknownRobot(id))?;
-        robot.plan.clear();
-        if let Some(order) = robot.order.take() {
-            robot.state = MoveState::Arrived;
-            self.ended.push(OrderEnd { robot: id, order, outcome: OrderOutcome::Superseded });
-        }
-        Ok(())
-    }
-
-    /// Applies one action now. Durative actions are answered later by a [`StepReport`].
-    pub fn handle_action(&mut self, id: RobotId, action: Action) -> Result<Accepted, Rejection> {
-        let robot = self.robot(id).ok_or(Rejection::UnknownRobot(id))?;
-        let (from, room) = (robot.at, robot.room);
-        match action {
-            Action::GoTo(place) => {
-                let zone =
-                    self.map.zone_named(&place).ok_or_else(|| Rejection::UnknownPlace(place.clone()))?;
-                let target = self.nav.centre(zone);
-                self.start_order(id, from, zone, target).ok_or(Rejection::Unreachable(place))
-            }
-            Action::GoToBlock(block) => {
-                let (zone, pos) = self.visible_block(block, room)?;
-                let target = self.nav.standable(zone, pos);
-                self.start_order(id, from, zone, target)
-                    .ok_or_else(|| Rejection::Unreachable(block.to_string()))
-            }
-            Action::PickUp(block) => self.pick_up(id, block),
-            Action::PutDown => self.put_down(id),
-            Action::SendMessage { to, text } => self.send_message(id, to, text),
-        }
-    }
-
     /// Simulates one tick: every robot with a plan moves, in robot-id order.
     pub fn step(&mut self) -> StepReport {
         self.tick += 1;
@@ -336,17 +301,6 @@ impl Match {
             self.stats.completed_at = Some(self.tick);
         }
         StepReport { tick: self.tick, ended: std::mem::take(&mut self.ended) }
-    }
-
-    /// What robot `id` has not been told yet: the first call also carries the once-only
-    /// percepts. `None` for a robot not in the match.
-    pub fn poll_percepts(&mut self, id: RobotId) -> Option<PerceptDelta> {
-        self.percepts(id, false)
-    }
-
-    /// Everything robot `id` perceives now, as a full delta; later deltas build on it.
-    pub fn snapshot(&mut self, id: RobotId) -> Option<PerceptDelta> {
-        self.percepts(id, true)
     }
 
     /// A digest of the whole state: equal digests mean equal matches, bit for bit.
@@ -494,350 +448,15 @@ impl Match {
         self.robots.get_mut(id.0 as usize).and_then(Option::as_mut)
     }
 
-    fn start_order(&mut self, id: RobotId, from: ZoneIdx, to: ZoneIdx, target: Vec2) -> Option<Accepted> {
-        let mut waypoints = std::mem::take(&mut self.waypoint_scratch);
-        let found = self.nav.waypoints(from, to, target, &mut waypoints);
-        let order = OrderId(self.next_order);
-        let robot = self.robots.get_mut(id.0 as usize).and_then(Option::as_mut);
-        let result = match robot {
-            Some(robot) if found => {
-                if let Some(old) = robot.order.replace(order) {
-                    self.ended.push(OrderEnd { robot: id, order: old, outcome: OrderOutcome::Superseded });
-                }
-                robot.plan.clear();
-                robot.plan.extend(waypoints.iter().rev());
-                robot.state = MoveState::Traveling;
-                self.next_order += 1;
-                Some(Accepted { order: Some(order) })
-            }
-            _ => None,
-        };
-        self.waypoint_scratch = waypoints;
-        result
-    }
-
-    /// The block's room and position, if the robot in `room` can see it.
-    fn visible_block(&self, block: BlockId, room: Option<ZoneIdx>) -> Result<(ZoneIdx, Vec2), Rejection> {
-        let place = self.block(block).ok_or(Rejection::UnknownBlock(block))?.place;
-        match place {
-            BlockPlace::Room { zone, pos } if Some(zone) == room => Ok((zone, pos)),
-            BlockPlace::Gone => Err(Rejection::UnknownBlock(block)),
-            _ => Err(Rejection::BlockNotVisible(block)),
-        }
-    }
-
     fn block(&self, id: BlockId) -> Option<&Block> {
         id.checked_sub(1).and_then(|i| self.blocks.get(i as usize))
-    }
-
-    /// The block robot `robot` is at: the nearest within reach in its room (lowest id on ties).
-    fn block_at(&self, robot: &Robot) -> Option<BlockId> {
-        let room = robot.room?;
-        let mut best: Option<(f32, BlockId)> = None;
-        for &b in &self.room_blocks[room] {
-            if let Some(Block { place: BlockPlace::Room { pos, .. }, .. }) = self.block(b) {
-                let d = pos.distance(robot.pos);
-                if d <= REACH && best.is_none_or(|(bd, _)| d < bd) {
-                    best = Some((d, b));
-                }
-            }
-        }
-        best.map(|(_, b)| b)
-    }
-
-    fn pick_up(&mut self, id: RobotId, wanted: Option<BlockId>) -> Result<Accepted, Rejection> {
-        let robot = self.robot(id).ok_or(Rejection::UnknownRobot(id))?;
-        if let Some(held) = robot.holding {
-            return Err(Rejection::AlreadyHolding(held));
-        }
-        let block = match wanted {
-            Some(b) => {
-                let (_, pos) = self.visible_block(b, robot.room)?;
-                if pos.distance(robot.pos) > REACH {
-                    return Err(Rejection::NotAtBlock);
-                }
-                b
-            }
-            None => self.block_at(robot).ok_or(Rejection::NotAtBlock)?,
-        };
-        if let Some(BlockPlace::Room { zone, .. }) = self.block(block).map(|b| b.place) {
-            self.room_blocks[zone].retain(|&b| b != block);
-        }
-        self.blocks[block as usize - 1].place = BlockPlace::Held(id);
-        if let Some(robot) = self.robot_mut(id) {
-            robot.holding = Some(block);
-        }
-        Ok(Accepted { order: None })
-    }
-
-    fn put_down(&mut self, id: RobotId) -> Result<Accepted, Rejection> {
-        let robot = self.robot(id).ok_or(Rejection::UnknownRobot(id))?;
-        let block = robot.holding.ok_or(Rejection::NotHolding)?;
-        let (room, pos) = (robot.room, robot.pos);
-        let colour = self.blocks[block as usize - 1].colour;
-        let place = match room {
-            Some(zone) if zone == self.map.drop_zone() => {
-                let needed = self.sequence.get(self.sequence_index as usize);
-                let good = needed == Some(&colour);
-                if good {
-                    self.sequence_index += 1;
-                    self.stats.sequence_index = self.sequence_index;
-                    self.stats.good_drops += 1;
-                } else {
-                    self.stats.wrong_drops += 1;
-                }
-                if let Some(robot) = self.robot_mut(id) {
-                    if good { robot.stats.good_drops += 1 } else { robot.stats.wrong_drops += 1 }
-                }
-                BlockPlace::Gone
-            }
-            Some(zone) => {
-                let spot = self.free_spot(zone, pos).ok_or(Rejection::NoSpace)?;
-                let list = &mut self.room_blocks[zone];
-                let at = list.partition_point(|&b| b < block);
-                list.insert(at, block);
-                BlockPlace::Room { zone, pos: spot }
-            }
-            // In a hall (or free space) the block leaves the world.
-            None => BlockPlace::Gone,
-        };
-        self.blocks[block as usize - 1].place = place;
-        if let Some(robot) = self.robot_mut(id) {
-            robot.holding = None;
-        }
-        Ok(Accepted { order: None })
-    }
-
-    /// Loses a held block when nothing else can be done with it.
-    fn drop_held_block(&mut self, id: RobotId) {
-        if let Some(block) = self.robot_mut(id).and_then(|r| r.holding.take()) {
-            self.blocks[block as usize - 1].place = BlockPlace::Gone;
-        }
-    }
-
-    /// The spot nearest to `near` inside `zone` where a block overlaps no other block.
-    fn free_spot(&self, zone: ZoneIdx, near: Vec2) -> Option<Vec2> {
-        let area = block_area(&self.map.zones()[zone].rect);
-        let others: Vec<Vec2> = self.room_blocks[zone]
-            .iter()
-            .filter_map(|&b| match self.block(b)?.place {
-                BlockPlace::Room { pos, .. } => Some(pos),
-                _ => None,
-            })
-            .collect();
-        let clear = |p: Vec2| area.contains(p) && others.iter().all(|o| (p - *o).abs().max_element() >= 1.0);
-        // Rings of growing radius on a half-unit grid, nearest first, in a fixed order.
-        let start = area.clamp(near);
-        (0..=40i32).find_map(|ring| {
-            let mut best: Option<(f32, Vec2)> = None;
-            for j in -ring..=ring {
-                for i in -ring..=ring {
-                    if i.abs().max(j.abs()) != ring {
-                        continue;
-                    }
-                    let p = start + Vec2::new(i as f32, j as f32) * 0.5;
-                    let d = p.distance(near);
-                    if clear(p) && best.is_none_or(|(bd, _)| d < bd) {
-                        best = Some((d, p));
-                    }
-                }
-            }
-            best.map(|(_, p)| p)
-        })
-    }
-
-    fn send_message(&mut self, id: RobotId, to: Receiver, text: String) -> Result<Accepted, Rejection> {
-        let from = self.robot(id).ok_or(Rejection::UnknownRobot(id))?.name.clone();
-        let receivers: Vec<usize> = match &to {
-            Receiver::All => self.live_robots().filter(|r| r.id != id).map(|r| r.id.0 as usize).collect(),
-            Receiver::Player(name) => {
-                let target = self.live_robots().find(|r| &*r.name == name.as_str() && r.id != id);
-                vec![target.ok_or_else(|| Rejection::UnknownReceiver(name.clone()))?.id.0 as usize]
-            }
-        };
-        let message = Percept::Message { from, text: Arc::from(text) };
-        for idx in receivers {
-            if let Some(robot) = self.robots[idx].as_mut() {
-                robot.inbox.push(message.clone());
-            }
-        }
-        self.stats.messages += 1;
-        if let Some(robot) = self.robot_mut(id) {
-            robot.stats.messages_sent += 1;
-        }
-        Ok(Accepted { order: None })
-    }
-
-    /// Moves one robot along its plan for one tick.
-    fn advance(&mut self, robot: &mut Robot) {
-        if robot.plan.is_empty() {
-            robot.stats.idle_ticks += 1;
-            return;
-        }
-        let start = robot.pos;
-        let occupant = &self.occupant;
-        let me = robot.id;
-        let guard_closed = |room: usize| occupant[room].is_some_and(|o| o != me);
-        let mut budget = self.config.speed;
-        let mut outcome = None;
-        while budget > 0.0 {
-            let Some(&waypoint) = robot.plan.last() else { break };
-            let to = waypoint - robot.pos;
-            let dist = to.length();
-            if dist <= ARRIVE_EPS {
-                robot.plan.pop();
-                continue;
-            }
-            let step = budget.min(dist);
-            let moved = self.physics.move_robot(me.0, robot.pos, to * (step / dist), &guard_closed);
-            robot.pos += moved.translation;
-            budget -= step;
-            if moved.blocked_by.is_some() || moved.translation.length() < step * STALL_FRACTION {
-                outcome = Some(OrderOutcome::Collided);
-                break;
-            }
-            if robot.pos.distance(waypoint) <= ARRIVE_EPS {
-                robot.pos = waypoint;
-                robot.plan.pop();
-            }
-        }
-        if outcome.is_none() && robot.plan.is_empty() {
-            outcome = Some(OrderOutcome::Arrived);
-        }
-        if let Some(outcome) = outcome {
-            robot.plan.clear();
-            robot.state =
-                if outcome == OrderOutcome::Arrived { MoveState::Arrived } else { MoveState::Collided };
-            if let Some(order) = robot.order.take() {
-                self.ended.push(OrderEnd { robot: me, order, outcome });
-            }
-        }
-        robot.stats.distance += f64::from(start.distance(robot.pos));
-        self.physics.place_robot(robot.body, robot.pos);
-        self.update_place(robot);
-    }
-
-    /// Recomputes where a robot is and updates room occupancy.
-    fn update_place(&mut self, robot: &mut Robot) {
-        let zones = self.map.zones();
-        let room = zones.iter().position(|z| z.kind == ZoneKind::Room && z.rect.contains(robot.pos));
-        robot.at = room.or_else(|| self.map.zone_at(robot.pos)).unwrap_or_else(|| {
-            // Free space: the nearest zone, lowest index on ties.
-            let dist = |i: &usize| zones[*i].rect.distance(robot.pos);
-            (0..zones.len()).min_by(|a, b| dist(a).total_cmp(&dist(b))).unwrap_or(0)
-        });
-        if room == robot.room {
-            return;
-        }
-        if let Some(old) = robot.room {
-            self.vacate(old, robot.id);
-        }
-        if let Some(new) = room {
-            robot.stats.rooms_entered += 1;
-            self.occupant[new].get_or_insert(robot.id);
-        }
-        robot.room = room;
-    }
-
-    /// Clears `zone`'s occupant if it was `leaving`, handing the room to any robot still inside.
-    fn vacate(&mut self, zone: ZoneIdx, leaving: RobotId) {
-        if self.occupant[zone] == Some(leaving) {
-            let heir = self.live_robots().find(|r| r.id != leaving && r.room == Some(zone)).map(|r| r.id);
-            self.occupant[zone] = heir;
-        }
-    }
-
-    /// Every fact robot `id` perceives now (no messages), without changing what it was told.
-    pub fn perceived(&self, id: RobotId) -> Option<Vec<Percept>> {
-        let robot = self.robot(id)?;
-        let mut facts = Vec::new();
-        self.current_facts(robot, &mut facts);
-        let mut out = self.once_percepts(robot);
-        out.extend(facts.into_iter().map(|f| self.resolve(f)));
-        Some(out)
-    }
-
-    fn once_percepts(&self, robot: &Robot) -> Vec<Percept> {
-        let mut out: Vec<Percept> = self.zone_names.iter().map(|n| Percept::Place(n.clone())).collect();
-        out.push(Percept::OwnName(robot.name.clone()));
-        out.push(Percept::Bot(robot.id.0));
-        out.push(Percept::Sequence(self.sequence.clone()));
-        out
-    }
-
-    fn percepts(&mut self, id: RobotId, full: bool) -> Option<PerceptDelta> {
-        let mut now = std::mem::take(&mut self.facts_scratch);
-        now.clear();
-        self.current_facts(self.robot(id)?, &mut now);
-        let mut robot = self.robots[id.0 as usize].take()?;
-        let mut delta = PerceptDelta { tick: self.tick, full, ..PerceptDelta::default() };
-        if full || !robot.introduced {
-            delta.add = self.once_percepts(&robot);
-            robot.introduced = true;
-        }
-        if full {
-            robot.left.clear();
-            delta.add.extend(now.iter().map(|&f| self.resolve(f)));
-        } else {
-            // Players that left come first, as `player` facts sort first.
-            let (mut added, mut removed) = (Vec::new(), std::mem::take(&mut robot.left));
-            diff(&robot.told, &now, |f| added.push(self.resolve(f)), |f| removed.push(self.resolve(f)));
-            delta.add.append(&mut added);
-            delta.not = removed;
-        }
-        delta.add.append(&mut robot.inbox);
-        std::mem::swap(&mut robot.told, &mut now);
-        self.robots[id.0 as usize] = Some(robot);
-        self.facts_scratch = now;
-        Some(delta)
-    }
-
-    /// The changeable facts that hold for `robot` now, sorted.
-    fn current_facts(&self, robot: &Robot, out: &mut Vec<Fact>) {
-        out.extend(self.live_robots().filter(|r| r.id != robot.id).map(|r| Fact::Player(r.id.0)));
-        out.push(Fact::At(robot.at as u32));
-        out.push(Fact::SequenceIndex(self.sequence_index));
-        out.push(Fact::State(robot.state));
-        if let Some(room) = robot.room {
-            out.push(Fact::In(room as u32));
-        }
-        if let Some(block) = self.block_at(robot) {
-            out.push(Fact::AtBlock(block));
-        }
-        let occupied = self.occupant.iter().enumerate().filter(|(_, o)| o.is_some());
-        out.extend(occupied.map(|(zone, _)| Fact::Occupied(zone as u32)));
-        let visible: &[BlockId] = robot.room.map_or(&[], |room| &self.room_blocks[room]);
-        out.extend(visible.iter().map(|&b| Fact::Color(b)));
-        if let Some(block) = robot.holding {
-            out.push(Fact::Holding(block));
-        }
-        out.extend(visible.iter().map(|&b| Fact::Block(b)));
-        debug_assert!(out.is_sorted(), "facts must be generated in order");
-    }
-
-    fn resolve(&self, fact: Fact) -> Percept {
-        let name = |zone: u32| self.zone_names[zone as usize].clone();
-        match fact {
-            // Facts name only robots in the match: a leave takes its fact out of `told`.
-            Fact::Player(r) => {
-                Percept::Player(self.robot(RobotId(r)).map(|r| r.name.clone()).unwrap_or_default())
-            }
-            Fact::At(zone) => Percept::At(name(zone)),
-            Fact::SequenceIndex(i) => Percept::SequenceIndex(i),
-            Fact::State(s) => Percept::State(s),
-            Fact::In(zone) => Percept::In(name(zone)),
-            Fact::AtBlock(b) => Percept::AtBlock(b),
-            Fact::Occupied(zone) => Percept::Occupied(name(zone)),
-            Fact::Color(b) => Percept::Color(b, self.blocks[b as usize - 1].colour),
-            Fact::Holding(b) => Percept::Holding(b),
-            Fact::Block(b) => Percept::Block(b),
-        }
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::action::Action;
 
     const MAP: &str = r#"
         name = "churn"
