@@ -268,11 +268,11 @@ const BROKEN: [(&str, &str); 36] = [
     ("no-area", "line 2, <newMap>: missing <area>"),
     ("area-without-y", "line 3, <area>: missing <y>"),
     ("area-x-twice", "line 3, <area>: <x> is given more than once"),
-    ("area-not-positive", "invalid map: area 0 x 20 is not positive"),
+    ("area-not-positive", "invalid map: area: 0 x 20 is not positive"),
     ("entity-without-name", "line 4, entity 1: missing <name>"),
     ("entity-without-position", "line 4, entity 1 'Bot1': missing <position>"),
     ("entity-x-not-a-number", "line 4, entity 1 'Bot1', <position>: <x> is '5 0', not a finite number"),
-    ("no-entities", "invalid map: no spawn points"),
+    ("no-entities", "invalid map: spawn points: there are none: robots cannot enter"),
     ("one-bot-maybe", "line 5, <newMap>: <oneBotPerCorridorZone> is 'maybe', not true or false"),
     (
         "random-blocks-negative",
@@ -317,20 +317,20 @@ const BROKEN: [(&str, &str); 36] = [
         "door-at-corner-without-orientation",
         "line 19, zone 'RoomA', door 1: the door at (10, 0) needs an <orientation>",
     ),
-    (
-        "door-off-the-edge",
-        "invalid map: zone 'DropZone': Vertical door at (12, 15) is not on the room's edge",
-    ),
+    ("door-off-the-edge", "invalid map: zone 'DropZone': door at (12, 15) is not on the room's edge"),
     ("door-on-a-corridor", "invalid map: zone 'Hall': only rooms have doors, this is a corridor"),
     ("blocks-in-a-corridor", "invalid map: zone 'Hall': only rooms hold blocks, this is a corridor"),
     ("eleven-blocks", "invalid map: zone 'RoomA': 11 blocks, at most 10 fit in a room"),
-    ("no-drop-zone", "invalid map: no zone named 'DropZone'"),
-    ("drop-zone-not-a-room", "invalid map: zone 'DropZone' must be a room, not a corridor"),
-    ("zone-defined-twice", "invalid map: zone 'Hall' is defined twice"),
+    ("no-drop-zone", "invalid map: drop zone: no zone named 'DropZone'"),
+    ("drop-zone-not-a-room", "invalid map: zone 'DropZone': the drop zone must be a room, not a corridor"),
+    (
+        "zone-defined-twice",
+        "invalid map: zone 'Hall': the name is already used by zone 1 (names must be unique)",
+    ),
     (
         "several-problems",
         "invalid map: zone 'RoomA': 11 blocks, at most 10 fit in a room; \
-         zone 'RoomA': Vertical door at (12, 5) is not on the room's edge; no zone named 'DropZone'",
+         zone 'RoomA': door at (12, 5) is not on the room's edge; drop zone: no zone named 'DropZone'",
     ),
 ];
 

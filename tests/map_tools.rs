@@ -194,8 +194,13 @@ fn cases() -> Vec<Case> {
             "zone 'FrontA2'",
             "only rooms hold blocks, this is a corridor",
         ),
-        case(&[(r#"name = "DropZone""#, r#"name = "Drop""#)], Error, "map", "no zone named 'DropZone'"),
-        case(&[(r#"name = "RoomC3""#, r#"name = "DropZone""#)], Error, "map", "2 zones are named 'DropZone'"),
+        case(&[(r#"name = "DropZone""#, r#"name = "Drop""#)], Error, "drop zone", "no zone named 'DropZone'"),
+        case(
+            &[(r#"name = "RoomC3""#, r#"name = "DropZone""#)],
+            Error,
+            "drop zone",
+            "2 zones are named 'DropZone'",
+        ),
         case(
             &[("name = \"DropZone\"\ntype = \"room\"", "name = \"DropZone\"\ntype = \"corridor\"")],
             Error,

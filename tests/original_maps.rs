@@ -274,7 +274,10 @@ fn broken_files_give_errors_that_name_the_place() {
         ),
         // Problems found by validation come through `MapError`.
         (banana_with("<name>DropZone</name>", "<name>Drop</name>"), &["no zone named 'DropZone'"]),
-        (banana_with("<name>RoomA2</name>", "<name>RoomA1</name>"), &["zone 'RoomA1' is defined twice"]),
+        (
+            banana_with("<name>RoomA2</name>", "<name>RoomA1</name>"),
+            &["zone 'RoomA1': the name is already used by zone"],
+        ),
     ];
     for (text, expected) in cases {
         let message = import_error(&text).to_string();

@@ -5,26 +5,18 @@
 use bw4t_map::{Map, Severity, check_parts, parse_parts};
 use bw4t_protocol::{LineBuffer, MAX_LINE};
 
+/// Which reader a map target drives: the format `Map::parse` and `parse_parts` tell apart.
+pub use bw4t_map::MapFormat;
+
 /// The match seeds content is generated for (besides a map's own seed, which wins).
 const CONTENT_SEEDS: [u64; 2] = [1, 0x9e37_79b9_7f4a_7c15];
-
-/// Which reader a map target drives.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum MapFormat {
-    /// The native TOML format ([`Map::from_native`]).
-    Native,
-    /// The original BW4T XML format ([`Map::from_bw4t_xml_named`]).
-    Xml,
-}
 
 /// Reads `text` as a map in `format` (as `bw4t run` and `map check` do), checks it, and for
 /// a map that validates generates its content; panics when the reader, the checker and the
 /// writer disagree.
 pub fn map_text(text: &str, format: MapFormat) {
-    // `Map::parse` and `parse_parts` pick the format by the first character.
-    let body = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let dispatched_as_xml = body.trim_start().starts_with('<');
-    if dispatched_as_xml != (format == MapFormat::Xml) {
+    // `Map::parse` and `parse_parts` pick the reader by `MapFormat::of`.
+    if MapFormat::of(text) != format {
         // Not this target's format: the reader must still not panic.
         if let Ok(map) = read(text, format) {
             content(&map);

@@ -1,4 +1,4 @@
-//! Original BW4T map files (JAXB XML, root `<newMap>`), and [`Map::parse`], which reads either format.
+//! Original BW4T map files (JAXB XML, root `<newMap>`).
 //!
 //! The root holds `<area>` (`<x>` width, `<y>` height), repeated `<entities>` (spawn points:
 //! `<name>`, `<position>`), `<randomBlocks>`, `<randomSequence>`, an optional `<seed>`,
@@ -13,12 +13,13 @@ use std::fmt;
 
 use roxmltree::{Document, Node};
 
-use crate::check::{Problem, guess_orientation};
+use crate::check::guess_orientation;
 use crate::colour::{Colour, UnknownColour};
+use crate::format::without_bom;
 use crate::geometry::{Door, Orientation, Rect, Vec2};
 use crate::limits::coordinate_problem;
-use crate::model::{Map, MapError, MapParts, Spawn, Zone, ZoneKind, infer_orientation};
-use crate::native::NativeError;
+use crate::model::{Map, MapError, MapParts, Spawn, Zone, ZoneKind};
+use crate::rules::{Problem, infer_orientation, zone_place};
 
 /// The root element of an original map file.
 const ROOT: &str = "newMap";
@@ -162,7 +163,7 @@ pub(crate) fn xml_parts(
     name: &str,
     mut lenient: Option<&mut Vec<Problem>>,
 ) -> Result<MapParts, XmlError> {
-    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let text = without_bom(text);
     let blanked = blank_late_declaration(text);
     let text = blanked.as_deref().unwrap_or(text);
     let doc = Document::parse(text).map_err(|e| syntax_error(text, &e))?;
@@ -200,37 +201,6 @@ pub(crate) fn xml_parts(
         random_blocks,
         seed,
     })
-}
-
-/// A map file in either format that could not be loaded.
-#[derive(Debug, thiserror::Error)]
-pub enum MapLoadError {
-    /// The native TOML format.
-    #[error(transparent)]
-    Native(#[from] NativeError),
-    /// An original BW4T XML file.
-    #[error(transparent)]
-    Xml(#[from] XmlError),
-}
-
-impl Map {
-    /// Parses a map in either format: original BW4T XML when the text starts with `<`
-    /// (after whitespace), else the native format. `name` names the map unless the native
-    /// text gives a non-empty `name` of its own.
-    pub fn parse(text: &str, name: &str) -> Result<Map, MapLoadError> {
-        // A byte-order mark is not whitespace but must not hide the `<`.
-        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-        if text.trim_start().starts_with('<') {
-            return Ok(Map::from_bw4t_xml_named(text, name)?);
-        }
-        let map = Map::from_native(text)?;
-        if !map.name().is_empty() {
-            return Ok(map);
-        }
-        let mut parts = map.parts().clone();
-        parts.name = name.to_string();
-        Ok(Map::new(parts).map_err(NativeError::from)?)
-    }
 }
 
 /// The text with its XML declaration blanked out when whitespace precedes it (which XML
@@ -316,14 +286,9 @@ fn drop_dangling_neighbours(root: Node, zones: &mut [Zone], lenient: Option<&mut
         // `zones` was read from these nodes, in this order.
         for (i, (zone, node)) in zones.iter().zip(elements(root, "zones")).enumerate() {
             for n in elements(node, "neighbours").filter(|n| !names.contains(&text(*n))) {
-                let what = if zone.name.is_empty() {
-                    format!("zone {}", i + 1)
-                } else {
-                    format!("zone '{}'", zone.name)
-                };
                 let line = place(n, "").line;
                 problems.push(Problem::warning(
-                    what,
+                    zone_place(i, zone),
                     format!("neighbour '{}' (line {line}) is not a zone; it is ignored", text(n)),
                 ));
             }

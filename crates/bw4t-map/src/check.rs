@@ -1,112 +1,39 @@
 //! Map checking: every problem of a map file, with where it is.
 //!
-//! [`check_parts`] works on [`MapParts`], so it explains maps that [`Map::new`] refuses as
-//! well as maps that load but cannot be played (a room nobody reaches, a sequence colour no
-//! block has) or look wrong (warnings). [`parse_parts`] reads either file format without
-//! validating, so a file's problems can all be reported at once.
+//! [`check_parts`] works on [`MapParts`], so it explains maps that [`Map::new`] refuses (the
+//! map's rules, `rules.rs`, are its first errors) as well as maps that load but cannot be
+//! played (a room nobody reaches, a sequence colour no block has) or look wrong
+//! (warnings). [`parse_parts`] reads either file format without validating, so a file's
+//! problems can all be reported at once.
 //!
 //! [`Map::new`]: crate::Map::new
+//! [`parse_parts`]: crate::parse_parts
 
 use std::collections::{BTreeMap, BTreeSet};
-use std::fmt;
 
-use crate::bw4t_xml::MapLoadError;
 use crate::colour::Colour;
-use crate::content::MAX_BLOCKS_PER_ROOM;
+use crate::format::{MapLoadError, parse_parts};
 use crate::geometry::{Door, Orientation, Rect, Vec2};
-use crate::limits::{MAX_SPAWNS, MAX_ZONES, in_range, limit_problems};
-use crate::model::{DROP_ZONE, MapParts, Zone, ZoneKind, door_on_edge};
-
-/// How bad a [`Problem`] is; errors sort before warnings.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
-pub enum Severity {
-    /// The map is refused, or a match on it cannot be completed.
-    Error,
-    /// The map loads and plays, but something looks unintended.
-    Warning,
-}
-
-impl Severity {
-    /// The lower-case word used in reports: `error` or `warning`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Severity::Error => "error",
-            Severity::Warning => "warning",
-        }
-    }
-}
-
-impl fmt::Display for Severity {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-/// One thing wrong with a map, and where it is.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Problem {
-    /// Error or warning.
-    pub severity: Severity,
-    /// The part of the map concerned, e.g. `zone 'RoomA1'`, `spawn 2 'Bot2'`, `sequence`.
-    pub place: String,
-    /// What is wrong there.
-    pub message: String,
-}
-
-impl Problem {
-    /// An error at `place`.
-    pub fn error(place: impl Into<String>, message: impl Into<String>) -> Problem {
-        Problem { severity: Severity::Error, place: place.into(), message: message.into() }
-    }
-
-    /// A warning at `place`.
-    pub fn warning(place: impl Into<String>, message: impl Into<String>) -> Problem {
-        Problem { severity: Severity::Warning, place: place.into(), message: message.into() }
-    }
-
-    /// Whether this is an error (not a warning).
-    pub fn is_error(&self) -> bool {
-        self.severity == Severity::Error
-    }
-}
-
-impl fmt::Display for Problem {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}: {}: {}", self.severity, self.place, self.message)
-    }
-}
-
-/// Reads a map file in either format (told apart as [`Map::parse`] does) into its parts,
-/// without validating them. Syntax errors (and anything else that leaves no map to look
-/// at) are errors; the problems returned are those the readers tolerate to go on: a door
-/// at a room's corner given without orientation, and (original XML files) neighbour
-/// names that name no zone, which are dropped as on import.
-///
-/// `name` names the map unless the native text gives a non-empty `name` of its own.
-///
-/// [`Map::parse`]: crate::Map::parse
-pub fn parse_parts(text: &str, name: &str) -> Result<(MapParts, Vec<Problem>), MapLoadError> {
-    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let mut problems = Vec::new();
-    let parts = if text.trim_start().starts_with('<') {
-        crate::bw4t_xml::xml_parts(text, name, Some(&mut problems))?
-    } else {
-        let mut parts = crate::native::native_parts(text, Some(&mut problems))?;
-        if parts.name.is_empty() {
-            parts.name = name.to_string();
-        }
-        parts
-    };
-    Ok((parts, problems))
-}
+use crate::limits::{in_range, within_counts};
+use crate::model::{DROP_ZONE, MapParts, Zone, ZoneKind};
+use crate::rules::{Problem, door_on_edge, point, rule_problems, zone_place};
 
 /// Reads and checks a map file: the problems of [`parse_parts`] and [`check_parts`],
 /// errors first. `robots`, when given, is the number of robots the map must take.
 pub fn check_text(text: &str, name: &str, robots: Option<usize>) -> Result<Vec<Problem>, MapLoadError> {
+    checked_parts(text, name, robots).map(|(_, problems)| problems)
+}
+
+/// The parts of a map file and its problems, as [`check_text`] reports them.
+fn checked_parts(
+    text: &str,
+    name: &str,
+    robots: Option<usize>,
+) -> Result<(MapParts, Vec<Problem>), MapLoadError> {
     let (parts, mut problems) = parse_parts(text, name)?;
     problems.extend(check_parts(&parts, robots));
     problems.sort_by_key(|p| p.severity);
-    Ok(problems)
+    Ok((parts, problems))
 }
 
 /// A map file refused for play by [`Map::parse_checked`].
@@ -139,40 +66,43 @@ impl crate::Map {
         name: &str,
         robots: Option<usize>,
     ) -> Result<(crate::Map, Vec<Problem>), CheckError> {
-        let problems = check_text(text, name, robots)?;
+        let (parts, problems) = checked_parts(text, name, robots)?;
         if problems.iter().any(Problem::is_error) {
             return Err(CheckError::Failed(problems.into_iter().filter(Problem::is_error).collect()));
         }
-        Ok((crate::Map::parse(text, name)?, problems))
+        // Without errors the readers tolerated nothing, so these are the parts `Map::parse`
+        // reads, and the map's rules (among the check's errors) hold.
+        let map = crate::Map::new(parts).map_err(|e| CheckError::Failed(e.problems))?;
+        Ok((map, problems))
     }
 }
 
 /// Every problem of `parts`, errors first, each group in the order checked.
 ///
-/// Whatever [`Map::new`] refuses is an error here, and so is a map that cannot be
-/// played: overlapping zones, a room or the drop zone no robot reaches, a fixed sequence
-/// without the blocks for it, or (with `robots`) too few spawn points. Warnings name
-/// things that load but look unintended. A map with more zones or spawn points than
-/// allowed ([`MAX_ZONES`], [`MAX_SPAWNS`]) gets only the limits' errors: the other checks
-/// would take time with the counts.
+/// The map's rules come first: whatever [`Map::new`] refuses is an error here, with the
+/// same words. Then a map that cannot be played is an error too: overlapping zones, a
+/// room or the drop zone no robot reaches, a fixed sequence without the blocks for it, or
+/// (with `robots`) too few spawn points. Warnings name things that load but look
+/// unintended. A map with more zones or spawn points than allowed ([`MAX_ZONES`],
+/// [`MAX_SPAWNS`]) gets only the limits' errors: the other checks would take time with the
+/// counts.
 ///
 /// [`Map::new`]: crate::Map::new
+/// [`MAX_ZONES`]: crate::MAX_ZONES
+/// [`MAX_SPAWNS`]: crate::MAX_SPAWNS
 pub fn check_parts(parts: &MapParts, robots: Option<usize>) -> Vec<Problem> {
     let mut first = BTreeMap::new();
     for (i, z) in parts.zones.iter().enumerate() {
         first.entry(z.name.as_str()).or_insert(i);
     }
-    let mut checker = Checker { parts, index: first, out: limit_problems(parts) };
-    if parts.zones.len() > MAX_ZONES || parts.spawns.len() > MAX_SPAWNS {
+    let mut checker = Checker { parts, index: first, out: rule_problems(parts) };
+    if !within_counts(parts) {
         return checker.out;
     }
-    checker.area();
-    checker.names();
     for (idx, zone) in parts.zones.iter().enumerate() {
         checker.zone(idx, zone);
     }
     checker.overlaps();
-    checker.drop_zone();
     checker.spawns(robots);
     checker.reachability();
     checker.sequence();
@@ -200,16 +130,6 @@ pub(crate) fn guess_orientation(
         ));
     }
     Orientation::Horizontal
-}
-
-/// A point as `(x, y)`; whole numbers print without a fraction.
-fn point(p: Vec2) -> String {
-    format!("({}, {})", p.x, p.y)
-}
-
-/// How a zone is named in reports: by name, or by position in the file when it has none.
-fn zone_place(idx: usize, zone: &Zone) -> String {
-    if zone.name.is_empty() { format!("zone {}", idx + 1) } else { format!("zone '{}'", zone.name) }
 }
 
 fn spawn_place(idx: usize, name: &str) -> String {
@@ -264,67 +184,21 @@ impl<'a> Checker<'a> {
         edges
     }
 
-    /// A size out of range is reported by the limits.
-    fn area(&mut self) {
-        let a = self.parts.area;
-        if in_range(a) && !(a.x > 0.0 && a.y > 0.0) {
-            self.error("area", format!("{} x {} is not positive", a.x, a.y));
-        }
-    }
-
-    fn names(&mut self) {
-        let mut first: BTreeMap<&str, usize> = BTreeMap::new();
-        for (i, zone) in self.parts.zones.iter().enumerate() {
-            if zone.name.is_empty() {
-                self.error(zone_place(i, zone), "has an empty name");
-                continue;
-            }
-            match first.get(zone.name.as_str()) {
-                Some(&j) => self.error(
-                    zone_place(i, zone),
-                    format!("the name is already used by zone {} (names must be unique)", j + 1),
-                ),
-                None => {
-                    first.insert(zone.name.as_str(), i);
-                }
-            }
-        }
-    }
-
+    /// A zone's warnings: itself as a neighbour, a door past a corner, outside the area.
     fn zone(&mut self, idx: usize, zone: &Zone) {
         let place = zone_place(idx, zone);
-        let (centre, size) = (zone.rect.centre, zone.rect.size);
-        // Numbers out of range are reported by the limits.
-        let measurable = in_range(centre) && in_range(size);
-        if measurable && !(size.x > 0.0 && size.y > 0.0) {
-            self.error(&place, format!("size {} x {} is not positive", size.x, size.y));
-        }
         for n in &zone.neighbours {
-            if !self.index.contains_key(n.as_str()) {
-                self.error(&place, format!("neighbour '{n}' is not a zone"));
-            } else if *n == zone.name {
+            if *n == zone.name {
                 self.warning(&place, "names itself as a neighbour");
             }
-        }
-        if zone.kind != ZoneKind::Room {
-            if !zone.doors.is_empty() {
-                self.error(&place, format!("only rooms have doors, this is a {}", zone.kind.name()));
-            }
-            if !zone.blocks.is_empty() {
-                self.error(&place, format!("only rooms hold blocks, this is a {}", zone.kind.name()));
-            }
-        }
-        if zone.blocks.len() > MAX_BLOCKS_PER_ROOM {
-            self.error(
-                &place,
-                format!("{} blocks, at most {MAX_BLOCKS_PER_ROOM} fit in a room", zone.blocks.len()),
-            );
         }
         if zone.kind == ZoneKind::Room {
             for door in &zone.doors {
                 self.door(&place, door, &zone.rect);
             }
         }
+        let size = zone.rect.size;
+        let measurable = in_range(zone.rect.centre) && in_range(size);
         if let Some(area) = self.area_rect() {
             if size.x > 0.0 && size.y > 0.0 && measurable {
                 let inside =
@@ -344,34 +218,19 @@ impl<'a> Checker<'a> {
         }
     }
 
+    /// A door on its edge whose opening reaches past the edge's end (one off its edge
+    /// breaks a rule).
     fn door(&mut self, place: &str, door: &Door, room: &Rect) {
-        let at = point(door.centre);
-        if !in_range(door.centre) {
-            return; // reported by the limits
-        }
-        if door_on_edge(door, room) {
-            // The opening is 4 wide; past the corner it would cut the next wall.
-            let (c, min, max) = match door.orientation {
-                Orientation::Horizontal => (door.centre.x, room.min().x, room.max().x),
-                Orientation::Vertical => (door.centre.y, room.min().y, room.max().y),
-            };
-            if c - DOOR_HALF < min - SLACK || c + DOOR_HALF > max + SLACK {
-                self.warning(place, format!("door at {at} reaches past the room's corner"));
-            }
+        if !in_range(door.centre) || !door_on_edge(door, room) {
             return;
         }
-        let flipped = match door.orientation {
-            Orientation::Horizontal => Orientation::Vertical,
-            Orientation::Vertical => Orientation::Horizontal,
+        // The opening is 4 wide; past the corner it would cut the next wall.
+        let (c, min, max) = match door.orientation {
+            Orientation::Horizontal => (door.centre.x, room.min().x, room.max().x),
+            Orientation::Vertical => (door.centre.y, room.min().y, room.max().y),
         };
-        if door_on_edge(&Door { centre: door.centre, orientation: flipped }, room) {
-            let (is, edge) = match door.orientation {
-                Orientation::Horizontal => ("horizontal", "left or right"),
-                Orientation::Vertical => ("vertical", "top or bottom"),
-            };
-            self.error(place, format!("door at {at} is {is} but lies on the room's {edge} edge"));
-        } else {
-            self.error(place, format!("door at {at} is not on the room's edge"));
+        if c - DOOR_HALF < min - SLACK || c + DOOR_HALF > max + SLACK {
+            self.warning(place, format!("door at {} reaches past the room's corner", point(door.centre)));
         }
     }
 
@@ -391,30 +250,8 @@ impl<'a> Checker<'a> {
         self.out.extend(found);
     }
 
-    fn drop_zone(&mut self) {
-        let parts: &'a MapParts = self.parts;
-        let drop_zones: Vec<(usize, &Zone)> =
-            parts.zones.iter().enumerate().filter(|(_, z)| z.name == DROP_ZONE).collect();
-        match drop_zones.as_slice() {
-            [] => self.error("map", format!("no zone named '{DROP_ZONE}' (the drop zone)")),
-            [(i, dz)] => {
-                if dz.kind != ZoneKind::Room {
-                    self.error(
-                        zone_place(*i, dz),
-                        format!("the drop zone must be a room, not a {}", dz.kind.name()),
-                    );
-                }
-            }
-            several => self
-                .error("map", format!("{} zones are named '{DROP_ZONE}', there must be one", several.len())),
-        }
-    }
-
     fn spawns(&mut self, robots: Option<usize>) {
         let spawns: &'a [crate::model::Spawn] = &self.parts.spawns;
-        if spawns.is_empty() {
-            self.error("spawn points", "there are none: robots cannot enter");
-        }
         if let Some(n) = robots {
             if spawns.len() < n {
                 self.error("spawn points", format!("{} for {n} robots: each robot needs one", spawns.len()));
@@ -633,12 +470,5 @@ mod tests {
         assert!(!crosses(Vec2::new(0.0, 4.0), Vec2::new(10.0, 4.0), &r), "along an edge");
         assert!(!crosses(Vec2::new(0.0, 5.0), Vec2::new(3.0, 5.0), &r), "stops short");
         assert!(!crosses(Vec2::new(0.0, 0.0), Vec2::new(10.0, 0.0), &r), "misses");
-    }
-
-    #[test]
-    fn problems_print_with_severity_and_place() {
-        let p = Problem::error("zone 'RoomA1'", "door at (15, 17) is not on the room's edge");
-        assert_eq!(p.to_string(), "error: zone 'RoomA1': door at (15, 17) is not on the room's edge");
-        assert_eq!(Problem::warning("sequence", "x").to_string(), "warning: sequence: x");
     }
 }

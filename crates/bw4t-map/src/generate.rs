@@ -5,6 +5,7 @@
 use crate::colour::Colour;
 use crate::geometry::{Door, Orientation, Rect, Vec2};
 use crate::model::{DROP_ZONE, Map, MapError, MapParts, Spawn, Zone, ZoneKind};
+use crate::rules::Problem;
 
 /// Rows, at most; with the columns, this keeps a generated map within
 /// [`MAX_ZONES`](crate::MAX_ZONES).
@@ -20,7 +21,7 @@ const SPAWN_SPACING: f32 = 3.0;
 /// written into the map, and the map keeps the seed, so every match on it has the same
 /// blocks in the same places.
 pub fn generate(cols: usize, rows: usize, robots: usize, seed: u64) -> Result<Map, MapError> {
-    let fail = |problem: String| MapError { problems: vec![problem] };
+    let fail = |problem: String| MapError { problems: vec![Problem::error("generated map", problem)] };
     if cols == 0 || rows == 0 || cols > MAX_COLUMNS || rows > MAX_ROWS {
         return Err(fail(format!("rooms must be 1x1 to {MAX_ROWS}x{MAX_COLUMNS}, got {rows}x{cols}")));
     }

@@ -6,6 +6,7 @@ mod bw4t_xml;
 mod check;
 mod colour;
 mod content;
+mod format;
 mod generate;
 mod geometry;
 mod limits;
@@ -14,14 +15,16 @@ mod model;
 mod native;
 mod render;
 mod rng;
+mod rules;
 mod walls;
 
-pub use bw4t_xml::{MapLoadError, XmlError, XmlPlace};
-pub use check::{CheckError, Problem, Severity, check_parts, check_text, parse_parts};
+pub use bw4t_xml::{XmlError, XmlPlace};
+pub use check::{CheckError, check_parts, check_text};
 pub use colour::{Colour, UnknownColour};
 pub use content::{
     BLOCK_SPACING, Content, ContentError, MAX_BLOCKS_PER_ROOM, PlacedBlock, block_area, spot_is_clear,
 };
+pub use format::{MapFormat, MapLoadError, parse_parts};
 pub use generate::{MAX_COLUMNS, MAX_ROWS, generate};
 pub use geometry::{Door, Orientation, Rect, Vec2};
 pub use limits::{MAX_COORDINATE, MAX_MAP_BYTES, MAX_SPAWNS, MAX_ZONES, coordinate_problem};
@@ -29,4 +32,5 @@ pub use model::{DROP_ZONE, Map, MapError, MapParts, Spawn, Zone, ZoneIdx, ZoneKi
 pub use native::NativeError;
 pub use render::render_svg;
 pub use rng::SeededRng;
+pub use rules::{Problem, Severity};
 pub use walls::{Wall, zone_walls};

@@ -1,12 +1,12 @@
 //! Bounds on what a map may ask for, checked before anything is built from it, so that a
 //! hostile file costs no more than its own size: the readers refuse numbers out of range,
-//! and [`limit_problems`] (part of both `Map::new` and `map check`) refuses too many zones
-//! or spawn points and more random blocks than the rooms hold.
+//! and [`limit_problems`] (the first of the map's rules, see `rules.rs`) refuses too many
+//! zones or spawn points and more random blocks than the rooms hold.
 
-use crate::check::Problem;
 use crate::content::MAX_BLOCKS_PER_ROOM;
 use crate::geometry::Vec2;
 use crate::model::{DROP_ZONE, MapParts, ZoneKind};
+use crate::rules::{Problem, zone_place};
 
 /// Largest coordinate or size, in map units, of either sign: far beyond any playable map
 /// (the original ones are 50 x 80), and small enough for `f32` positions to stay precise
@@ -45,6 +45,12 @@ fn short(value: f64) -> String {
     if value.is_finite() && value.abs() < 1e9 { format!("{value}") } else { format!("{value:e}") }
 }
 
+/// Whether `parts` has at most [`MAX_ZONES`] zones and [`MAX_SPAWNS`] spawn points. Past
+/// either, checks other than the limits are skipped: they may be costly with the counts.
+pub(crate) fn within_counts(parts: &MapParts) -> bool {
+    parts.zones.len() <= MAX_ZONES && parts.spawns.len() <= MAX_SPAWNS
+}
+
 /// The limits `parts` exceeds, as errors; empty when within every one.
 pub(crate) fn limit_problems(parts: &MapParts) -> Vec<Problem> {
     let mut out = Vec::new();
@@ -68,8 +74,7 @@ pub(crate) fn limit_problems(parts: &MapParts) -> Vec<Problem> {
     let (point, size) = (["x", "y"], ["width", "height"]);
     range("area", "", parts.area, size);
     for (i, zone) in parts.zones.iter().enumerate() {
-        let place =
-            if zone.name.is_empty() { format!("zone {}", i + 1) } else { format!("zone '{}'", zone.name) };
+        let place = zone_place(i, zone);
         range(&place, "centre ", zone.rect.centre, point);
         range(&place, "size ", zone.rect.size, size);
         for (d, door) in zone.doors.iter().enumerate() {

@@ -4,10 +4,9 @@ use std::collections::BTreeMap;
 use std::fmt;
 
 use crate::colour::Colour;
-use crate::content::MAX_BLOCKS_PER_ROOM;
-use crate::geometry::{Door, Orientation, Rect, Vec2};
-use crate::limits::{MAX_SPAWNS, MAX_ZONES, limit_problems};
+use crate::geometry::{Door, Rect, Vec2};
 use crate::locate::{ZoneGrid, is_room};
+use crate::rules::{Problem, rule_problems};
 
 /// Index of a zone in [`Map::zones`].
 pub type ZoneIdx = usize;
@@ -109,12 +108,15 @@ pub struct Map {
 }
 
 impl Map {
-    /// Validates `parts`, reporting every problem found, not only the first.
+    /// Validates `parts` against the map's rules (the errors `map check` gives for
+    /// [`MapParts`] before it looks at play-ability), reporting every rule broken, not only
+    /// the first.
     pub fn new(parts: MapParts) -> Result<Map, MapError> {
-        let problems = problems(&parts);
+        let problems: Vec<Problem> = rule_problems(&parts).into_iter().filter(Problem::is_error).collect();
         if !problems.is_empty() {
             return Err(MapError { problems });
         }
+        // The rules make every neighbour name and the drop zone resolve.
         let index: BTreeMap<&str, ZoneIdx> =
             parts.zones.iter().enumerate().map(|(i, z)| (z.name.as_str(), i)).collect();
         let mut adjacency = vec![Vec::new(); parts.zones.len()];
@@ -209,108 +211,17 @@ impl Map {
     }
 }
 
-/// A map that failed validation, with every problem found.
+/// A map that failed validation, with every rule it breaks.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub struct MapError {
-    /// One line per problem, each naming the zone, door or field concerned.
-    pub problems: Vec<String>,
+    /// The errors, in the order `map check` lists them, each with the zone, door or field
+    /// concerned as its place.
+    pub problems: Vec<Problem>,
 }
 
 impl fmt::Display for MapError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "invalid map: {}", self.problems.join("; "))
-    }
-}
-
-const EDGE_TOLERANCE: f32 = 1e-3;
-
-/// What [`Map::new`] refuses: the limits (as `map check` words them), then the structure.
-fn problems(parts: &MapParts) -> Vec<String> {
-    let mut out: Vec<String> =
-        limit_problems(parts).iter().map(|p| format!("{}: {}", p.place, p.message)).collect();
-    if parts.zones.len() > MAX_ZONES || parts.spawns.len() > MAX_SPAWNS {
-        // Past a count limit the rest may be costly to look at, and the map is refused anyway.
-        return out;
-    }
-    if !(parts.area.x > 0.0 && parts.area.y > 0.0) {
-        out.push(format!("area {} x {} is not positive", parts.area.x, parts.area.y));
-    }
-    if parts.spawns.is_empty() {
-        out.push("no spawn points".to_string());
-    }
-    let mut seen = BTreeMap::new();
-    for zone in &parts.zones {
-        if seen.insert(zone.name.as_str(), ()).is_some() {
-            out.push(format!("zone '{}' is defined twice", zone.name));
-        }
-    }
-    for zone in &parts.zones {
-        zone_problems(zone, &seen, &mut out);
-    }
-    let drop_zones: Vec<&Zone> = parts.zones.iter().filter(|z| z.name == DROP_ZONE).collect();
-    match drop_zones.as_slice() {
-        [] => out.push(format!("no zone named '{DROP_ZONE}'")),
-        [dz] if dz.kind != ZoneKind::Room => {
-            out.push(format!("zone '{DROP_ZONE}' must be a room, not a {}", dz.kind.name()))
-        }
-        _ => {}
-    }
-    out
-}
-
-fn zone_problems(zone: &Zone, names: &BTreeMap<&str, ()>, out: &mut Vec<String>) {
-    let name = &zone.name;
-    if name.is_empty() {
-        out.push("a zone has an empty name".to_string());
-    }
-    if !(zone.rect.size.x > 0.0 && zone.rect.size.y > 0.0) {
-        out.push(format!("zone '{name}': size {} x {} is not positive", zone.rect.size.x, zone.rect.size.y));
-    }
-    for n in &zone.neighbours {
-        if !names.contains_key(n.as_str()) {
-            out.push(format!("zone '{name}': neighbour '{n}' is not a zone"));
-        }
-    }
-    if zone.kind != ZoneKind::Room {
-        if !zone.doors.is_empty() {
-            out.push(format!("zone '{name}': only rooms have doors, this is a {}", zone.kind.name()));
-        }
-        if !zone.blocks.is_empty() {
-            out.push(format!("zone '{name}': only rooms hold blocks, this is a {}", zone.kind.name()));
-        }
-    }
-    if zone.blocks.len() > MAX_BLOCKS_PER_ROOM {
-        out.push(format!(
-            "zone '{name}': {} blocks, at most {MAX_BLOCKS_PER_ROOM} fit in a room",
-            zone.blocks.len()
-        ));
-    }
-    for door in &zone.doors {
-        if !door_on_edge(door, &zone.rect) {
-            out.push(format!(
-                "zone '{name}': {:?} door at ({}, {}) is not on the room's edge",
-                door.orientation, door.centre.x, door.centre.y
-            ));
-        }
-    }
-}
-
-/// Whether the door's centre lies on an edge of `room` that its orientation allows.
-pub(crate) fn door_on_edge(door: &Door, room: &Rect) -> bool {
-    let (min, max, c) = (room.min(), room.max(), door.centre);
-    let near = |a: f32, b: f32| (a - b).abs() <= EDGE_TOLERANCE;
-    match door.orientation {
-        Orientation::Horizontal => (near(c.y, min.y) || near(c.y, max.y)) && min.x <= c.x && c.x <= max.x,
-        Orientation::Vertical => (near(c.x, min.x) || near(c.x, max.x)) && min.y <= c.y && c.y <= max.y,
-    }
-}
-
-/// The orientation a door at `centre` must have on `room`, when only one edge fits.
-pub(crate) fn infer_orientation(centre: Vec2, room: &Rect) -> Option<Orientation> {
-    let fits = |orientation| door_on_edge(&Door { centre, orientation }, room);
-    match (fits(Orientation::Horizontal), fits(Orientation::Vertical)) {
-        (true, false) => Some(Orientation::Horizontal),
-        (false, true) => Some(Orientation::Vertical),
-        _ => None,
+        let problems: Vec<String> = self.problems.iter().map(Problem::located).collect();
+        write!(f, "invalid map: {}", problems.join("; "))
     }
 }

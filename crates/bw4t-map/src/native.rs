@@ -4,11 +4,12 @@ use std::fmt::Write as _;
 
 use serde::Deserialize;
 
-use crate::check::{Problem, guess_orientation};
+use crate::check::guess_orientation;
 use crate::colour::{Colour, UnknownColour};
 use crate::geometry::{Door, Orientation, Rect, Vec2};
 use crate::limits::coordinate_problem;
-use crate::model::{Map, MapError, MapParts, Spawn, Zone, ZoneKind, infer_orientation};
+use crate::model::{Map, MapError, MapParts, Spawn, Zone, ZoneKind};
+use crate::rules::{Problem, infer_orientation};
 
 /// The format version this code reads and writes.
 const FORMAT_VERSION: u32 = 1;
