@@ -9,13 +9,12 @@ use bw4t_protocol::EndReason;
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 
-use bw4t_runner::tournament::{
-    self, Agents, Options, Progress, ReplayPolicy, Resolved, Row, Seeds, Setup, TeamConfig, TournamentConfig,
-    merge, run_tournament, seats,
+use bw4t_runner::tournament::{self, Options, Progress, merge, run_tournament};
+use bw4t_runner::{check_command, plural};
+use bw4t_tournament::{
+    Agents, ReplayPolicy, Resolved, Row, Seeds, Setup, Shard, TeamConfig, TeamSeat, TournamentConfig, seats,
 };
-use bw4t_runner::{SeatSpec, check_command, plural};
 use clap::{Args, Subcommand, ValueEnum};
-use serde_json::json;
 
 use crate::status;
 
@@ -65,8 +64,8 @@ pub(crate) struct TournamentArgs {
     #[arg(long)]
     resume: bool,
     /// Run only every n-th match, as i/n (1 <= i <= n), for spreading over machines.
-    #[arg(long, value_parser = parse_shard)]
-    shard: Option<(u64, u64)>,
+    #[arg(long, value_parser = str::parse::<Shard>)]
+    shard: Option<Shard>,
     /// Seconds external agents have to connect.
     #[arg(long, default_value_t = 10)]
     connect_timeout_s: u64,
@@ -90,15 +89,6 @@ enum KeepReplays {
     All,
     Failed,
     None,
-}
-
-fn parse_shard(text: &str) -> Result<(u64, u64), String> {
-    let parsed =
-        text.split_once('/').and_then(|(i, n)| Some((i.trim().parse().ok()?, n.trim().parse().ok()?)));
-    match parsed {
-        Some((i, n)) if n >= 1 && (1..=n).contains(&i) => Ok((i, n)),
-        _ => Err(format!("'{text}' is not i/n with 1 <= i <= n (e.g. 1/4)")),
-    }
 }
 
 /// Runs a tournament command; returns the exit status (see `status`).
@@ -149,14 +139,9 @@ pub(crate) fn run(args: &TournamentArgs) -> Result<u8> {
         connect_timeout: Duration::from_secs(args.connect_timeout_s),
         stop,
     };
-    let manifest = json!({
-        "program": bw4t_runner::program(),
-        "created_unix": std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_secs()),
-        "machine": machine(concurrency),
-    });
     let terminal = std::io::stderr().is_terminal();
     let mut show = |p: &Progress| progress(p, terminal);
-    let outcome = run_tournament(&resolved, &maps, manifest, &options, &mut show)?;
+    let outcome = run_tournament(&resolved, &maps, &options, &mut show)?;
     if terminal {
         eprintln!();
     }
@@ -201,7 +186,7 @@ fn check_agents(resolved: &Resolved) -> Result<()> {
     for team in &resolved.teams {
         let mut commands: Vec<String> = Vec::new();
         for seat in seats(team).map_err(anyhow::Error::msg)? {
-            if let SeatSpec::External { command, .. } = seat {
+            if let TeamSeat::External { command, .. } = seat {
                 if !commands.contains(&command) {
                     if let Err(e) = check_command(&command) {
                         problems.push(format!("team '{}': agents \"{command}\": {e}", team.name));
@@ -233,7 +218,7 @@ fn teams_without_play(resolved: &Resolved, rows: &[Row]) -> Vec<(String, usize)>
     let mut out = Vec::new();
     for team in &resolved.teams {
         let external =
-            seats(team).map_or(0, |s| s.iter().filter(|s| matches!(s, SeatSpec::External { .. })).count());
+            seats(team).map_or(0, |s| s.iter().filter(|s| matches!(s, TeamSeat::External { .. })).count());
         let mine: Vec<&Row> = rows.iter().filter(|r| r.team == team.name).collect();
         let none_played =
             mine.iter().all(|r| r.crashed_agents as usize >= external || r.end_reason == EndReason::Error);
@@ -327,17 +312,6 @@ fn config(args: &TournamentArgs) -> Result<TournamentConfig> {
 fn default_out(what: &str) -> PathBuf {
     let secs = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_secs());
     PathBuf::from("runs").join(format!("{what}-{secs}"))
-}
-
-fn machine(concurrency: usize) -> serde_json::Value {
-    let host = std::fs::read_to_string("/etc/hostname").map(|h| h.trim().to_string()).unwrap_or_default();
-    json!({
-        "os": std::env::consts::OS,
-        "arch": std::env::consts::ARCH,
-        "cores": std::thread::available_parallelism().map_or(1, |n| n.get()),
-        "concurrency": concurrency,
-        "host": host,
-    })
 }
 
 /// A progress bar on a terminal; a line per finished match otherwise.

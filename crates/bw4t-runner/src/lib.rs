@@ -8,8 +8,9 @@ mod preflight;
 mod remote;
 mod replay;
 pub mod tournament;
-mod words;
 
+/// `1 robot`, `2 robots`: the one rule for counts in messages (the tournament summary's too).
+pub use bw4t_tournament::plural;
 pub use external::{AgentReport, SeatSpec, ServedError, ServedRun, play_served};
 pub use headless::{RunError, Seat, play_builtin, play_headless};
 pub use limit::{MIN_DEFAULT_TICKS, TickLimit};
@@ -19,7 +20,6 @@ pub use replay::{
     FRAME_CACHE_BYTES, MAX_DIGEST_EVERY, ReplayError, ReplayFrames, ReplayMessage, ReplaySummary, Verdict,
     read_replay, verify_replay,
 };
-pub use words::plural;
 
 /// The program name and version written into replays.
 pub fn program() -> String {

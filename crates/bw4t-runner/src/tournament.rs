@@ -1,5 +1,6 @@
-//! Running a tournament: matches on a pool of threads, rows appended and flushed as each
-//! match ends, resumable, shardable, and shards merged back into one.
+//! Running a tournament (described by `bw4t-tournament`): matches on a pool of threads,
+//! rows appended and flushed as each match ends, resumable, shardable, and shards merged
+//! back into one.
 
 use std::collections::BTreeSet;
 use std::io::Write;
@@ -11,37 +12,14 @@ use std::time::{Duration, Instant};
 use bw4t_map::Map;
 use bw4t_protocol::{AgentStatus, EndReason, MatchResult};
 use bw4t_sim::MatchConfig;
-use serde::Deserialize;
-use serde_json::{Value, json};
+use bw4t_tournament::{
+    Machine, Manifest, ManifestError, MapLimit, Planned, ReplayPolicy, Resolved, Row, Setup, Shard, Summary,
+    TeamSeat, seats, summarize,
+};
 
-use super::config::{Planned, Resolved, seats};
-use super::row::Row;
-use super::stats::{MapLimit, Setup, Summary, summarize};
 use crate::external::{AgentReport, SeatSpec, ServedRun, play_served};
 use crate::headless::play_builtin;
 use crate::limit::TickLimit;
-
-/// Which replays to keep.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ReplayPolicy {
-    /// Every match's.
-    All,
-    /// Those of matches that did not complete.
-    Failed,
-    /// None.
-    None,
-}
-
-impl ReplayPolicy {
-    /// The name used on the command line and in the manifest.
-    pub fn name(self) -> &'static str {
-        match self {
-            ReplayPolicy::All => "all",
-            ReplayPolicy::Failed => "failed",
-            ReplayPolicy::None => "none",
-        }
-    }
-}
 
 /// How to run a tournament.
 #[derive(Clone, Debug)]
@@ -54,8 +32,8 @@ pub struct Options {
     pub replays: ReplayPolicy,
     /// Skip the matches already in `matches.jsonl`.
     pub resume: bool,
-    /// Play only every n-th match: `(i, n)` with `1 <= i <= n`.
-    pub shard: Option<(u64, u64)>,
+    /// Play only this share of the matches.
+    pub shard: Option<Shard>,
     /// How long external agents have to connect.
     pub connect_timeout: Duration,
     /// Set (by a signal handler) to stop: no new match starts, matches of external agents
@@ -106,25 +84,30 @@ pub enum TournamentError {
     /// The output directory holds something else.
     #[error("{0}")]
     Directory(String),
+    /// A tournament directory's `manifest.json` cannot be read as one.
+    #[error("{} is not a manifest this version of bw4t reads: {problem}", path.display())]
+    Manifest {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong with it (said in the message, so not a separate cause).
+        problem: ManifestError,
+    },
 }
 
 fn io(what: impl std::fmt::Display, e: impl std::fmt::Display) -> TournamentError {
     TournamentError::Io(format!("{what}: {e}"))
 }
 
-/// Runs (or resumes) a tournament. `maps[i]` is `resolved.maps[i]` loaded; `manifest`
-/// holds what the caller knows of the program and machine.
+/// Runs (or resumes) a tournament. `maps[i]` is `resolved.maps[i]` loaded.
 pub fn run_tournament(
     resolved: &Resolved,
     maps: &[Map],
-    manifest: Value,
     options: &Options,
     on_progress: &mut dyn FnMut(&Progress),
 ) -> Result<Outcome, TournamentError> {
     let out = &options.out;
     std::fs::create_dir_all(out).map_err(|e| io(format!("cannot create {}", out.display()), e))?;
     let jsonl = out.join("matches.jsonl");
-    let config = serde_json::to_value(resolved).map_err(|e| io("config", e))?;
     let mut previous_elapsed = 0.0;
     let mut rows: Vec<Row> = Vec::new();
     if jsonl.exists() {
@@ -135,24 +118,31 @@ pub fn run_tournament(
             )));
         }
         let old = read_manifest(out)?;
-        if old.get("config") != Some(&config) || old.get("shard") != Some(&shard_value(options.shard)) {
+        if old.config != *resolved || old.shard != options.shard {
             return Err(TournamentError::Directory(format!(
                 "{} holds a tournament with another configuration or shard; it cannot be resumed with this one",
                 out.display()
             )));
         }
-        previous_elapsed = old.get("elapsed_seconds").and_then(Value::as_f64).unwrap_or(0.0);
+        previous_elapsed = old.elapsed_seconds;
         rows = read_rows(&jsonl)?;
     }
     let setup = setup(resolved, maps);
-    let mut manifest = manifest;
-    manifest["config"] = config;
-    manifest["setup"] = serde_json::to_value(&setup).map_err(|e| io("setup", e))?;
-    manifest["shard"] = shard_value(options.shard);
-    manifest["concurrency"] = json!(options.concurrency);
-    manifest["replays"] = json!(options.replays.name());
-    manifest["elapsed_seconds"] = json!(previous_elapsed);
-    write_json(&out.join("manifest.json"), &manifest)?;
+    let mut manifest = Manifest {
+        program: crate::program(),
+        created_unix: std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_secs()),
+        machine: machine(options.concurrency),
+        config: resolved.clone(),
+        setup: setup.clone(),
+        shard: options.shard,
+        concurrency: options.concurrency,
+        replays: options.replays,
+        elapsed_seconds: previous_elapsed,
+        merged_from: None,
+    };
+    write_manifest(out, &manifest)?;
     // Rewrite the row files from the rows that survived (a kill can leave half a line).
     rewrite_rows(out, &rows)?;
 
@@ -160,7 +150,7 @@ pub fn run_tournament(
     let planned: Vec<Planned> = resolved
         .plan()
         .into_iter()
-        .filter(|p| options.shard.is_none_or(|(i, n)| resolved.shard_of(p, n) == i - 1))
+        .filter(|p| options.shard.is_none_or(|shard| shard.plays(resolved, p)))
         .filter(|p| !done.contains(&p.key))
         .collect();
     let skipped = rows.len();
@@ -234,8 +224,8 @@ pub fn run_tournament(
     }
     rows.sort_by_key(|r| r.index);
     let elapsed = previous_elapsed + started.elapsed().as_secs_f64();
-    manifest["elapsed_seconds"] = json!(elapsed);
-    write_json(&out.join("manifest.json"), &manifest)?;
+    manifest.elapsed_seconds = elapsed;
+    write_manifest(out, &manifest)?;
     let stopped = rows.len() < total;
     let summary = write_summary(out, &rows, elapsed, setup)?;
     Ok(Outcome { rows, played: progress.played, skipped, summary, stopped })
@@ -277,8 +267,7 @@ pub fn setup(resolved: &Resolved, maps: &[Map]) -> Setup {
 /// Joins shard directories into `out`: the union of their rows (one per match), with
 /// their replays, and a new summary.
 pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Outcome, TournamentError> {
-    let mut config: Option<Value> = None;
-    let mut manifest = Value::Null;
+    let mut first: Option<Manifest> = None;
     let (mut rows, mut keys, mut elapsed) = (Vec::new(), BTreeSet::new(), 0.0);
     std::fs::create_dir_all(out).map_err(|e| io(format!("cannot create {}", out.display()), e))?;
     if out.join("matches.jsonl").exists() {
@@ -286,12 +275,10 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Outcome, TournamentError> {
     }
     for dir in dirs {
         let m = read_manifest(dir)?;
-        match &config {
-            None => {
-                config = m.get("config").cloned();
-                manifest = m.clone();
-            }
-            Some(c) if m.get("config") != Some(c) => {
+        elapsed += m.elapsed_seconds;
+        match &first {
+            None => first = Some(m),
+            Some(f) if m.config != f.config => {
                 return Err(TournamentError::Directory(format!(
                     "{} holds a tournament with another configuration",
                     dir.display()
@@ -299,7 +286,6 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Outcome, TournamentError> {
             }
             Some(_) => {}
         }
-        elapsed += m.get("elapsed_seconds").and_then(Value::as_f64).unwrap_or(0.0);
         for mut row in read_rows(&dir.join("matches.jsonl"))? {
             if !keys.insert(row.key.clone()) {
                 continue;
@@ -314,13 +300,18 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Outcome, TournamentError> {
         }
     }
     rows.sort_by_key(|r| r.index);
-    manifest["shard"] = Value::Null;
-    manifest["merged_from"] = json!(dirs.iter().map(|d| d.display().to_string()).collect::<Vec<_>>());
-    manifest["elapsed_seconds"] = json!(elapsed);
-    write_json(&out.join("manifest.json"), &manifest)?;
+    let Some(first) = first else {
+        return Err(TournamentError::Directory("no directories to merge".into()));
+    };
+    let manifest = Manifest {
+        shard: None,
+        merged_from: Some(dirs.iter().map(|d| d.display().to_string()).collect()),
+        elapsed_seconds: elapsed,
+        ..first
+    };
+    write_manifest(out, &manifest)?;
     rewrite_rows(out, &rows)?;
-    let setup = manifest.get("setup").and_then(|s| Setup::deserialize(s).ok()).unwrap_or_default();
-    let summary = write_summary(out, &rows, elapsed, setup)?;
+    let summary = write_summary(out, &rows, elapsed, manifest.setup)?;
     Ok(Outcome { played: 0, skipped: rows.len(), rows, summary, stopped: false })
 }
 
@@ -335,15 +326,28 @@ fn write_summary(out: &Path, rows: &[Row], elapsed: f64, setup: Setup) -> Result
     Ok(summary)
 }
 
-fn shard_value(shard: Option<(u64, u64)>) -> Value {
-    shard.map_or(Value::Null, |(i, n)| json!(format!("{i}/{n}")))
+/// The machine this program runs on, playing `concurrency` matches at once.
+fn machine(concurrency: usize) -> Machine {
+    let host = std::fs::read_to_string("/etc/hostname").map(|h| h.trim().to_string()).unwrap_or_default();
+    Machine {
+        os: std::env::consts::OS.into(),
+        arch: std::env::consts::ARCH.into(),
+        cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
+        concurrency,
+        host,
+    }
 }
 
-fn read_manifest(dir: &Path) -> Result<Value, TournamentError> {
+fn read_manifest(dir: &Path) -> Result<Manifest, TournamentError> {
     let path = dir.join("manifest.json");
     let text =
         std::fs::read_to_string(&path).map_err(|e| io(format!("cannot read {}", path.display()), e))?;
-    serde_json::from_str(&text).map_err(|e| io(format!("{} is not JSON", path.display()), e))
+    Manifest::parse(&text).map_err(|problem| TournamentError::Manifest { path, problem })
+}
+
+fn write_manifest(out: &Path, manifest: &Manifest) -> Result<(), TournamentError> {
+    let path = out.join("manifest.json");
+    std::fs::write(&path, manifest.to_json()).map_err(|e| io(format!("cannot write {}", path.display()), e))
 }
 
 /// The rows of a `matches.jsonl`; a torn last line (from a kill) is left out.
@@ -359,11 +363,6 @@ fn read_rows(path: &Path) -> Result<Vec<Row>, TournamentError> {
         }
     }
     Ok(rows)
-}
-
-fn write_json(path: &Path, value: &Value) -> Result<(), TournamentError> {
-    let text = serde_json::to_string_pretty(value).unwrap_or_default() + "\n";
-    std::fs::write(path, text).map_err(|e| io(format!("cannot write {}", path.display()), e))
 }
 
 fn rewrite_rows(out: &Path, rows: &[Row]) -> Result<(), TournamentError> {
@@ -425,6 +424,7 @@ fn play_one(
     let buffer = SharedBuffer::default();
     let want_replay = options.replays != ReplayPolicy::None;
     let played: Result<(MatchResult, Vec<AgentReport>), String> = seats(team).and_then(|seats| {
+        let seats: Vec<SeatSpec> = seats.into_iter().map(SeatSpec::from).collect();
         let external = seats.iter().any(|s| matches!(s, SeatSpec::External { .. }));
         if external {
             let log_dir = options.out.join("logs").join(file_safe(&p.key));
@@ -510,5 +510,92 @@ impl Write for SharedBuffer {
 
     fn flush(&mut self) -> std::io::Result<()> {
         Ok(())
+    }
+}
+
+impl From<TeamSeat> for SeatSpec {
+    fn from(seat: TeamSeat) -> SeatSpec {
+        match seat {
+            TeamSeat::Builtin { name, strategy } => SeatSpec::Builtin { name, strategy },
+            TeamSeat::External { name, command } => SeatSpec::External { name, command },
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use bw4t_tournament::TournamentConfig;
+
+    /// A fresh directory for one test.
+    fn temp(tag: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("bw4t-runner-tournament-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        dir
+    }
+
+    fn options(out: &Path) -> Options {
+        Options {
+            out: out.to_path_buf(),
+            concurrency: 1,
+            replays: ReplayPolicy::None,
+            resume: false,
+            shard: None,
+            connect_timeout: Duration::from_secs(5),
+            stop: Arc::new(AtomicBool::new(false)),
+        }
+    }
+
+    fn resolved(seeds: &str) -> Resolved {
+        let text = format!(
+            "maps = [\"fixed\"]\nseeds = {seeds}\nmax_ticks = 200\n[[team]]\nname = \"coop\"\nagents = \"builtin\"\nrobots = 1\n"
+        );
+        TournamentConfig::parse(&text).and_then(|c| c.resolve()).expect("valid")
+    }
+
+    #[test]
+    fn the_manifest_is_read_back_by_resume_and_merge_and_a_broken_one_is_named() {
+        let dir = temp("manifest");
+        let map = Map::parse(include_str!("../../../maps/fixed.toml"), "fixed").expect("the shipped map");
+        let maps = [map];
+        let (run, merged) = (dir.join("run"), dir.join("merged"));
+        let config = resolved("[1, 2]");
+        let outcome = run_tournament(&config, &maps, &options(&run), &mut |_| {}).expect("runs");
+        assert_eq!(outcome.rows.len(), 2);
+        let text = std::fs::read_to_string(run.join("manifest.json")).expect("manifest");
+        let manifest = Manifest::parse(&text).expect("a manifest");
+        assert_eq!(
+            (&manifest.config, manifest.shard, manifest.replays, manifest.setup.tick_limits[0].max_ticks),
+            (&config, None, ReplayPolicy::None, 200)
+        );
+        assert_eq!(manifest.program, crate::program());
+
+        // Resuming with the same configuration plays nothing; with another, it is refused.
+        let resume = Options { resume: true, ..options(&run) };
+        let again = run_tournament(&config, &maps, &resume, &mut |_| {}).expect("resumes");
+        assert_eq!((again.played, again.skipped), (0, 2));
+        let other =
+            run_tournament(&resolved("[3]"), &maps, &resume, &mut |_| {}).expect_err("another config");
+        assert!(other.to_string().contains("another configuration"), "{other}");
+
+        let outcome = merge(std::slice::from_ref(&run), &merged).expect("merges");
+        assert_eq!(outcome.rows.len(), 2);
+        let joined =
+            Manifest::parse(&std::fs::read_to_string(merged.join("manifest.json")).expect("manifest"))
+                .expect("a manifest");
+        assert_eq!(joined.merged_from, Some(vec![run.display().to_string()]));
+        assert_eq!(joined.config, config);
+
+        // A manifest without its setup (or otherwise broken) is refused, naming file and field.
+        let mut json: serde_json::Value = serde_json::from_str(&text).expect("json");
+        json.as_object_mut().expect("an object").remove("setup");
+        std::fs::write(run.join("manifest.json"), json.to_string()).expect("write");
+        let err =
+            merge(std::slice::from_ref(&run), &dir.join("merged-again")).expect_err("broken").to_string();
+        let path = run.join("manifest.json").display().to_string();
+        assert!(err.contains(&path) && err.contains("missing field `setup`"), "{err}");
+        let err = run_tournament(&config, &maps, &resume, &mut |_| {}).expect_err("broken").to_string();
+        assert!(err.contains(&path) && err.contains("missing field `setup`"), "{err}");
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

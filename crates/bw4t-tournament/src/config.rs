@@ -1,9 +1,10 @@
 //! The tournament configuration file (TOML) and the fixed list of matches it describes.
 
+use std::fmt;
+use std::str::FromStr;
+
 use bw4t_agents::Strategy;
 use serde::{Deserialize, Serialize};
-
-use crate::external::SeatSpec;
 
 /// Seeds as a count (derived from the master seed) or an explicit list.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -66,7 +67,8 @@ pub struct TournamentConfig {
     /// Matches per team and map when seeds are derived (same as `seeds = N`).
     #[serde(default)]
     pub games: Option<u64>,
-    /// The last tick of every match (default: each map's own, see [`crate::TickLimit`]).
+    /// The last tick of every match (default: each map's own, as `bw4t_runner::TickLimit`
+    /// derives it).
     #[serde(default)]
     pub max_ticks: Option<u64>,
     /// Times every (team, map, seed) is played.
@@ -91,7 +93,7 @@ fn deadline() -> u64 {
 }
 
 /// The master seed when the configuration names none.
-pub(super) const DEFAULT_MASTER_SEED: u64 = 2026;
+pub(crate) const DEFAULT_MASTER_SEED: u64 = 2026;
 
 /// A configuration with everything resolved: the seed list, team seats.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -246,9 +248,84 @@ impl Resolved {
     }
 }
 
+/// One share of a tournament's matches: `i/n`, the `i`-th (from 1) of `n`, as `--shard`
+/// gives it and the manifest records it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(try_from = "String", into = "String")]
+pub struct Shard {
+    /// Which share, from 1.
+    pub index: u64,
+    /// How many shares.
+    pub count: u64,
+}
+
+/// Text that is not a shard `i/n` with `1 <= i <= n`.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("'{0}' is not i/n with 1 <= i <= n (e.g. 1/4)")]
+pub struct ShardError(String);
+
+impl Shard {
+    /// Whether this shard plays match `p` of `resolved` (see [`Resolved::shard_of`]).
+    pub fn plays(self, resolved: &Resolved, p: &Planned) -> bool {
+        resolved.shard_of(p, self.count) == self.index - 1
+    }
+}
+
+impl FromStr for Shard {
+    type Err = ShardError;
+
+    fn from_str(text: &str) -> Result<Shard, ShardError> {
+        let parsed =
+            text.split_once('/').and_then(|(i, n)| Some((i.trim().parse().ok()?, n.trim().parse().ok()?)));
+        match parsed {
+            Some((index, count)) if count >= 1 && (1..=count).contains(&index) => Ok(Shard { index, count }),
+            _ => Err(ShardError(text.to_string())),
+        }
+    }
+}
+
+impl fmt::Display for Shard {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}/{}", self.index, self.count)
+    }
+}
+
+impl TryFrom<String> for Shard {
+    type Error = ShardError;
+
+    fn try_from(text: String) -> Result<Shard, ShardError> {
+        text.parse()
+    }
+}
+
+impl From<Shard> for String {
+    fn from(shard: Shard) -> String {
+        shard.to_string()
+    }
+}
+
+/// Who plays one robot of a team.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum TeamSeat {
+    /// A built-in agent.
+    Builtin {
+        /// Player name.
+        name: String,
+        /// Its strategy.
+        strategy: Strategy,
+    },
+    /// A program, run once for this robot.
+    External {
+        /// Player name.
+        name: String,
+        /// The command line.
+        command: String,
+    },
+}
+
 /// The seats of a team, in robot order: built-in ones named `Bot1`, `Bot2`, ..., external
 /// ones `Agent1`, `Agent2`, ..., each kind counted on its own (as `bw4t run` names them).
-pub fn seats(team: &Team) -> Result<Vec<SeatSpec>, String> {
+pub fn seats(team: &Team) -> Result<Vec<TeamSeat>, String> {
     let entries: Vec<&str> = match &team.agents {
         Agents::Each(entry) => vec![entry.as_str(); team.robots],
         Agents::PerRobot(list) => list.iter().map(String::as_str).collect(),
@@ -259,10 +336,10 @@ pub fn seats(team: &Team) -> Result<Vec<SeatSpec>, String> {
         let entry = entry.trim();
         if let Some(strategy) = builtin_strategy(entry).map_err(|e| format!("team '{}': {e}", team.name))? {
             bots += 1;
-            out.push(SeatSpec::Builtin { name: format!("Bot{bots}"), strategy });
+            out.push(TeamSeat::Builtin { name: format!("Bot{bots}"), strategy });
         } else {
             externals += 1;
-            out.push(SeatSpec::External { name: format!("Agent{externals}"), command: entry.to_string() });
+            out.push(TeamSeat::External { name: format!("Agent{externals}"), command: entry.to_string() });
         }
     }
     Ok(out)
@@ -392,9 +469,9 @@ mod tests {
         assert_eq!(
             seats,
             [
-                SeatSpec::Builtin { name: "Bot1".into(), strategy: Strategy::Cooperative },
-                SeatSpec::External { name: "Agent1".into(), command: "python3 a.py".into() },
-                SeatSpec::Builtin { name: "Bot2".into(), strategy: Strategy::Baseline },
+                TeamSeat::Builtin { name: "Bot1".into(), strategy: Strategy::Cooperative },
+                TeamSeat::External { name: "Agent1".into(), command: "python3 a.py".into() },
+                TeamSeat::Builtin { name: "Bot2".into(), strategy: Strategy::Baseline },
             ]
         );
         let wrong = text.replace("\"builtin:baseline\"]", "\"builtin:baseline\"]\n        robots = 2");
@@ -432,6 +509,25 @@ mod tests {
                 }
                 let maps: std::collections::BTreeSet<usize> = mine.iter().map(|p| p.map).collect();
                 assert_eq!(maps.len(), 2, "shard {shard}/{n} plays every map");
+            }
+        }
+    }
+
+    #[test]
+    fn a_shard_is_read_as_i_of_n_and_its_shares_cover_the_plan_once() {
+        assert_eq!("2/3".parse(), Ok(Shard { index: 2, count: 3 }));
+        assert_eq!(Shard { index: 2, count: 3 }.to_string(), "2/3");
+        for bad in ["0/2", "3/2", "1/0", "2", "a/b", ""] {
+            let err = bad.parse::<Shard>().expect_err(bad).to_string();
+            assert!(err.contains(&format!("'{bad}' is not i/n")), "{err}");
+        }
+        let resolved = TournamentConfig::parse(EXAMPLE).expect("parses").resolve().expect("valid");
+        let plan = resolved.plan();
+        for count in 1..=4 {
+            let shards: Vec<Shard> = (1..=count).map(|index| Shard { index, count }).collect();
+            for p in &plan {
+                let playing = shards.iter().filter(|s| s.plays(&resolved, p)).count();
+                assert_eq!(playing, 1, "match {} in {count} shards", p.index);
             }
         }
     }

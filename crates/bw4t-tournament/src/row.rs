@@ -51,7 +51,7 @@ pub struct Row {
 }
 
 /// How a row fills one column of `matches.csv`.
-pub(super) type CsvField = fn(&Row) -> String;
+pub(crate) type CsvField = fn(&Row) -> String;
 
 /// The columns of `matches.csv`, in order, each with how a row fills it.
 pub const CSV_COLUMNS: &[(&str, CsvField)] = &[

@@ -564,7 +564,7 @@ pub(super) mod tests {
     use super::*;
 
     /// A row of `team` on `map`; completed at `done` ticks, or ran out at 5000.
-    pub(in crate::tournament) fn row(team: &str, map: &str, seed: u64, done: Option<u64>) -> Row {
+    pub(crate) fn row(team: &str, map: &str, seed: u64, done: Option<u64>) -> Row {
         Row {
             key: format!("{team}/{map}/{seed}/0"),
             index: seed,
@@ -594,7 +594,7 @@ pub(super) mod tests {
     /// On `default`, coop completes every seed (1000, 1100, 1200, 1300) and baseline seeds
     /// 1-3 (1500, 1400, 1600); on `fixed`, coop completes seeds 1-2 (800, 900) and baseline
     /// none.
-    pub(in crate::tournament) fn sample() -> Vec<Row> {
+    pub(crate) fn sample() -> Vec<Row> {
         let mut rows = Vec::new();
         for (seed, coop, baseline) in [
             (1, Some(1000), Some(1500)),

@@ -1,0 +1,27 @@
+//! Tournaments without playing them: the configuration file and the fixed list of matches
+//! it describes, the rows written as matches end (`matches.jsonl`, `matches.csv`), the
+//! manifest of a tournament directory, and the summary (rates, intervals, paired
+//! differences, the report and the chart). Every team plays the same (map, seed) pairs.
+//!
+//! Nothing here plays a match, reads a clock or touches a file; `bw4t-runner` plays the
+//! matches and writes the directory.
+
+mod chart;
+mod config;
+mod manifest;
+mod report;
+mod row;
+mod stats;
+mod words;
+
+pub use config::{
+    Agents, ConfigError, Planned, Resolved, Seeds, Shard, ShardError, Team, TeamConfig, TeamSeat,
+    TournamentConfig, builtin_strategy, derive_seeds, seats,
+};
+pub use manifest::{Machine, Manifest, ManifestError, ReplayPolicy};
+pub use row::{CSV_COLUMNS, Row};
+pub use stats::{
+    EndReasonCount, Interval, MapLimit, Method, PairStats, Setup, Summary, TeamMapStats, TeamRank, Totals,
+    summarize,
+};
+pub use words::plural;
