@@ -34,6 +34,16 @@ async fn get(addr: SocketAddr, path: &str) -> Answer {
     try_get(addr, path).await.expect("an answer")
 }
 
+/// Leaves as a client does: shuts the sending half of `stream`, then waits, within
+/// [`WAIT`], for the server to close the connection (whatever it sends before). The server
+/// frees a connection's place before it closes the socket, so the place is free then.
+async fn leave(mut stream: tokio::net::TcpStream) {
+    stream.shutdown().await.expect("shut the sending half");
+    let mut rest = Vec::new();
+    // A reset closes it as well as an end of stream does.
+    let _ = tokio::time::timeout(WAIT, stream.read_to_end(&mut rest)).await.expect("closed in time");
+}
+
 type Ws = tokio_tungstenite::WebSocketStream<tokio::net::TcpStream>;
 
 /// Opens `ws://ADDR/ws` with these extra (or replaced) headers; on a refusal, the
@@ -194,6 +204,78 @@ async fn the_page_and_the_map_layout_are_served() {
     server.stop().await;
 }
 
+/// The module paths a page module imports, resolved against its own path (`/a/b.js`
+/// importing `../c.js` is `/c.js`): every `import` statement and `export ... from`, each
+/// read up to its `;`. The page imports only relative paths, in single quotes.
+fn imports_of(module: &str, source: &str) -> Vec<String> {
+    let line_starts = std::iter::once(0).chain(source.match_indices('\n').map(|(at, _)| at + 1));
+    let statements = line_starts.map(|start| &source[start..]).filter(|rest| {
+        ["import ", "import{", "export {", "export *"].iter().any(|start| rest.starts_with(start))
+    });
+    let specifiers = statements.filter_map(|rest| {
+        let statement = rest.split_once(';').map_or(rest, |(statement, _)| statement);
+        let quoted = statement.split_once("from '").or_else(|| statement.split_once("import '"))?.1;
+        quoted.split_once('\'').map(|(specifier, _)| specifier)
+    });
+    specifiers
+        .map(|specifier| {
+            assert!(
+                specifier.starts_with("./") || specifier.starts_with("../"),
+                "{module} imports {specifier}"
+            );
+            let mut path: Vec<&str> = module.split('/').collect();
+            path.pop();
+            for part in specifier.split('/') {
+                match part {
+                    "." => {}
+                    ".." => assert!(path.pop().is_some(), "{module} imports {specifier}, above the root"),
+                    part => path.push(part),
+                }
+            }
+            path.join("/")
+        })
+        .collect()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn every_module_the_page_imports_is_served_as_javascript() {
+    let (server, http) = web_server(0, 1).await;
+    let page = get(http, "/").await.body;
+    let mut queue: Vec<String> = page
+        .split("<script type=\"module\" src=\"")
+        .skip(1)
+        .map(|rest| format!("/{}", rest.split('"').next().expect("a src")))
+        .collect();
+    assert!(!queue.is_empty(), "index.html loads a module: {page}");
+    let mut served = std::collections::BTreeMap::new();
+    while let Some(path) = queue.pop() {
+        if served.contains_key(&path) {
+            continue;
+        }
+        let answer = get(http, &path).await;
+        assert_eq!(answer.status, 200, "{path}: {}", answer.head);
+        assert!(answer.head.contains("\r\nContent-Type: text/javascript"), "{path}: {}", answer.head);
+        queue.extend(imports_of(&path, &answer.body));
+        served.insert(path, answer.body);
+    }
+    // The page keeps beliefs with the JavaScript client's own file, not a copy.
+    assert_eq!(
+        served.get("/client/beliefs.js").map(String::as_str),
+        Some(include_str!("../protocol/clients/js/src/beliefs.js")),
+        "modules: {:?}",
+        served.keys()
+    );
+    // And every module of the page is in use.
+    let web = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("crates/bw4t-server/web");
+    for entry in std::fs::read_dir(&web).expect("the page's folder") {
+        let name = entry.expect("an entry").file_name().into_string().expect("a UTF-8 name");
+        if name.ends_with(".js") {
+            assert!(served.contains_key(&format!("/{name}")), "{name} is not imported by the page");
+        }
+    }
+    server.stop().await;
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_page_speaks_the_protocol_over_websocket() {
     let (server, http) = web_server(1, 2).await;
@@ -351,10 +433,10 @@ async fn the_page_answers_while_the_websocket_limit_is_full() {
         }
         other => panic!("expected 503, got {:?}", other.map(|_| "a WebSocket")),
     }
-    // Once a WebSocket leaves, its place is taken again.
-    drop(first);
-    let again = async { while try_ws(http, &[]).await.is_err() {} };
-    tokio::time::timeout(WAIT, again).await.expect("a free place in time");
+    // Once a WebSocket has left, its place is taken again.
+    leave(first.into_inner()).await;
+    let again = try_ws(http, &[]).await;
+    assert!(again.is_ok(), "refused with {} after a WebSocket left", refusal(&again));
     server.stop().await;
 }
 
@@ -515,7 +597,16 @@ async fn a_burst_of_page_requests_is_answered_whatever_the_websocket_limit() {
     let mut config = web_config(1);
     config.max_connections = 2;
     let (server, http) = web_server_with(config, 0).await;
-    let paths = ["/", "/app.js", "/style.css", "/map.json", "/info.json"];
+    let paths = [
+        "/",
+        "/app.js",
+        "/player.js",
+        "/renderer.js",
+        "/client/beliefs.js",
+        "/style.css",
+        "/map.json",
+        "/info.json",
+    ];
     let requests: Vec<_> = (0..2000).map(|i| tokio::spawn(try_get(http, paths[i % paths.len()]))).collect();
     let (mut ok, mut busy, mut silent) = (0, 0, 0);
     for request in requests {
@@ -542,24 +633,21 @@ async fn plain_site(max_requests: usize) -> (tokio::task::JoinHandle<()>, Socket
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn over_the_request_limit_a_client_is_told_to_retry() {
     let (task, addr) = plain_site(2).await;
-    // Two connections that never finish their request hold both places.
+    // Two connections that never finish their request hold both places: the server takes
+    // connections in the order they were made and gives each its place as it takes it, so
+    // the next one is refused at once.
     let idle = [
         tokio::net::TcpStream::connect(addr).await.expect("connect"),
         tokio::net::TcpStream::connect(addr).await.expect("connect"),
     ];
-    let busy = async {
-        loop {
-            match try_get(addr, "/info.json").await {
-                Some(answer) if answer.status == 503 => return answer,
-                _ => {}
-            }
-        }
-    };
-    let busy = tokio::time::timeout(WAIT, busy).await.expect("a 503 in time");
+    let busy = get(addr, "/info.json").await;
+    assert_eq!(busy.status, 503, "{}", busy.head);
     assert!(busy.head.contains("\r\nRetry-After: 1"), "{}", busy.head);
-    drop(idle);
-    let served = async { while try_get(addr, "/info.json").await.is_none_or(|a| a.status != 200) {} };
-    tokio::time::timeout(WAIT, served).await.expect("served again");
+    for stream in idle {
+        leave(stream).await;
+    }
+    let served = get(addr, "/info.json").await;
+    assert_eq!(served.status, 200, "served once the idle connections have left: {}", served.head);
     task.abort();
 }
 

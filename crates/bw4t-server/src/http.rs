@@ -16,10 +16,30 @@ use tokio_tungstenite::tungstenite::http::{self, StatusCode};
 
 use crate::websocket::{self, Live};
 
-/// The page, built into the binary.
-const INDEX_HTML: &str = include_str!("../web/index.html");
-const APP_JS: &str = include_str!("../web/app.js");
-const STYLE_CSS: &str = include_str!("../web/style.css");
+const HTML: &str = "text/html; charset=utf-8";
+const CSS: &str = "text/css; charset=utf-8";
+const JS: &str = "text/javascript; charset=utf-8";
+
+/// The page's files, built into the binary: the path each is served at, its content
+/// type, its text. The page is ES modules the browser loads itself (`web/app.js` imports
+/// the rest); its belief base is the JavaScript client's own files, served under
+/// `/client/`, so that the page and the client keep beliefs with one code.
+const PAGE_FILES: &[(&str, &str, &str)] = &[
+    ("/index.html", HTML, include_str!("../web/index.html")),
+    ("/style.css", CSS, include_str!("../web/style.css")),
+    ("/app.js", JS, include_str!("../web/app.js")),
+    ("/dom.js", JS, include_str!("../web/dom.js")),
+    ("/page.js", JS, include_str!("../web/page.js")),
+    ("/geometry.js", JS, include_str!("../web/geometry.js")),
+    ("/renderer.js", JS, include_str!("../web/renderer.js")),
+    ("/panels.js", JS, include_str!("../web/panels.js")),
+    ("/connection.js", JS, include_str!("../web/connection.js")),
+    ("/spectator.js", JS, include_str!("../web/spectator.js")),
+    ("/player.js", JS, include_str!("../web/player.js")),
+    ("/replay.js", JS, include_str!("../web/replay.js")),
+    ("/client/beliefs.js", JS, include_str!("../../../protocol/clients/js/src/beliefs.js")),
+    ("/client/table.js", JS, include_str!("../../../protocol/clients/js/src/table.js")),
+];
 
 /// Plain requests read or answered at once, by default; more are answered `503` at once.
 /// They are short, so this is far above what a page load needs.
@@ -88,7 +108,14 @@ pub(crate) async fn serve(
             let head = match head {
                 Ok(head) => head,
                 Err(Some(reply)) => return reply_and_close(stream, reply).await,
-                Err(None) => return,
+                Err(None) => {
+                    // The client left. Its place is free before its socket closes (on
+                    // return), so a client that sees the close can be served at once.
+                    drop(stream);
+                    tokio::time::sleep(Duration::from_millis(50)).await;
+                    drop(permit);
+                    return;
+                }
             };
             if let Some(live) = live.filter(|_| head.request.uri().path() == "/ws") {
                 match websocket::admit(&head.request, &live) {
@@ -169,10 +196,14 @@ async fn respond(request: &http::Request<()>, site: &Site) -> Reply {
         return Reply::text(StatusCode::METHOD_NOT_ALLOWED, "only GET").with("Allow", "GET".into());
     }
     let json = |body: &str| Reply::new(StatusCode::OK, "application/json", body.to_string());
-    match request.uri().path() {
-        "/" | "/index.html" => Reply::new(StatusCode::OK, "text/html; charset=utf-8", INDEX_HTML),
-        "/app.js" => Reply::new(StatusCode::OK, "text/javascript; charset=utf-8", APP_JS),
-        "/style.css" => Reply::new(StatusCode::OK, "text/css; charset=utf-8", STYLE_CSS),
+    let path = match request.uri().path() {
+        "/" => "/index.html",
+        path => path,
+    };
+    if let Some(&(_, kind, body)) = PAGE_FILES.iter().find(|(served_at, ..)| *served_at == path) {
+        return Reply::new(StatusCode::OK, kind, body);
+    }
+    match path {
         "/map.json" => json(&site.map_json),
         "/info.json" => json(&site.info_json),
         "/replay.json" => match &site.replay {

@@ -1,0 +1,51 @@
+// The WebSocket at /ws: protocol/PROTOCOL.md unchanged, one JSON message per text frame.
+
+import { params } from './dom.js';
+
+/** The address of /ws on the server that served the page (`wss:` under HTTPS). */
+function socketUrl() {
+  return `${location.protocol === 'https:' ? 'wss' : 'ws'}://${location.host}/ws`;
+}
+
+/** Opens the WebSocket, says `hello` and hands every server message to onMessage.
+ * The contract is one message per text frame; several lines in one frame are accepted
+ * too, as the TCP protocol would send them. */
+export function openSocket(hello, onMessage, onClose) {
+  const ws = new WebSocket(socketUrl());
+  ws.addEventListener('open', () => ws.send(JSON.stringify(hello)));
+  ws.addEventListener('message', (event) => {
+    if (typeof event.data !== 'string') return;
+    for (const line of event.data.split('\n')) {
+      if (!line.trim()) continue;
+      let message;
+      try {
+        message = JSON.parse(line);
+      } catch {
+        console.warn('bw4t: not JSON from the server:', line);
+        continue;
+      }
+      onMessage(message);
+    }
+  });
+  ws.addEventListener('close', (event) => onClose(event));
+  return {
+    ws,
+    send(message) {
+      if (ws.readyState === WebSocket.OPEN) ws.send(JSON.stringify(message));
+    },
+    close() {
+      ws.close();
+    },
+  };
+}
+
+/** The URL parameter holding each role's credential (PROTOCOL.md, Roles). */
+export const TOKEN_PARAMS = { agent: 'token', spectator: 'spectator_token', operator: 'operator_token' };
+
+/** A `hello` with the credential of its role from the page's address, if given. */
+export function helloFor(extra) {
+  const hello = { type: 'hello', protocol: 'bw4t', versions: [1], ...extra };
+  const token = params.get(TOKEN_PARAMS[extra.role || 'agent']);
+  if (token) hello.token = token;
+  return hello;
+}

@@ -1,0 +1,49 @@
+// The map's geometry for drawing and clicking.
+//
+// /map.json gives zones as top-left boxes in map units, y downwards, doors as boxes on a
+// room's edge with the opening each makes, and the walls as segments (bw4t-map computes
+// them). From it we derive only the drawing bounds; the openings are drawn as bars when
+// the room is occupied.
+
+export function buildMap(json) {
+  const zones = json.zones.map((z) => ({
+    ...z,
+    doors: z.doors || [],
+    isRoom: z.kind === 'room',
+    isDrop: z.name === json.drop_zone,
+  }));
+  // Halls may reach beyond `area` (the default map's top halls do): draw everything,
+  // with a small margin so that walls on the outer edges show whole.
+  const margin = 0.5;
+  let [minX, minY, maxX, maxY] = [0, 0, json.area[0], json.area[1]];
+  for (const z of zones) {
+    minX = Math.min(minX, z.x);
+    minY = Math.min(minY, z.y);
+    maxX = Math.max(maxX, z.x + z.w);
+    maxY = Math.max(maxY, z.y + z.h);
+  }
+  [minX, minY, maxX, maxY] = [minX - margin, minY - margin, maxX + margin, maxY + margin];
+  const openings = new Map(zones.filter((z) => z.isRoom).map((z) => [z.name, z.doors.map((d) => d.opening)]));
+  return {
+    name: json.name,
+    zones,
+    byName: new Map(zones.map((z) => [z.name, z])),
+    dropZone: json.drop_zone,
+    spawns: json.spawns || [],
+    bounds: { x: minX, y: minY, w: maxX - minX, h: maxY - minY },
+    walls: json.walls,
+    openings,
+  };
+}
+
+/** The zone under a map point: the smallest box containing it (zones should not overlap,
+ * but a small zone drawn over a big one must win if they do). */
+export function zoneAt(map, x, y) {
+  let best = null;
+  for (const z of map.zones) {
+    if (x >= z.x && x < z.x + z.w && y >= z.y && y < z.y + z.h) {
+      if (!best || z.w * z.h < best.w * best.h) best = z;
+    }
+  }
+  return best;
+}
