@@ -108,14 +108,7 @@ pub(crate) async fn serve(
             let head = match head {
                 Ok(head) => head,
                 Err(Some(reply)) => return reply_and_close(stream, reply).await,
-                Err(None) => {
-                    // The client left. Its place is free before its socket closes (on
-                    // return), so a client that sees the close can be served at once.
-                    drop(stream);
-                    tokio::time::sleep(Duration::from_millis(50)).await;
-                    drop(permit);
-                    return;
-                }
+                Err(None) => return,
             };
             if let Some(live) = live.filter(|_| head.request.uri().path() == "/ws") {
                 match websocket::admit(&head.request, &live) {
