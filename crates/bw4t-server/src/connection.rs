@@ -236,6 +236,13 @@ pub(crate) trait LineSource: Send {
     fn next(&mut self) -> impl Future<Output = Incoming> + Send;
 }
 
+/// A source lent to a connection, so that its owner decides when it is dropped.
+impl<S: LineSource> LineSource for &mut S {
+    fn next(&mut self) -> impl Future<Output = Incoming> + Send {
+        (**self).next()
+    }
+}
+
 /// What a [`LineSource`] read.
 pub(crate) enum Incoming {
     /// Complete lines (possibly none yet), or errors for lines that are not usable.

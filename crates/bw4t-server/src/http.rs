@@ -108,7 +108,12 @@ pub(crate) async fn serve(
             let head = match head {
                 Ok(head) => head,
                 Err(Some(reply)) => return reply_and_close(stream, reply).await,
-                Err(None) => return,
+                Err(None) => {
+                    // The client left. Its place is free before its socket closes (on
+                    // return), so a client that sees the close can be served at once.
+                    drop(permit);
+                    return;
+                }
             };
             if let Some(live) = live.filter(|_| head.request.uri().path() == "/ws") {
                 match websocket::admit(&head.request, &live) {

@@ -95,23 +95,28 @@ pub(crate) fn admit(request: &http::Request<()>, live: &Live) -> Result<Admitted
 /// Completes the handshake and runs the WebSocket as a protocol connection: a text
 /// frame is a line.
 pub(crate) async fn bridge(mut stream: TcpStream, head: Head, admitted: Admitted, live: &Live) {
-    let _place = admitted.permit;
+    let place = admitted.permit;
     let mut answer = Vec::new();
     if write_response(&mut answer, &admitted.response).is_err() || stream.write_all(&answer).await.is_err() {
         return;
     }
     let ws = WebSocketStream::from_partially_read(stream, head.rest, Role::Server, Some(config())).await;
     let (write, read) = ws.split();
+    let mut lines = WsLines(read);
     let conn = live.ids.fetch_add(1, Ordering::SeqCst);
     crate::connection::run(
         conn,
         live.hello_timeout,
         live.queue,
-        WsLines(read),
+        &mut lines,
         WsSink(write),
         live.events.clone(),
     )
     .await;
+    // The writer is done, so `lines` holds the socket's last half: the place is free
+    // before the socket closes, and a client that sees the close can take it at once.
+    drop(place);
+    drop(lines);
 }
 
 /// Frames and messages no longer than a protocol line, so an over-long message is refused
