@@ -34,6 +34,16 @@ async fn get(addr: SocketAddr, path: &str) -> Answer {
     try_get(addr, path).await.expect("an answer")
 }
 
+/// Leaves as a client does: shuts the sending half of `stream`, then waits, within
+/// [`WAIT`], for the server to close the connection (whatever it sends before). The server
+/// frees a connection's place before it closes the socket, so the place is free then.
+async fn leave(mut stream: tokio::net::TcpStream) {
+    stream.shutdown().await.expect("shut the sending half");
+    let mut rest = Vec::new();
+    // A reset closes it as well as an end of stream does.
+    let _ = tokio::time::timeout(WAIT, stream.read_to_end(&mut rest)).await.expect("closed in time");
+}
+
 type Ws = tokio_tungstenite::WebSocketStream<tokio::net::TcpStream>;
 
 /// Opens `ws://ADDR/ws` with these extra (or replaced) headers; on a refusal, the
@@ -423,10 +433,10 @@ async fn the_page_answers_while_the_websocket_limit_is_full() {
         }
         other => panic!("expected 503, got {:?}", other.map(|_| "a WebSocket")),
     }
-    // Once a WebSocket leaves, its place is taken again.
-    drop(first);
-    let again = async { while try_ws(http, &[]).await.is_err() {} };
-    tokio::time::timeout(WAIT, again).await.expect("a free place in time");
+    // Once a WebSocket has left, its place is taken again.
+    leave(first.into_inner()).await;
+    let again = try_ws(http, &[]).await;
+    assert!(again.is_ok(), "refused with {} after a WebSocket left", refusal(&again));
     server.stop().await;
 }
 
@@ -623,24 +633,21 @@ async fn plain_site(max_requests: usize) -> (tokio::task::JoinHandle<()>, Socket
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn over_the_request_limit_a_client_is_told_to_retry() {
     let (task, addr) = plain_site(2).await;
-    // Two connections that never finish their request hold both places.
+    // Two connections that never finish their request hold both places: the server takes
+    // connections in the order they were made and gives each its place as it takes it, so
+    // the next one is refused at once.
     let idle = [
         tokio::net::TcpStream::connect(addr).await.expect("connect"),
         tokio::net::TcpStream::connect(addr).await.expect("connect"),
     ];
-    let busy = async {
-        loop {
-            match try_get(addr, "/info.json").await {
-                Some(answer) if answer.status == 503 => return answer,
-                _ => {}
-            }
-        }
-    };
-    let busy = tokio::time::timeout(WAIT, busy).await.expect("a 503 in time");
+    let busy = get(addr, "/info.json").await;
+    assert_eq!(busy.status, 503, "{}", busy.head);
     assert!(busy.head.contains("\r\nRetry-After: 1"), "{}", busy.head);
-    drop(idle);
-    let served = async { while try_get(addr, "/info.json").await.is_none_or(|a| a.status != 200) {} };
-    tokio::time::timeout(WAIT, served).await.expect("served again");
+    for stream in idle {
+        leave(stream).await;
+    }
+    let served = get(addr, "/info.json").await;
+    assert_eq!(served.status, 200, "served once the idle connections have left: {}", served.head);
     task.abort();
 }
 
