@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 use crate::config::{Resolved, Shard};
 use crate::stats::Setup;
 
-/// Which replays a tournament keeps.
+/// Which replays a tournament keeps; the manifest names it `all`, `failed` or `none`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum ReplayPolicy {
@@ -16,17 +16,6 @@ pub enum ReplayPolicy {
     Failed,
     /// None.
     None,
-}
-
-impl ReplayPolicy {
-    /// The name used on the command line and in the manifest.
-    pub fn name(self) -> &'static str {
-        match self {
-            ReplayPolicy::All => "all",
-            ReplayPolicy::Failed => "failed",
-            ReplayPolicy::None => "none",
-        }
-    }
 }
 
 /// The machine a tournament (or its first shard) ran on.
