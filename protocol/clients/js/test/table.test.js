@@ -37,7 +37,7 @@ function pageModules() {
   const src = path.join(REPO, 'crates', 'bw4t-server', 'src');
   const http = fs.readFileSync(path.join(src, 'http.rs'), 'utf8');
   const embedded = new Map(
-    [...http.matchAll(/\("(\/[^"]*)", \w+, include_str!\("([^"]+)"\)\)/g)].map((m) => [m[1], path.resolve(src, m[2])]),
+    [...http.matchAll(/\(\s*"(\/[^"]*)",\s*\w+,\s*include_str!\("([^"]+)"\),?\s*\)/g)].map((m) => [m[1], path.resolve(src, m[2])]),
   );
   assert.ok(embedded.has('/index.html'), 'http.rs has a table of the page files, index.html in it');
   const html = fs.readFileSync(embedded.get('/index.html'), 'utf8');
