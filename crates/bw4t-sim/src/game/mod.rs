@@ -8,10 +8,12 @@ mod motion;
 mod perception;
 mod rules;
 
+use std::collections::BTreeSet;
 use std::sync::Arc;
 
 use bw4t_map::{Colour, ContentError, Map, Vec2, ZoneIdx};
 
+use self::perception::{SharedFacts, Version};
 use crate::action::{OrderEnd, OrderId, Rejection, RobotId};
 use crate::config::{ConfigError, MatchConfig};
 use crate::digest::Digest;
@@ -115,10 +117,13 @@ struct Robot {
     holding: Option<BlockId>,
     stats: RobotStats,
     inbox: Vec<Percept>,
-    /// The changeable facts this robot's player was last told, sorted.
+    /// The changeable facts of its own this robot's player was last told, sorted.
     told: Vec<Fact>,
+    /// The version of the shared facts its player was last told.
+    told_shared: Version,
     /// `player` facts of robots that left since this robot was last told: the next delta's
-    /// first `not`s. Taken out of `told` at the leave, so a robot that reuses the id is new.
+    /// first `not`s. Taken out of `told_shared` at the leave, so a robot that reuses the id
+    /// is new.
     left: Vec<Percept>,
     introduced: bool,
 }
@@ -146,6 +151,10 @@ pub struct Match {
     room_blocks: Vec<Vec<BlockId>>,
     /// Per zone, the robot occupying it (rooms only).
     occupant: Vec<Option<RobotId>>,
+    /// The rooms that have an occupant, ascending.
+    occupied: BTreeSet<ZoneIdx>,
+    /// The facts every robot perceives alike.
+    shared: SharedFacts,
     /// By robot id; `None` while no robot has the id. A joining robot takes the lowest
     /// free id, so this never holds more slots than robots were ever in the match at once.
     robots: Vec<Option<Robot>>,
@@ -185,6 +194,8 @@ impl Match {
             blocks,
             room_blocks,
             occupant: vec![None; map.zones().len()],
+            occupied: BTreeSet::new(),
+            shared: SharedFacts::default(),
             robots: Vec::new(),
             departed: Vec::new(),
             next_order: 0,
@@ -226,10 +237,12 @@ impl Match {
             stats: RobotStats::default(),
             inbox: Vec::new(),
             told: Vec::new(),
+            told_shared: Arc::default(),
             left: Vec::new(),
             introduced: false,
         };
         self.update_place(&mut robot);
+        self.shared.changed();
         self.departed.retain(|d| d.id != id);
         if slot == self.robots.len() {
             self.robots.push(Some(robot));
@@ -272,12 +285,7 @@ impl Match {
             }
             self.physics.remove_robot(robot.body);
             self.ended.retain(|end| end.robot != id);
-            for other in self.robots.iter_mut().flatten() {
-                if let Ok(at) = other.told.binary_search(&Fact::Player(id.0)) {
-                    other.told.remove(at);
-                    other.left.push(Percept::Player(robot.name.clone()));
-                }
-            }
+            self.forget_player(id, &robot.name);
             let at = self.departed.partition_point(|d| d.id < id);
             self.departed.insert(at, Departed { id, name: robot.name, stats: robot.stats });
         }

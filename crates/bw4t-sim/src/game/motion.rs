@@ -79,7 +79,11 @@ impl Match {
         }
         if let Some(new) = room {
             robot.stats.rooms_entered += 1;
-            self.occupant[new].get_or_insert(robot.id);
+            if self.occupant[new].is_none() {
+                self.occupant[new] = Some(robot.id);
+                self.occupied.insert(new);
+                self.shared.changed();
+            }
         }
         robot.room = room;
     }
@@ -89,6 +93,10 @@ impl Match {
         if self.occupant[zone] == Some(leaving) {
             let heir = self.live_robots().find(|r| r.id != leaving && r.room == Some(zone)).map(|r| r.id);
             self.occupant[zone] = heir;
+            if heir.is_none() {
+                self.occupied.remove(&zone);
+                self.shared.changed();
+            }
         }
     }
 }

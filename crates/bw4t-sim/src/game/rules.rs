@@ -131,6 +131,7 @@ impl Match {
                 let good = needed == Some(&colour);
                 if good {
                     self.sequence_index += 1;
+                    self.shared.changed();
                     self.stats.sequence_index = self.sequence_index;
                     self.stats.good_drops += 1;
                 } else {
