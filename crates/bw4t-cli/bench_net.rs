@@ -7,8 +7,9 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
 use bw4t_map::{Map, MapParts, Spawn, Vec2};
-use bw4t_protocol::{Mode, ServerMessage, decode_server};
+use bw4t_protocol::{ClientMessage, Hello, Mode, Say, ServerMessage, act_message, decode_server, encode};
 use bw4t_server::ServerConfig;
+use bw4t_sim::Action;
 use serde_json::{Value, json};
 use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader};
 use tokio::net::TcpStream;
@@ -59,9 +60,8 @@ async fn lockstep_player(addr: SocketAddr, index: usize, seed: u64) -> Result<Ve
     stream.set_nodelay(true)?;
     let (reader, mut writer) = stream.into_split();
     let mut lines = BufReader::new(reader).lines();
-    let hello =
-        json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": format!("Bench{index}")});
-    writer.write_all(format!("{hello}\n").as_bytes()).await?;
+    let hello = ClientMessage::Hello(Hello::agent(format!("Bench{index}"), None));
+    writer.write_all(encode(&hello).as_bytes()).await?;
     let places = ["RoomA1", "RoomB2", "RoomC3", "DropZone", "RoomA3", "RoomC1"];
     let mut rng = bw4t_map::SeededRng::new(seed ^ index as u64);
     let (mut gaps, mut last, mut id) = (Vec::new(), None::<Instant>, 0u64);
@@ -73,13 +73,13 @@ async fn lockstep_player(addr: SocketAddr, index: usize, seed: u64) -> Result<Ve
         }
         last = Some(now);
         id += 1;
-        let mut out =
-            format!("{}\n", json!({"type": "say", "to": "all", "text": format!("tick {}", p.tick)}));
+        let say = Say { id: None, to: "all".into(), text: format!("tick {}", p.tick) };
+        let mut out = encode(&ClientMessage::Say(say));
         if rng.below(20) == 0 {
             let place = places[rng.index(places.len())];
-            out += &format!("{}\n", json!({"type": "act", "id": id, "action": "goTo", "args": [place]}));
+            out += &encode(&act_message(id, &Action::GoTo(place.into())));
         }
-        out += &format!("{}\n", json!({"type": "ready", "tick": p.tick}));
+        out += &encode(&ClientMessage::ready(p.tick));
         writer.write_all(out.as_bytes()).await?;
     }
     Ok(gaps)
@@ -145,9 +145,8 @@ async fn realtime_player(addr: SocketAddr, index: usize, seed: u64, received: Ar
     stream.set_nodelay(true)?;
     let (reader, mut writer) = stream.into_split();
     let mut lines = BufReader::new(reader).lines();
-    let hello =
-        json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": format!("Bench{index}")});
-    writer.write_all(format!("{hello}\n").as_bytes()).await?;
+    let hello = ClientMessage::Hello(Hello::agent(format!("Bench{index}"), None));
+    writer.write_all(encode(&hello).as_bytes()).await?;
     let places = ["RoomA1", "RoomB2", "RoomC3", "DropZone", "RoomA3", "RoomC1", "LeftHallA", "RightHallC"];
     let mut rng = bw4t_map::SeededRng::new(seed ^ index as u64);
     let mut id = 0u64;
@@ -159,8 +158,7 @@ async fn realtime_player(addr: SocketAddr, index: usize, seed: u64, received: Ar
         if stopped {
             id += 1;
             let place = places[rng.index(places.len())];
-            let act = json!({"type": "act", "id": id, "action": "goTo", "args": [place]});
-            writer.write_all(format!("{act}\n").as_bytes()).await?;
+            writer.write_all(encode(&act_message(id, &Action::GoTo(place.into()))).as_bytes()).await?;
         }
     }
     Ok(())

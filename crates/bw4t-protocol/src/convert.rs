@@ -6,7 +6,7 @@ use bw4t_map::Colour;
 use bw4t_sim::{Action, MoveState, Percept, Receiver};
 use serde_json::{Value, json};
 
-use crate::messages::Fact;
+use crate::messages::{Act, ActId, ClientMessage, Fact};
 use crate::vocabulary::AckCode;
 
 /// A percept as a fact array, e.g. `["color",12,"Red"]`.
@@ -129,6 +129,12 @@ pub fn action_to_act(action: &Action) -> (&'static str, Vec<Value>) {
         }
     };
     (action.name(), args)
+}
+
+/// The `act` message for `action`, numbered `id`.
+pub fn act_message(id: u64, action: &Action) -> ClientMessage {
+    let (name, args) = action_to_act(action);
+    ClientMessage::Act(Act { id: ActId::Number(id), action: name.to_string(), args })
 }
 
 /// `all` or a player's name.

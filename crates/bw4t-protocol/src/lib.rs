@@ -15,7 +15,8 @@ mod vocabulary;
 
 pub use codec::{DecodeError, LineBuffer, MAX_LINE, decode_client, decode_server, encode};
 pub use convert::{
-    ActError, FactError, action_from_act, action_to_act, fact_to_percept, percept_to_fact, receiver,
+    ActError, FactError, act_message, action_from_act, action_to_act, fact_to_percept, percept_to_fact,
+    receiver,
 };
 pub use messages::*;
 pub use replay::{REPLAY_FORMAT, Recorder, ReplayEvent, ReplayHeader, ReplayLine};

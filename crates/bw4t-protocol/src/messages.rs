@@ -78,6 +78,28 @@ pub struct Hello {
     pub every_tick: bool,
 }
 
+impl Hello {
+    /// An agent's `hello` in this crate's protocol and version, asking for `name`.
+    pub fn agent(name: impl Into<String>, token: Option<String>) -> Hello {
+        Hello {
+            protocol: crate::PROTOCOL.to_string(),
+            versions: vec![crate::VERSION],
+            role: Role::Agent,
+            name: Some(name.into()),
+            token,
+            session: None,
+            every_tick: false,
+        }
+    }
+}
+
+impl ClientMessage {
+    /// `ready` for `tick`.
+    pub fn ready(tick: u64) -> ClientMessage {
+        ClientMessage::Ready(Ready { tick })
+    }
+}
+
 /// `act`: one action.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct Act {

@@ -4,9 +4,11 @@
 use std::net::SocketAddr;
 
 use bw4t_agents::{ActionAck, Agent, Observation, OrderDone};
-use bw4t_protocol::{ActId, MatchResult, ServerMessage, action_to_act, decode_server, fact_to_percept};
+use bw4t_protocol::{
+    ActId, ClientMessage, Hello, MatchResult, ServerMessage, act_message, decode_server, encode,
+    fact_to_percept,
+};
 use bw4t_sim::{OrderOutcome, PerceptDelta};
-use serde_json::json;
 use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader};
 use tokio::net::TcpStream;
 
@@ -41,8 +43,8 @@ pub async fn play_remote(
     stream.set_nodelay(true)?;
     let (reader, mut writer) = stream.into_split();
     let mut lines = BufReader::new(reader).lines();
-    let hello = json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": name, "token": token});
-    writer.write_all(format!("{hello}\n").as_bytes()).await?;
+    let hello = ClientMessage::Hello(Hello::agent(name, token.map(str::to_string)));
+    writer.write_all(encode(&hello).as_bytes()).await?;
     let mut told = Observation::default();
     let mut next_action = 0u64;
     // `act` ids are the agent's action numbers, so acks and results map straight back.
@@ -85,16 +87,12 @@ pub async fn play_remote(
                 if decide {
                     told.tick = p.tick;
                     for action in agent.decide(&told) {
-                        let (name, args) = action_to_act(&action);
-                        out += &format!(
-                            "{}\n",
-                            json!({"type": "act", "id": next_action, "action": name, "args": args})
-                        );
+                        out += &encode(&act_message(next_action, &action));
                         next_action += 1;
                     }
                     told = Observation::default();
                 }
-                out += &format!("{}\n", json!({"type": "ready", "tick": p.tick}));
+                out += &encode(&ClientMessage::ready(p.tick));
                 writer.write_all(out.as_bytes()).await?;
             }
             ServerMessage::MatchEnd(end) => return Ok(end.result),
