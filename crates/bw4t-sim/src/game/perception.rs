@@ -139,19 +139,18 @@ impl Match {
         self.refresh_shared();
         let mut own = std::mem::take(&mut self.facts_scratch);
         own.clear();
-        self.own_facts(self.robot(id)?, &mut own);
-        let mut robot = self.robots[id.0 as usize].take()?;
+        // Read with the robot in place (it is large, so it is not moved out), then update.
+        let robot = self.robot(id)?;
+        self.own_facts(robot, &mut own);
         let me = Fact::Player(id.0);
         let not_me = |f: &Fact| *f != me;
         let mut delta = PerceptDelta { tick: self.tick, full, ..PerceptDelta::default() };
         if full || !robot.introduced {
-            delta.add = self.once_percepts(&robot);
-            robot.introduced = true;
+            delta.add = self.once_percepts(robot);
         }
         let shared = &self.shared;
         let (mut added, mut removed) = (Vec::new(), Vec::new());
         if full {
-            robot.left.clear();
             let others: Vec<Fact> = shared.now.iter().copied().filter(not_me).collect();
             merge(&own, &others, &mut added);
         } else {
@@ -172,13 +171,19 @@ impl Match {
             merge(&own_removed, &shared_removed, &mut removed);
         }
         delta.add.extend(added.into_iter().map(|f| self.resolve(f)));
+        let removed: Vec<Percept> = removed.into_iter().map(|f| self.resolve(f)).collect();
+        let told_shared = self.shared.now.clone();
+        let robot = self.robots[id.0 as usize].as_mut()?;
+        robot.introduced = true;
         // Players that left come first, as `player` facts sort first.
         delta.not = std::mem::take(&mut robot.left);
-        delta.not.extend(removed.into_iter().map(|f| self.resolve(f)));
+        if full {
+            delta.not.clear();
+        }
+        delta.not.extend(removed);
         delta.add.append(&mut robot.inbox);
-        robot.told_shared = self.shared.now.clone();
+        robot.told_shared = told_shared;
         std::mem::swap(&mut robot.told, &mut own);
-        self.robots[id.0 as usize] = Some(robot);
         self.facts_scratch = own;
         Some(delta)
     }
