@@ -160,7 +160,7 @@ fn matches_run_on_every_fixture_and_robots_walk_through_a_charging_zone() {
         let map = fixture(file);
         let mut game = Match::new(&map, &MatchConfig::default(), 1).unwrap_or_else(|e| panic!("{file}: {e}"));
         let id = game.join("Alice").unwrap_or_else(|e| panic!("{file}: join: {e}"));
-        game.handle_action(id, Action::GoTo("DropZone".into()))
+        game.handle_action(id, &Action::GoTo("DropZone".into()))
             .unwrap_or_else(|e| panic!("{file}: goTo(DropZone) refused: {e:?}"));
         let in_drop_zone =
             |game: &Match| game.robots().any(|r| r.id == id && r.room == Some(map.drop_zone()));
@@ -178,7 +178,7 @@ fn matches_run_on_every_fixture_and_robots_walk_through_a_charging_zone() {
     let id = game.join("Alice").expect("join");
     let (charger, room) =
         (map.zone_named("Charger").expect("Charger"), map.zone_named("RoomSW").expect("RoomSW"));
-    game.handle_action(id, Action::GoTo("RoomSW".into())).expect("goTo(RoomSW)");
+    game.handle_action(id, &Action::GoTo("RoomSW".into())).expect("goTo(RoomSW)");
     let (mut crossed, mut ticks) = (false, 0);
     let robot = |game: &Match| game.robots().find(|r| r.id == id).expect("robot");
     while robot(&game).room != Some(room) && ticks < 3000 {
@@ -189,7 +189,7 @@ fn matches_run_on_every_fixture_and_robots_walk_through_a_charging_zone() {
     assert_eq!(robot(&game).room, Some(room), "robot did not reach RoomSW in {ticks} ticks");
     assert!(crossed, "the robot never stood in the charging zone");
     // Nobody enters a blockade.
-    let refused = game.handle_action(id, Action::GoTo("Blockade".into())).expect_err("a blockade is entered");
+    let refused = game.handle_action(id, &Action::GoTo("Blockade".into())).expect_err("a blockade is entered");
     assert!(matches!(refused, Rejection::Unreachable(ref place) if place == "Blockade"), "{refused:?}");
 }
 

@@ -68,7 +68,7 @@ fn matches_run_on_every_original_map() {
             .iter()
             .map(|name| game.join(name).unwrap_or_else(|e| panic!("{file}: join {name}: {e}")))
             .collect();
-        game.handle_action(ids[0], Action::GoTo("DropZone".into()))
+        game.handle_action(ids[0], &Action::GoTo("DropZone".into()))
             .unwrap_or_else(|e| panic!("{file}: goTo(DropZone) refused: {e:?}"));
         let in_drop_zone =
             |game: &Match| game.robots().any(|r| r.id == ids[0] && r.room == Some(map.drop_zone()));

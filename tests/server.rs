@@ -115,7 +115,7 @@ async fn a_lockstep_match_has_the_digest_of_the_same_actions_played_headless() {
     for tick in 0..result.ticks {
         for (robot, log) in ids.iter().zip(&logs) {
             for (_, action) in log.iter().filter(|(t, _)| *t == tick) {
-                game.handle_action(*robot, action.clone()).expect("accepted as when served");
+                game.handle_action(*robot, action).expect("accepted as when served");
             }
         }
         game.step();

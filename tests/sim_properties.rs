@@ -90,7 +90,7 @@ fn each_message_is_delivered_exactly_once() {
             Some(r) => Receiver::Player(format!("P{r}")),
             None => Receiver::All,
         };
-        game.handle_action(ids[sender], Action::SendMessage { to: receiver, text: text.clone() }).ok();
+        game.handle_action(ids[sender], &Action::SendMessage { to: receiver, text: text.clone() }).ok();
         for (r, list) in expected.iter_mut().enumerate() {
             if r != sender && to.is_none_or(|t| t == r) {
                 list.push(format!("P{sender}:{text}"));

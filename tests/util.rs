@@ -106,7 +106,7 @@ impl Scenario {
 
     fn act(&mut self, name: &str, action: Action) {
         let result =
-            self.game.handle_action(self.id(name), action).map(|_| ()).map_err(|r| r.code().to_string());
+            self.game.handle_action(self.id(name), &action).map(|_| ()).map_err(|r| r.code().to_string());
         self.last.insert(name.to_string(), result);
     }
 

@@ -144,7 +144,7 @@ impl Match {
         action: &Action,
         journal: &mut impl Journal,
     ) -> Result<Accepted, Rejection> {
-        let outcome = self.handle_action(robot, action.clone());
+        let outcome = self.handle_action(robot, action);
         journal.applied(self.tick(), Applied::Act { robot, action, ok: outcome.is_ok() });
         outcome
     }
@@ -174,7 +174,7 @@ impl Match {
             Applied::Leave { robot } => self.leave(robot).map_err(|e| e.to_string()),
             Applied::Stop { robot } => self.stop(robot).map_err(|e| e.to_string()),
             Applied::Act { robot, action, ok } => {
-                let got = self.handle_action(robot, action.clone()).is_ok();
+                let got = self.handle_action(robot, action).is_ok();
                 if got == ok {
                     Ok(())
                 } else {

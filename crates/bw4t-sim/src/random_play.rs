@@ -75,7 +75,7 @@ impl RandomPlay {
                     Action::PutDown => &mut self.accepted.put_downs,
                     Action::SendMessage { .. } => &mut self.accepted.messages,
                 };
-                if game.handle_action(robot.id, action).is_ok() {
+                if game.handle_action(robot.id, &action).is_ok() {
                     *counter += 1;
                     accepted += 1;
                 }

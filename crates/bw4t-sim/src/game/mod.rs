@@ -513,8 +513,8 @@ mod tests {
         let mut calm = game();
         let ann = churned.join("Ann").expect("Ann");
         assert_eq!(calm.join("Ann"), Ok(ann));
-        churned.handle_action(ann, Action::GoTo("RoomA".into())).expect("go");
-        calm.handle_action(ann, Action::GoTo("RoomA".into())).expect("go");
+        churned.handle_action(ann, &Action::GoTo("RoomA".into())).expect("go");
+        calm.handle_action(ann, &Action::GoTo("RoomA".into())).expect("go");
         // One churner, so the footprint has its largest size from the start.
         let first = churned.join("Guest0").expect("guest");
         churned.leave(first).expect("leave");
@@ -522,7 +522,7 @@ mod tests {
         for i in 1..3000 {
             let guest = churned.join(&format!("Guest{i}")).expect("guest");
             assert_eq!(guest, first, "a freed id is given again");
-            churned.handle_action(guest, Action::GoTo("DropZone".into())).expect("go");
+            churned.handle_action(guest, &Action::GoTo("DropZone".into())).expect("go");
             churned.step();
             calm.step();
             churned.poll_percepts(ann);

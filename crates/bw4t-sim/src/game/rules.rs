@@ -26,23 +26,23 @@ impl Match {
     }
 
     /// Applies one action now. Durative actions are answered later by a [`StepReport`](super::StepReport).
-    pub fn handle_action(&mut self, id: RobotId, action: Action) -> Result<Accepted, Rejection> {
+    pub fn handle_action(&mut self, id: RobotId, action: &Action) -> Result<Accepted, Rejection> {
         let robot = self.robot(id).ok_or(Rejection::UnknownRobot(id))?;
         let (from, room) = (robot.at, robot.room);
         match action {
             Action::GoTo(place) => {
                 let zone =
-                    self.map.zone_named(&place).ok_or_else(|| Rejection::UnknownPlace(place.clone()))?;
+                    self.map.zone_named(place).ok_or_else(|| Rejection::UnknownPlace(place.clone()))?;
                 let target = self.nav.centre(zone);
-                self.start_order(id, from, zone, target).ok_or(Rejection::Unreachable(place))
+                self.start_order(id, from, zone, target).ok_or_else(|| Rejection::Unreachable(place.clone()))
             }
-            Action::GoToBlock(block) => {
+            &Action::GoToBlock(block) => {
                 let (zone, pos) = self.visible_block(block, room)?;
                 let target = self.nav.standable(zone, pos);
                 self.start_order(id, from, zone, target)
                     .ok_or_else(|| Rejection::Unreachable(block.to_string()))
             }
-            Action::PickUp(block) => self.pick_up(id, block),
+            &Action::PickUp(block) => self.pick_up(id, block),
             Action::PutDown => self.put_down(id),
             Action::SendMessage { to, text } => self.send_message(id, to, text),
         }
@@ -197,9 +197,9 @@ impl Match {
         })
     }
 
-    fn send_message(&mut self, id: RobotId, to: Receiver, text: String) -> Result<Accepted, Rejection> {
+    fn send_message(&mut self, id: RobotId, to: &Receiver, text: &str) -> Result<Accepted, Rejection> {
         let from = self.robot(id).ok_or(Rejection::UnknownRobot(id))?.name.clone();
-        let receivers: Vec<usize> = match &to {
+        let receivers: Vec<usize> = match to {
             Receiver::All => self.live_robots().filter(|r| r.id != id).map(|r| r.id.0 as usize).collect(),
             Receiver::Player(name) => {
                 let target = self.live_robots().find(|r| &*r.name == name.as_str() && r.id != id);
