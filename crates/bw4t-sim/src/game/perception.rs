@@ -172,7 +172,6 @@ impl Match {
         }
         delta.add.extend(added.into_iter().map(|f| self.resolve(f)));
         let removed: Vec<Percept> = removed.into_iter().map(|f| self.resolve(f)).collect();
-        let told_shared = self.shared.now.clone();
         let robot = self.robots[id.0 as usize].as_mut()?;
         robot.introduced = true;
         // Players that left come first, as `player` facts sort first.
@@ -182,7 +181,9 @@ impl Match {
         }
         delta.not.extend(removed);
         delta.add.append(&mut robot.inbox);
-        robot.told_shared = told_shared;
+        if !Arc::ptr_eq(&robot.told_shared, &self.shared.now) {
+            robot.told_shared = self.shared.now.clone();
+        }
         std::mem::swap(&mut robot.told, &mut own);
         self.facts_scratch = own;
         Some(delta)
