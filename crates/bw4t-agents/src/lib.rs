@@ -5,6 +5,7 @@
 mod baseline;
 mod coop;
 mod drive;
+mod seat;
 mod view;
 
 use bw4t_sim::{Action, OrderOutcome, PerceptDelta};
@@ -12,6 +13,7 @@ use bw4t_sim::{Action, OrderOutcome, PerceptDelta};
 pub use baseline::Baseline;
 pub use coop::Cooperative;
 pub use drive::{Driver, Team};
+pub use seat::SeatSpec;
 
 /// The outcome of one of the agent's actions, numbered in the order the agent returned
 /// them (0, 1, 2, ... over the whole match).

@@ -7,40 +7,13 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
+pub use bw4t_agents::SeatSpec;
 use bw4t_agents::Strategy;
 use bw4t_map::Map;
 use bw4t_protocol::{AgentStatus, MatchResult, Mode};
 use bw4t_server::{Extras, Seat, ServerConfig};
 use bw4t_sim::MatchConfig;
 use serde::Serialize;
-
-/// Who plays a seat.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum SeatSpec {
-    /// A built-in agent.
-    Builtin {
-        /// Player name.
-        name: String,
-        /// Its strategy.
-        strategy: Strategy,
-    },
-    /// A program, started with `sh -c COMMAND`.
-    External {
-        /// Player name.
-        name: String,
-        /// The command line.
-        command: String,
-    },
-}
-
-impl SeatSpec {
-    /// The player's name.
-    pub fn name(&self) -> &str {
-        match self {
-            SeatSpec::Builtin { name, .. } | SeatSpec::External { name, .. } => name,
-        }
-    }
-}
 
 /// How an agent fared.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize)]

@@ -14,7 +14,7 @@ use bw4t_protocol::{AgentStatus, EndReason, MatchResult};
 use bw4t_sim::MatchConfig;
 use bw4t_tournament::{
     Machine, Manifest, ManifestError, MapLimit, Planned, ReplayPolicy, Resolved, Row, Setup, Shard, Summary,
-    TeamSeat, seats, summarize,
+    seats, summarize,
 };
 
 use crate::external::{AgentReport, SeatSpec, ServedRun, play_served};
@@ -424,7 +424,6 @@ fn play_one(
     let buffer = SharedBuffer::default();
     let want_replay = options.replays != ReplayPolicy::None;
     let played: Result<(MatchResult, Vec<AgentReport>), String> = seats(team).and_then(|seats| {
-        let seats: Vec<SeatSpec> = seats.into_iter().map(SeatSpec::from).collect();
         let external = seats.iter().any(|s| matches!(s, SeatSpec::External { .. }));
         if external {
             let log_dir = options.out.join("logs").join(file_safe(&p.key));
@@ -510,15 +509,6 @@ impl Write for SharedBuffer {
 
     fn flush(&mut self) -> std::io::Result<()> {
         Ok(())
-    }
-}
-
-impl From<TeamSeat> for SeatSpec {
-    fn from(seat: TeamSeat) -> SeatSpec {
-        match seat {
-            TeamSeat::Builtin { name, strategy } => SeatSpec::Builtin { name, strategy },
-            TeamSeat::External { name, command } => SeatSpec::External { name, command },
-        }
     }
 }
 

@@ -3,7 +3,7 @@
 use std::fmt;
 use std::str::FromStr;
 
-use bw4t_agents::Strategy;
+use bw4t_agents::{SeatSpec, Strategy};
 use serde::{Deserialize, Serialize};
 
 /// Seeds as a count (derived from the master seed) or an explicit list.
@@ -304,28 +304,9 @@ impl From<Shard> for String {
     }
 }
 
-/// Who plays one robot of a team.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum TeamSeat {
-    /// A built-in agent.
-    Builtin {
-        /// Player name.
-        name: String,
-        /// Its strategy.
-        strategy: Strategy,
-    },
-    /// A program, run once for this robot.
-    External {
-        /// Player name.
-        name: String,
-        /// The command line.
-        command: String,
-    },
-}
-
 /// The seats of a team, in robot order: built-in ones named `Bot1`, `Bot2`, ..., external
 /// ones `Agent1`, `Agent2`, ..., each kind counted on its own (as `bw4t run` names them).
-pub fn seats(team: &Team) -> Result<Vec<TeamSeat>, String> {
+pub fn seats(team: &Team) -> Result<Vec<SeatSpec>, String> {
     let entries: Vec<&str> = match &team.agents {
         Agents::Each(entry) => vec![entry.as_str(); team.robots],
         Agents::PerRobot(list) => list.iter().map(String::as_str).collect(),
@@ -336,10 +317,10 @@ pub fn seats(team: &Team) -> Result<Vec<TeamSeat>, String> {
         let entry = entry.trim();
         if let Some(strategy) = builtin_strategy(entry).map_err(|e| format!("team '{}': {e}", team.name))? {
             bots += 1;
-            out.push(TeamSeat::Builtin { name: format!("Bot{bots}"), strategy });
+            out.push(SeatSpec::Builtin { name: format!("Bot{bots}"), strategy });
         } else {
             externals += 1;
-            out.push(TeamSeat::External { name: format!("Agent{externals}"), command: entry.to_string() });
+            out.push(SeatSpec::External { name: format!("Agent{externals}"), command: entry.to_string() });
         }
     }
     Ok(out)
@@ -469,9 +450,9 @@ mod tests {
         assert_eq!(
             seats,
             [
-                TeamSeat::Builtin { name: "Bot1".into(), strategy: Strategy::Cooperative },
-                TeamSeat::External { name: "Agent1".into(), command: "python3 a.py".into() },
-                TeamSeat::Builtin { name: "Bot2".into(), strategy: Strategy::Baseline },
+                SeatSpec::Builtin { name: "Bot1".into(), strategy: Strategy::Cooperative },
+                SeatSpec::External { name: "Agent1".into(), command: "python3 a.py".into() },
+                SeatSpec::Builtin { name: "Bot2".into(), strategy: Strategy::Baseline },
             ]
         );
         let wrong = text.replace("\"builtin:baseline\"]", "\"builtin:baseline\"]\n        robots = 2");

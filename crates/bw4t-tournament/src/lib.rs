@@ -15,8 +15,8 @@ mod stats;
 mod words;
 
 pub use config::{
-    Agents, ConfigError, Planned, Resolved, Seeds, Shard, ShardError, Team, TeamConfig, TeamSeat,
-    TournamentConfig, builtin_strategy, derive_seeds, seats,
+    Agents, ConfigError, Planned, Resolved, Seeds, Shard, ShardError, Team, TeamConfig, TournamentConfig,
+    builtin_strategy, derive_seeds, seats,
 };
 pub use manifest::{Machine, Manifest, ManifestError, ReplayPolicy};
 pub use row::{CSV_COLUMNS, Row};
