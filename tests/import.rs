@@ -189,7 +189,8 @@ fn matches_run_on_every_fixture_and_robots_walk_through_a_charging_zone() {
     assert_eq!(robot(&game).room, Some(room), "robot did not reach RoomSW in {ticks} ticks");
     assert!(crossed, "the robot never stood in the charging zone");
     // Nobody enters a blockade.
-    let refused = game.handle_action(id, &Action::GoTo("Blockade".into())).expect_err("a blockade is entered");
+    let refused =
+        game.handle_action(id, &Action::GoTo("Blockade".into())).expect_err("a blockade is entered");
     assert!(matches!(refused, Rejection::Unreachable(ref place) if place == "Blockade"), "{refused:?}");
 }
 
