@@ -20,9 +20,15 @@ pub(crate) struct Navigator {
     rects: Vec<Rect>,
     walled: Vec<bool>,
     doors: Vec<Vec<bw4t_map::Door>>,
-    /// `toward[to][from]`: the zone after `from` on a shortest route to `to`.
-    toward: Vec<Vec<Option<u32>>>,
+    /// `toward[to * zones + from]`: the zone after `from` on a shortest route to `to`, or
+    /// [`NO_ROUTE`]. One flat table of `u16` (maps have at most `MAX_ZONES` zones), as it
+    /// grows with the square of the zones.
+    toward: Vec<u16>,
 }
+
+/// No route in [`Navigator::toward`].
+const NO_ROUTE: u16 = u16::MAX;
+const _: () = assert!(bw4t_map::MAX_ZONES < NO_ROUTE as usize, "zone indices must fit below NO_ROUTE");
 
 impl Navigator {
     /// Routes for every pair of zones; blockades and doorless walled zones are never used.
@@ -39,7 +45,10 @@ impl Navigator {
                 near.map(|&b| (b, centres[a].distance(centres[b]))).collect()
             })
             .collect();
-        let toward = (0..zones.len()).map(|to| routes_to(to, &edges, usable[to])).collect();
+        let mut toward = vec![NO_ROUTE; zones.len() * zones.len()];
+        for (to, row) in toward.chunks_exact_mut(zones.len().max(1)).enumerate() {
+            routes_to(to, &edges, usable[to], row);
+        }
         Navigator {
             centres,
             rects: zones.iter().map(|z| z.rect).collect(),
@@ -65,11 +74,12 @@ impl Navigator {
         out.clear();
         let mut here = from;
         while here != to {
-            let Some(next) = self.toward[to][here] else {
+            let next = self.toward[to * self.centres.len() + here];
+            if next == NO_ROUTE {
                 out.clear();
                 return false;
-            };
-            let next = next as usize;
+            }
+            let next = usize::from(next);
             if self.walled[here] {
                 let (door, inward) = self.door_towards(here, next);
                 out.extend([door + inward * DOOR_APPROACH, door - inward * DOOR_APPROACH]);
@@ -100,13 +110,13 @@ impl Navigator {
     }
 }
 
-/// Dijkstra from `to` over undirected `edges`: for every zone, the next zone towards `to`.
-fn routes_to(to: usize, edges: &[Vec<(usize, f32)>], usable: bool) -> Vec<Option<u32>> {
+/// Dijkstra from `to` over undirected `edges`: fills `next` with, for every zone, the next
+/// zone towards `to` (left [`NO_ROUTE`] where there is none).
+fn routes_to(to: usize, edges: &[Vec<(usize, f32)>], usable: bool, next: &mut [u16]) {
     let n = edges.len();
     let mut dist = vec![f32::INFINITY; n];
-    let mut next = vec![None; n];
     if !usable {
-        return next;
+        return;
     }
     dist[to] = 0.0;
     let mut heap = BinaryHeap::from([Entry { cost: 0.0, zone: to }]);
@@ -119,12 +129,11 @@ fn routes_to(to: usize, edges: &[Vec<(usize, f32)>], usable: bool) -> Vec<Option
             // Strictly shorter only, so equal-length routes resolve by a fixed order.
             if through < dist[other] {
                 dist[other] = through;
-                next[other] = Some(zone as u32);
+                next[other] = zone as u16;
                 heap.push(Entry { cost: through, zone: other });
             }
         }
     }
-    next
 }
 
 /// A heap entry ordered by lowest cost first, then lowest zone index.
