@@ -450,13 +450,30 @@ fn bench_match_reports_matches_per_second() {
 }
 
 #[test]
-fn bench_scale_reports_ticks_per_second_with_100_robots() {
-    let line = json_of(&bw4t(&["bench", "scale", "--scale-ticks", "20"]));
+fn bench_scale_reports_ticks_per_second_on_small_and_largest_maps() {
+    let out = bw4t(&["bench", "scale", "--scale-ticks", "20"]);
+    let lines: Vec<Value> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("{e}: {l}")))
+        .collect();
+    let cases: Vec<(Option<&str>, Option<u64>, Option<u64>, Option<u64>)> = lines
+        .iter()
+        .map(|l| (l["case"].as_str(), l["rooms"].as_u64(), l["robots"].as_u64(), l["ticks"].as_u64()))
+        .collect();
+    let largest = (bw4t_map::MAX_ROWS * bw4t_map::MAX_COLUMNS) as u64;
     assert_eq!(
-        (line["case"].as_str(), line["robots"].as_u64(), line["ticks"].as_u64()),
-        (Some("scale"), Some(100), Some(20))
+        cases,
+        [
+            (Some("scale"), Some(100), Some(100), Some(20)),
+            (Some("scale"), Some(largest), Some(10), Some(20)),
+            (Some("scale"), Some(largest), Some(30), Some(20)),
+            (Some("scale"), Some(largest), Some(100), Some(20)),
+        ]
     );
-    assert!(line["ticks_per_s"].as_f64().is_some_and(|t| t > 0.0), "{line}");
+    for line in &lines {
+        assert!(line["ticks_per_s"].as_f64().is_some_and(|t| t > 0.0), "{line}");
+        assert!(line["ms_per_tick"].as_f64().is_some_and(|t| t > 0.0), "{line}");
+    }
 }
 
 /// Runs `bw4t ARGS` with extra environment variables, bounded like [`bw4t`].
