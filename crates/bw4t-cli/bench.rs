@@ -51,8 +51,8 @@ enum Case {
     /// Whole default-map matches played headless by the built-in team of 3, one thread.
     Match,
     /// Generated maps with many robots kept moving, every robot polled every tick: 100
-    /// robots on 10 x 10 rooms, and 10, 30 and 100 on the largest generated map
-    /// (`MAX_ROWS` x `MAX_COLUMNS` rooms). One thread.
+    /// robots on 10 x 10 rooms, and 10, 30 and 100 on the largest map `bw4t map generate`
+    /// makes. One thread.
     Scale,
 }
 

@@ -135,6 +135,7 @@ impl Match {
     }
 
     fn percepts(&mut self, id: RobotId, full: bool) -> Option<PerceptDelta> {
+        // Before the scratch list is taken, so an unknown robot leaves it in place.
         self.robot(id)?;
         self.refresh_shared();
         let mut own = std::mem::take(&mut self.facts_scratch);
@@ -174,10 +175,10 @@ impl Match {
         let removed: Vec<Percept> = removed.into_iter().map(|f| self.resolve(f)).collect();
         let robot = self.robots[id.0 as usize].as_mut()?;
         robot.introduced = true;
-        // Players that left come first, as `player` facts sort first.
-        delta.not = std::mem::take(&mut robot.left);
-        if full {
-            delta.not.clear();
+        // Players that left come first, as `player` facts sort first; a snapshot has no `not`.
+        let left = std::mem::take(&mut robot.left);
+        if !full {
+            delta.not = left;
         }
         delta.not.extend(removed);
         delta.add.append(&mut robot.inbox);
