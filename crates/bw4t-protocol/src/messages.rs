@@ -76,6 +76,13 @@ pub struct Hello {
     /// Send a `percepts` message every tick, even an empty one (lockstep waits for each).
     #[serde(default, skip_serializing_if = "is_false")]
     pub every_tick: bool,
+    /// The live match to join, by name (any role). Without it and `template`: the server's
+    /// default match. A reconnecting player names the match its session belongs to.
+    #[serde(default, rename = "match", skip_serializing_if = "Option::is_none")]
+    pub match_name: Option<String>,
+    /// Agents: the template whose next match with a free seat to join (queued until one has).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub template: Option<String>,
 }
 
 impl Hello {
@@ -89,6 +96,8 @@ impl Hello {
             token,
             session: None,
             every_tick: false,
+            match_name: None,
+            template: None,
         }
     }
 }
@@ -169,6 +178,9 @@ pub enum ServerMessage {
     Bye(ServerBye),
     /// Spectators: the whole state of the match.
     Frame(Frame),
+    /// Before the first tick: who is in the match and how many it still waits for; or,
+    /// before `welcome`, the player's place in a template's queue.
+    Lobby(Lobby),
 }
 
 /// `welcome`.
@@ -216,6 +228,12 @@ impl Mode {
 /// The match a client joined.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct MatchInfo {
+    /// The match's name on the server (the `match` of a later `hello`).
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub name: String,
+    /// The template the match was made from, if any.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub template: Option<String>,
     /// The map's name.
     pub map: String,
     /// The match seed.
@@ -234,6 +252,33 @@ pub struct MatchInfo {
     pub max_ticks: Option<u64>,
     /// Whether this client gets `percepts` every tick.
     pub every_tick: bool,
+}
+
+/// `lobby`: a match waiting for its players, as its connections see it.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+pub struct Lobby {
+    /// The match's name; absent while the player is queued for a template.
+    #[serde(default, rename = "match", skip_serializing_if = "Option::is_none")]
+    pub match_name: Option<String>,
+    /// The template the match comes from, or the one queued for.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub template: Option<String>,
+    /// The players in the match now, built-in agents included, in robot order.
+    #[serde(default)]
+    pub players: Vec<String>,
+    /// How many more players the match waits for before its first tick.
+    #[serde(default)]
+    pub awaited: usize,
+    /// The match starts anyway in this many milliseconds (empty seats filled by built-in
+    /// teammates when its template says so).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start_in_ms: Option<u64>,
+    /// Before `welcome`: the player's place in the template's queue (1: next).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub queued: Option<usize>,
+    /// The match has started: the last `lobby` a connection gets.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub started: bool,
 }
 
 /// `percepts`.

@@ -101,6 +101,12 @@ words! {
         TooSlow = "too_slow",
         /// The player missed too many deadlines in a row.
         Unresponsive = "unresponsive",
+        /// `hello.match` names no live match.
+        UnknownMatch = "unknown_match",
+        /// `hello.template` names no template of the server.
+        UnknownTemplate = "unknown_template",
+        /// The match failed inside the server and was ended; other matches go on.
+        MatchFailed = "match_failed",
     }
 }
 
@@ -219,7 +225,8 @@ words! {
         MaxTicks = "max_ticks",
         /// The server was stopped, or the run interrupted.
         Interrupted = "interrupted",
-        /// The match could not be played (tournament rows only; the row's `error` says why).
+        /// The match could not be played, or failed inside the server (a row's or the
+        /// index's `error` says why).
         Error = "error",
     }
 }

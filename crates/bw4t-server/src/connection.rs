@@ -53,6 +53,17 @@ pub(crate) enum Event {
     BadInput { conn: ConnId },
     /// The connection is gone.
     Closed { conn: ConnId },
+    /// From the server, not a connection.
+    Control(Control),
+}
+
+/// What the server asks of a match.
+#[derive(Debug)]
+pub(crate) enum Control {
+    /// Where the match is.
+    Status(tokio::sync::oneshot::Sender<crate::HostStatus>),
+    /// End it now (`interrupted`).
+    Stop,
 }
 
 /// How many connections the kernel may hold for a listener before they are accepted. The

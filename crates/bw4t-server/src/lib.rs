@@ -9,10 +9,12 @@
 mod connection;
 mod host;
 mod http;
+mod lateness;
 mod websocket;
 
 pub use connection::{ConnId, LISTEN_BACKLOG, listen};
-pub use host::{HostEvent, MatchHost, QueueRoom, Transmit};
+pub use host::{HostEvent, HostStatus, MatchHost, QueueRoom, Transmit};
+pub use lateness::TickLateness;
 pub use http::{FrameSource, MAX_REQUESTS, Site, serve_site};
 pub use websocket::parse_origin;
 
@@ -30,6 +32,14 @@ use tokio::sync::mpsc;
 /// How a served match runs.
 #[derive(Clone, Debug)]
 pub struct ServerConfig {
+    /// The match's name on the server (`hello.match`, `welcome.match.name`).
+    pub name: String,
+    /// The template the match was made from, if any.
+    pub template: Option<String>,
+    /// At the start timeout, seat built-in agents of this strategy in the empty seats.
+    pub fill: Option<bw4t_agents::Strategy>,
+    /// Where realtime ticks' lateness is counted, if anywhere.
+    pub lateness: Option<Arc<TickLateness>>,
     /// The map.
     pub map: Map,
     /// The match seed.
@@ -85,6 +95,10 @@ impl ServerConfig {
     /// Defaults for everything but the map.
     pub fn new(map: Map) -> Self {
         ServerConfig {
+            name: DEFAULT_MATCH.to_string(),
+            template: None,
+            fill: None,
+            lateness: None,
             map,
             seed: 0,
             game: MatchConfig::default(),
@@ -111,6 +125,9 @@ impl ServerConfig {
         }
     }
 }
+
+/// The name of the match that clients naming none join.
+pub const DEFAULT_MATCH: &str = "default";
 
 /// How often a served match's replay records a digest, in ticks.
 pub const REPLAY_DIGEST_EVERY: u64 = 100;
@@ -160,6 +177,9 @@ pub enum ServerError {
     /// Two roles were given the same token, so one role's secret would open the other's.
     #[error("the {0} and {1} tokens must differ")]
     SameToken(&'static str, &'static str),
+    /// The match failed inside the server (a panic), with its message.
+    #[error("the match failed: {0}")]
+    Failed(String),
 }
 
 /// Serves one match on `listener` until it ends (sequence complete, `max_ticks`, or
@@ -196,10 +216,10 @@ pub async fn serve_with(
         tokio::spawn(http::serve(listener, site, http::MAX_REQUESTS, Some(Arc::new(live))))
     });
     let acceptor = tokio::spawn(connection::accept_loop(listener, config, events_tx, ids));
-    let result = host::driver::run(host, events_rx, extras.gone_seats.take(), shutdown).await;
+    let outcome = host::driver::run(host, events_rx, extras.gone_seats.take(), shutdown).await;
     acceptor.abort();
     if let Some(site) = site {
         site.abort();
     }
-    Ok(result)
+    outcome.map_err(ServerError::Failed)
 }

@@ -1,6 +1,7 @@
 // The WebSocket at /ws: protocol/PROTOCOL.md unchanged, one JSON message per text frame.
 
 import { params } from './dom.js';
+import { page } from './page.js';
 
 /** The address of /ws on the server that served the page (`wss:` under HTTPS). */
 function socketUrl() {
@@ -42,10 +43,21 @@ export function openSocket(hello, onMessage, onClose) {
 /** The URL parameter holding each role's credential (PROTOCOL.md, Roles). */
 export const TOKEN_PARAMS = { agent: 'token', spectator: 'spectator_token', operator: 'operator_token' };
 
-/** A `hello` with the credential of its role from the page's address, if given. */
+/** Where the lobby keeps the operator token typed into it, for this tab only. */
+export const OPERATOR_TOKEN_KEY = 'bw4t-operator-token';
+
+/** The operator token: `?operator_token=`, else (on a lobby server) the one typed into
+ * the lobby in this tab. */
+export function operatorToken() {
+  return params.get(TOKEN_PARAMS.operator) || (page.lobby ? sessionStorage.getItem(OPERATOR_TOKEN_KEY) : null) || null;
+}
+
+/** A `hello` with the credential of its role from the page's address (the operator's
+ * also from the lobby), if given. */
 export function helloFor(extra) {
   const hello = { type: 'hello', protocol: 'bw4t', versions: [1], ...extra };
-  const token = params.get(TOKEN_PARAMS[extra.role || 'agent']);
+  const role = extra.role || 'agent';
+  const token = role === 'operator' ? operatorToken() : params.get(TOKEN_PARAMS[role]);
   if (token) hello.token = token;
   return hello;
 }

@@ -1,7 +1,7 @@
 // Small helpers for the document and the server: the page's address parameters, finding
 // and making elements, fetching JSON.
 
-/** The page's address parameters (`?play=`, the tokens, the replay's `tick` and `speed`). */
+/** The page's address parameters (`?match=`, `?play=`, the tokens, the replay's `tick` and `speed`). */
 export const params = new URLSearchParams(location.search);
 
 export const $ = (selector) => document.querySelector(selector);
@@ -24,6 +24,19 @@ export function el(tag, attrs = {}, ...children) {
 export function setText(node, text) {
   const s = String(text);
   if (node.textContent !== s) node.textContent = s;
+}
+
+/** The credentials a page's address may carry, kept in links to the page's other views. */
+const CREDENTIAL_PARAMS = ['token', 'spectator_token', 'operator_token'];
+
+/** The address of another view of this page: this address's credentials plus `changes`
+ * (say `{match: 'team-a'}` or `{template: 'ladder', play: 'Ann'}`). */
+export function linkTo(changes = {}) {
+  const next = new URLSearchParams();
+  for (const key of CREDENTIAL_PARAMS) if (params.has(key)) next.set(key, params.get(key));
+  for (const [key, value] of Object.entries(changes)) if (value) next.set(key, value);
+  const query = next.toString();
+  return query ? `/?${query}` : '/';
 }
 
 export async function fetchJSON(url) {

@@ -1,8 +1,14 @@
 // What the page is showing: one state object, so that the drawing loop and the panels
-// read the same state whatever the view, and the switch between views.
+// read the same state whatever the view, the switch between views, and the map shown.
+
+import { $, fetchJSON, setText } from './dom.js';
+import { buildMap } from './geometry.js';
+import { Renderer } from './renderer.js';
 
 export const page = {
-  view: 'loading', // 'spectator' | 'player' | 'replay'
+  view: 'loading', // 'lobby' | 'spectator' | 'player' | 'replay'
+  lobby: false, // the server hosts many matches (`/info.json` says `"lobby": true`)
+  matchName: null, // the match shown, by name: `?match=` or `welcome.match.name` (lobby servers only)
   map: null, // the geometry (geometry.js)
   renderer: null, // the Renderer (renderer.js)
   match: null, // welcome.match
@@ -22,5 +28,18 @@ export function setView(view) {
     node.hidden = !node.dataset.views.split(' ').includes(view);
   }
   page.renderer?.resize();
+  page.dirty = true;
+}
+
+/** Fetches a match's map (`/map.json?match=NAME`; the default match's without a name) and
+ * draws it from now on. */
+export async function loadMap(matchName, fallbackName = '?') {
+  const url = matchName ? `/map.json?match=${encodeURIComponent(matchName)}` : '/map.json';
+  const json = await fetchJSON(url);
+  page.map = buildMap(json);
+  setText($('#map-name'), json.name || fallbackName);
+  const canvas = $('#map');
+  canvas.hidden = false;
+  page.renderer = new Renderer(canvas, page.map);
   page.dirty = true;
 }

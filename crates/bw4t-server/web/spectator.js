@@ -6,22 +6,26 @@ import { page, setView } from './page.js';
 import { zoneAt } from './geometry.js';
 import { colourCss } from './renderer.js';
 import { addMessage, endMatch, setStatus, setTick, setWatchNote, showMatch, showSequence } from './panels.js';
-import { TOKEN_PARAMS, helloFor, openSocket } from './connection.js';
+import { TOKEN_PARAMS, helloFor, openSocket, operatorToken } from './connection.js';
+import { hideWaiting, showLobby } from './waiting.js';
 
 export const spectator = {
   socket: null,
   frame: null, // the latest frame: the whole state of the match
 };
 
-/** Joins /ws as a spectator (as the operator with `?operator_token=`) and shows its frames. */
+/** Joins /ws as a spectator (as the operator with the operator token) and shows its frames:
+ * of the match `page.matchName`, or the server's default match. */
 export function startSpectator() {
   setView('spectator');
   setStatus('connecting');
   setWatchNote('');
+  hideWaiting();
   // With the operator token the overview shows every message; else it is a spectator's.
-  const role = params.get('operator_token') ? 'operator' : 'spectator';
+  const role = operatorToken() ? 'operator' : 'spectator';
+  const hello = helloFor(page.matchName ? { role, match: page.matchName } : { role });
   const socket = openSocket(
-    helloFor({ role }),
+    hello,
     (message) => {
       if (spectator.socket !== socket) return; // the player view took over
       switch (message.type) {
@@ -30,10 +34,15 @@ export function startSpectator() {
           setStatus('connected');
           if (message.private_messages === false) setWatchNote('Messages to one player are not shown to spectators.');
           break;
+        case 'lobby':
+          showLobby(message); // the match waits for its players
+          break;
         case 'frame':
+          hideWaiting();
           showFrame(message);
           break;
         case 'match_end':
+          hideWaiting();
           endMatch(message);
           break;
         case 'error':
@@ -42,6 +51,7 @@ export function startSpectator() {
           if (message.code === 'bad_token') {
             setWatchNote(`Cannot watch: ${message.message}. Open the page with ?${TOKEN_PARAMS[role]}=SECRET to watch; joining as a player needs ?token=SECRET.`);
           }
+          if (message.code === 'unknown_match') setWatchNote(`Cannot watch: ${message.message}.`);
           break;
         default:
           break; // bye, pong: nothing to show

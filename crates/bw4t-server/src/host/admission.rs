@@ -47,6 +47,9 @@ impl MatchHost {
         if let Err(message) = self.check_token(hello) {
             return self.error(conn, ErrorCode::BadToken, message, true);
         }
+        if let Some(c) = self.conns.get_mut(&conn) {
+            c.lobby = hello.match_name.is_some() || hello.template.is_some();
+        }
         let sight = match hello.role {
             Role::Agent => None,
             Role::Spectator if !self.config.spectators_see_private => Some(Sight::Public),
@@ -169,6 +172,8 @@ impl MatchHost {
             session: player.map(|p| p.session.clone()),
             private_messages: private,
             match_info: MatchInfo {
+                name: self.config.name.clone(),
+                template: self.config.template.clone(),
                 map: self.game.map().name().to_string(),
                 seed: self.config.seed,
                 mode: self.config.mode,
@@ -181,6 +186,9 @@ impl MatchHost {
             },
         };
         self.send(conn, &ServerMessage::Welcome(welcome));
+        // Whoever arrives at a waiting match is told who is there (and the others that
+        // someone came).
+        self.lobby_changed |= matches!(self.phase, super::Phase::Waiting { .. });
     }
 }
 

@@ -1,5 +1,7 @@
 //! The tokio driver of a [`MatchHost`]: owns the event channel, the connections' queues
-//! and the timer, and does nothing but carry events in and transmits out.
+//! and the timer, and does nothing but carry events in and transmits out. A panic inside
+//! the host ends this match only: its connections get `match_failed` and the caller the
+//! panic's message.
 
 use std::collections::BTreeMap;
 use std::future::Future;
@@ -9,8 +11,10 @@ use bw4t_protocol::MatchResult;
 use tokio::sync::{Notify, mpsc, watch};
 use tokio::time::{Duration, Instant};
 
+use bw4t_protocol::ErrorCode;
+
 use super::{HostEvent, MatchHost, QueueRoom, Transmit};
-use crate::connection::{ConnId, Event, Opened, Outbound};
+use crate::connection::{Control, ConnId, Event, Opened, Outbound, bye_line, error_line};
 
 /// Capacity of the channel from connections to the match task.
 pub(crate) const EVENT_QUEUE: usize = 4096;
@@ -37,67 +41,82 @@ struct Handles {
     done: watch::Receiver<bool>,
 }
 
+/// How a served match ended inside the server.
+pub(crate) type Outcome = Result<MatchResult, String>;
+
 /// Runs `host` to its end on the events from `events` (and names of reserved seats whose
 /// player will not come from `gone_seats`), or until `shutdown`; returns the result once
-/// every client's queue has drained (or [`FLUSH_LIMIT`] has passed).
+/// every client's queue has drained (or [`FLUSH_LIMIT`] has passed), or why the host failed.
 pub(crate) async fn run(
     mut host: MatchHost,
     mut events: mpsc::Receiver<Event>,
     mut gone_seats: Option<mpsc::Receiver<String>>,
     shutdown: impl Future<Output = ()>,
-) -> MatchResult {
+) -> Outcome {
     tokio::pin!(shutdown);
     let mut handles: BTreeMap<ConnId, Handles> = BTreeMap::new();
     let mut closing: Vec<watch::Receiver<bool>> = Vec::new();
-    let mut back_to_back = 0u64;
-    loop {
-        flush(&mut host, &mut handles, &mut closing);
-        if host.is_over() {
-            break;
-        }
-        let timeout = host.poll_timeout();
-        let now = Instant::now();
-        if timeout.is_some_and(|t| t <= now.into_std()) {
-            // Take in what has arrived, without waiting for anyone, before the boundary.
-            while let Ok(event) = events.try_recv() {
-                let event = accept(event, &mut handles, &mut closing);
-                host.handle_event(Instant::now().into_std(), event);
+    let outcome = guarded(|| async {
+        let mut back_to_back = 0u64;
+        loop {
+            flush(&mut host, &mut handles, &mut closing);
+            if host.is_over() {
+                break;
             }
-            // A stop request must be seen even while ticks run back to back.
+            let timeout = host.poll_timeout();
+            let now = Instant::now();
+            if timeout.is_some_and(|t| t <= now.into_std()) {
+                // Take in what has arrived, without waiting for anyone, before the boundary.
+                while let Ok(event) = events.try_recv() {
+                    take(&mut host, event, &mut handles, &mut closing);
+                }
+                // A stop request must be seen even while ticks run back to back.
+                tokio::select! {
+                    biased;
+                    () = &mut shutdown => host.interrupt(),
+                    () = std::future::ready(()) => {}
+                }
+                host.handle_timeout(Instant::now().into_std());
+                back_to_back += 1;
+                if back_to_back.is_multiple_of(YIELD_EVERY) {
+                    flush(&mut host, &mut handles, &mut closing);
+                    tokio::task::yield_now().await;
+                }
+                continue;
+            }
+            back_to_back = 0;
+            // Events before the timer: a ready event is taken without arming the timer at all.
             tokio::select! {
                 biased;
                 () = &mut shutdown => host.interrupt(),
-                () = std::future::ready(()) => {}
-            }
-            host.handle_timeout(Instant::now().into_std());
-            back_to_back += 1;
-            if back_to_back.is_multiple_of(YIELD_EVERY) {
-                flush(&mut host, &mut handles, &mut closing);
-                tokio::task::yield_now().await;
-            }
-            continue;
-        }
-        back_to_back = 0;
-        // Events before the timer: a ready event is taken without arming the timer at all.
-        tokio::select! {
-            biased;
-            () = &mut shutdown => host.interrupt(),
-            event = events.recv() => match event {
-                Some(event) => {
-                    let event = accept(event, &mut handles, &mut closing);
-                    host.handle_event(Instant::now().into_std(), event);
+                event = events.recv() => match event {
+                    Some(event) => take(&mut host, event, &mut handles, &mut closing),
+                    // Every sender is gone only when the acceptor has stopped: end the match.
+                    None => host.interrupt(),
+                },
+                Some(name) = recv_opt(&mut gone_seats) => {
+                    host.handle_event(Instant::now().into_std(), HostEvent::SeatAbandoned { name });
                 }
-                // Every sender is gone only when the acceptor has stopped: end the match.
-                None => host.interrupt(),
-            },
-            Some(name) = recv_opt(&mut gone_seats) => {
-                host.handle_event(Instant::now().into_std(), HostEvent::SeatAbandoned { name });
+                () = sleep_until_opt(timeout.map(Instant::from_std)) => host.handle_timeout(Instant::now().into_std()),
             }
-            () = sleep_until_opt(timeout.map(Instant::from_std)) => host.handle_timeout(Instant::now().into_std()),
+        }
+        let result = host.finish(Instant::now().into_std());
+        flush(&mut host, &mut handles, &mut closing);
+        result
+    })
+    .await;
+    if let Err(why) = &outcome {
+        // The host cannot be trusted any more: everyone connected is told and let go.
+        let error = error_line(ErrorCode::MatchFailed, &format!("the match failed in the server: {why}"), true);
+        for h in std::mem::take(&mut handles).into_values() {
+            let _ = h.tx.try_send(Outbound::Line(error.clone()));
+            let _ = h.tx.try_send(Outbound::Line(bye_line(ErrorCode::MatchFailed)));
+            if h.tx.try_send(Outbound::Close).is_err() {
+                h.kill.notify_one();
+            }
+            closing.push(h.done);
         }
     }
-    let result = host.finish(Instant::now().into_std());
-    flush(&mut host, &mut handles, &mut closing);
     closing.extend(handles.into_values().map(|h| h.done));
     let drained = async {
         for done in &mut closing {
@@ -105,16 +124,34 @@ pub(crate) async fn run(
         }
     };
     let _ = tokio::time::timeout(FLUSH_LIMIT, drained).await;
-    result
+    outcome
 }
 
-/// Turns a connection's event into the host's, keeping the connection's handles here.
-fn accept(
+/// Runs the match's loop, turning a panic inside it into the panic's message.
+async fn guarded<F, Fut>(body: F) -> Outcome
+where
+    F: FnOnce() -> Fut,
+    Fut: Future<Output = MatchResult>,
+{
+    use futures_util::FutureExt;
+    std::panic::AssertUnwindSafe(body()).catch_unwind().await.map_err(|panic| {
+        panic
+            .downcast_ref::<&str>()
+            .map(|s| (*s).to_string())
+            .or_else(|| panic.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "a panic".to_string())
+    })
+}
+
+/// Hands one event to the host, keeping a connection's handles here; answers a control
+/// request itself.
+fn take(
+    host: &mut MatchHost,
     event: Event,
     handles: &mut BTreeMap<ConnId, Handles>,
     closing: &mut Vec<watch::Receiver<bool>>,
-) -> HostEvent {
-    match event {
+) {
+    let event = match event {
         Event::Opened(Opened { conn, tx, kill, done }) => {
             let room = Box::new(ConnQueue(tx.clone()));
             handles.insert(conn, Handles { tx, kill, done });
@@ -129,7 +166,13 @@ fn accept(
             }
             HostEvent::Closed { conn }
         }
-    }
+        Event::Control(Control::Status(reply)) => {
+            let _ = reply.send(host.status());
+            return;
+        }
+        Event::Control(Control::Stop) => return host.interrupt(),
+    };
+    host.handle_event(Instant::now().into_std(), event);
 }
 
 /// Hands every pending transmit to its connection's queue. The host only queues a line

@@ -17,8 +17,8 @@ use std::time::{Duration, Instant};
 
 use bw4t_agents::Driver;
 use bw4t_protocol::{
-    Ack, ActId, ActResult, ClientMessage, Frame, FrameMessage, MatchEnd, MatchResult, Mode, Percepts,
-    ServerMessage, action_from_act, encode, percept_to_fact,
+    Ack, ActId, ActResult, ClientMessage, Frame, FrameMessage, Lobby, MatchEnd, MatchResult, Mode,
+    Percepts, ServerMessage, action_from_act, encode, percept_to_fact,
 };
 use bw4t_protocol::{AckCode, ByeReason, EndReason, ErrorCode, Leaving, Recorder, RobotExtra};
 use bw4t_sim::{Accepted, Action, Intent, Match, OrderEnd, OrderId, Receiver, Rejection, RobotId, Seats};
@@ -101,6 +101,9 @@ struct Conn {
     /// Lines handed to [`MatchHost::poll_transmit`]'s queue but not yet taken by the driver.
     unsent: usize,
     role: ConnRole,
+    /// Its `hello` named a match or template, so it knows `lobby` (older clients, which
+    /// name neither, never get a message type they do not know).
+    lobby: bool,
 }
 
 impl Conn {
@@ -314,6 +317,27 @@ pub struct MatchHost {
     abandoned: BTreeSet<String>,
     /// Figures of players that left (errors, whether they ever connected), for the result.
     gone: BTreeMap<RobotId, (u64, bool)>,
+    /// Who is in the waiting match changed: connections get a `lobby`.
+    lobby_changed: bool,
+}
+
+/// Where a match is, for listings: a copy made on request, so it costs nothing per tick.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct HostStatus {
+    /// Whether the first tick has been made.
+    pub started: bool,
+    /// Whether the match has ended.
+    pub over: bool,
+    /// The current tick.
+    pub tick: u64,
+    /// The players in the match, in robot order.
+    pub players: Vec<String>,
+    /// How many more players the match waits for before its first tick (0 once started).
+    pub awaited: usize,
+    /// Sequence positions delivered, and the sequence's length.
+    pub sequence: (usize, usize),
+    /// Connections open (players, spectators and those yet to say hello).
+    pub connections: usize,
 }
 
 impl MatchHost {
@@ -354,6 +378,7 @@ impl MatchHost {
             recorder,
             abandoned: BTreeSet::new(),
             gone: BTreeMap::new(),
+            lobby_changed: false,
         };
         for seat in seats {
             let (name, local) = match seat {
@@ -376,7 +401,7 @@ impl MatchHost {
         self.now = self.now.max(now);
         match event {
             HostEvent::Opened { conn, room } => {
-                self.conns.insert(conn, Conn { room, unsent: 0, role: ConnRole::New });
+                self.conns.insert(conn, Conn { room, unsent: 0, role: ConnRole::New, lobby: false });
             }
             HostEvent::Closed { conn } => self.on_closed(conn),
             HostEvent::BadInput { conn } => self.count_error(conn),
@@ -386,6 +411,7 @@ impl MatchHost {
             }
         }
         self.start_if_ready(self.now);
+        self.send_lobby();
     }
 
     /// Does what has fallen due by `now`: the start timeout, expired grace periods, a
@@ -402,16 +428,23 @@ impl MatchHost {
         match self.phase {
             Phase::Waiting { start_by } => {
                 if start_by.is_some_and(|t| now >= t) {
+                    self.fill_seats();
                     self.start(now);
                 }
+                self.send_lobby();
             }
             Phase::Playing { since, next_tick } => match self.config.mode {
                 Mode::Realtime if now >= next_tick => {
                     // Ticks missed while the host was late are skipped, not made up.
                     let period = self.tick_period();
                     let mut next = next_tick + period;
+                    let mut skipped = 0;
                     while next <= now {
                         next += period;
+                        skipped += 1;
+                    }
+                    if let Some(lateness) = &self.config.lateness {
+                        lateness.record(now.saturating_duration_since(next_tick), skipped);
                     }
                     self.phase = Phase::Playing { since, next_tick: next };
                     self.advance();
@@ -501,6 +534,70 @@ impl MatchHost {
         self.game.tick()
     }
 
+    /// Where the match is, for listings.
+    pub fn status(&self) -> HostStatus {
+        let started = matches!(self.phase, Phase::Playing { .. });
+        HostStatus {
+            started,
+            over: self.end.is_some(),
+            tick: self.game.tick(),
+            players: self.players.values().map(|p| p.name.clone()).collect(),
+            awaited: if started { 0 } else { self.awaited() },
+            sequence: (self.game.sequence_index() as usize, self.game.sequence().len()),
+            connections: self.conns.len(),
+        }
+    }
+
+    /// How many more players the waiting match needs before it starts.
+    fn awaited(&self) -> usize {
+        self.config.robots.saturating_sub(self.connected_players() + self.abandoned.len())
+    }
+
+    /// Tells every connection who is in the waiting match, if that changed.
+    fn send_lobby(&mut self) {
+        if !std::mem::take(&mut self.lobby_changed) {
+            return;
+        }
+        let start_in_ms = match self.phase {
+            Phase::Waiting { start_by } => {
+                start_by.map(|t| t.saturating_duration_since(self.now).as_millis() as u64)
+            }
+            Phase::Playing { .. } => None,
+        };
+        let started = matches!(self.phase, Phase::Playing { .. });
+        let lobby = Lobby {
+            match_name: Some(self.config.name.clone()),
+            template: self.config.template.clone(),
+            players: self.players.values().map(|p| p.name.clone()).collect(),
+            awaited: if started { 0 } else { self.awaited() },
+            start_in_ms,
+            queued: None,
+            started,
+        };
+        let line: Arc<str> = encode(&ServerMessage::Lobby(lobby)).into();
+        let greeted: Vec<ConnId> =
+            self.conns.iter().filter(|(_, c)| c.lobby && c.role != ConnRole::New).map(|(id, _)| *id).collect();
+        for conn in greeted {
+            self.send_line(conn, line.clone());
+        }
+    }
+
+    /// At the start timeout: built-in agents take the seats no player came for, if the
+    /// match says so.
+    fn fill_seats(&mut self) {
+        let Some(strategy) = self.config.fill else { return };
+        while self.players.len() < self.config.robots {
+            let Some(name) = (1..).map(|i| format!("Bot{i}")).take(1000).find(|n| self.game.check_name(n).is_ok())
+            else {
+                return;
+            };
+            let Ok(id) = self.join(Some(&name)) else { return };
+            if let Some(player) = self.players.get_mut(&id) {
+                player.local = Some(Driver::new(id, strategy.agent(&name)));
+            }
+        }
+    }
+
     /// Ends the match at `now` (if it has not ended), records the end, queues `match_end`
     /// and `bye` for every client and closes every connection; returns the result.
     pub fn finish(&mut self, now: Instant) -> MatchResult {
@@ -570,6 +667,8 @@ impl MatchHost {
 
     /// The first tick is due: in-process agents decide on what they were told at joining.
     fn start(&mut self, now: Instant) {
+        // Connections that saw the lobby learn that it is over.
+        self.lobby_changed = true;
         self.observe_locals();
         self.tick_sent_at = now;
         self.phase = Phase::Playing { since: now, next_tick: now + self.tick_period() };
@@ -729,6 +828,7 @@ impl MatchHost {
         if let ConnRole::Agent(id) = closed.role {
             if let Some(player) = self.players.get_mut(&id) {
                 if player.conn == Some(conn) {
+                    self.lobby_changed |= matches!(self.phase, Phase::Waiting { .. });
                     // The robot stands still (holding what it holds) until its player returns.
                     player.conn = None;
                     player.dropped_at = Some(self.now);
@@ -807,6 +907,7 @@ impl MatchHost {
 
     /// Takes a player's robot out of the match, keeping its figures for the result.
     fn remove_player(&mut self, id: RobotId) {
+        self.lobby_changed |= matches!(self.phase, Phase::Waiting { .. });
         if let Some(player) = self.players.remove(&id) {
             self.gone.insert(id, (player.errors, player.connected_ever));
         }
