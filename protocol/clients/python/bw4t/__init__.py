@@ -16,7 +16,7 @@ from .aio import AsyncAction, AsyncClient
 from .beliefs import BeliefBase
 from .client import Action, Client
 from .core import DURATIVE_ACTIONS, VERSIONS, ProtocolCore
-from .data import Ack, Fact, MatchEnd, MatchInfo, Message, Result, Update, Welcome
+from .data import Ack, Fact, Lobby, MatchEnd, MatchInfo, Message, Result, Update, Welcome
 from .errors import (
     ActionLost,
     ActionRejected,
@@ -44,6 +44,7 @@ __all__ = [
     "DURATIVE_ACTIONS",
     "Fact",
     "FatalServerError",
+    "Lobby",
     "MatchEnd",
     "MatchInfo",
     "Message",

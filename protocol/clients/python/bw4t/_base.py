@@ -14,7 +14,7 @@ from typing import Any, Callable, Dict, Generic, List, Optional, Tuple, TypeVar
 
 from .beliefs import BeliefBase
 from .core import ActionRecord, ProtocolCore
-from .data import MatchEnd, MatchInfo, Update, Welcome
+from .data import Lobby, MatchEnd, MatchInfo, Update, Welcome
 from .errors import Bw4tError, ConnectionClosed, ServerError
 
 #: The client type of an action handle.
@@ -76,13 +76,19 @@ class ClientBase(Generic[A]):
         name: Optional[str],
         token: Optional[str],
         every_tick: bool,
+        match: Optional[str] = None,
+        template: Optional[str] = None,
+        on_lobby: Optional[Callable[[Lobby], None]] = None,
     ) -> None:
         self.host = host
         self.port = port
         self._name = name
         self._token = token
         self._every_tick = every_tick
+        self._match = match
+        self._template = template
         self._core = ProtocolCore()
+        self._core.on_lobby = on_lobby
 
     # ------------------------------------------------------------ transport
 
@@ -101,11 +107,19 @@ class ClientBase(Generic[A]):
 
     # ------------------------------------------------------------ connecting
 
-    def _send_hello(self, session: Optional[str]) -> Callable[[], bool]:
+    def _send_hello(self, session: Optional[str], resume: bool) -> Callable[[], bool]:
         """Send ``hello`` on a new connection; returns the condition that ends the
-        handshake (``welcome`` and the first full snapshot received)."""
+        handshake (``welcome`` and the first full snapshot received).
+
+        ``resume``: taking the robot back, so the match is the one the session belongs
+        to (``welcome.match.name``), never a template.
+        """
+        if resume:
+            match, template = self._core.resume_match() or self._match, None
+        else:
+            match, template = self._match, self._template
         hello, joined = self._core.begin_handshake(
-            self._name, self._token, session, self._every_tick
+            self._name, self._token, session, self._every_tick, match, template
         )
         self._send(hello)
         return joined
@@ -152,8 +166,17 @@ class ClientBase(Generic[A]):
 
     @property
     def match(self) -> MatchInfo:
-        """About the match: map, seed, mode, tick_hz, deadline_ms, players_needed, ..."""
+        """About the match: name, template, map, seed, mode, tick_hz, deadline_ms,
+        players_needed, ..."""
         return self.welcome.match
+
+    @property
+    def lobby(self) -> Optional[Lobby]:
+        """The latest ``lobby`` received: the match waiting for its players (who is
+        there, how many are awaited, the start countdown) or, before ``welcome``, the
+        place in a template's queue. ``None`` if none came; once the match has started
+        it is the last one received before."""
+        return self._core.lobby
 
     @property
     def beliefs(self) -> BeliefBase:

@@ -28,8 +28,16 @@ from typing import Any, AsyncIterator, Callable, Dict, Generator, List, Optional
 
 from ._base import ActionBase, ClientBase
 from .beliefs import BeliefBase
-from .core import ActionRecord, deadline_after, decode, encode, resolve_address, time_left
-from .data import Ack, Result, Update, Welcome
+from .core import (
+    ActionRecord,
+    check_join,
+    deadline_after,
+    decode,
+    encode,
+    resolve_address,
+    time_left,
+)
+from .data import Ack, Lobby, Result, Update, Welcome
 from .errors import Bw4tError, FatalServerError, Timeout
 
 _LINE_LIMIT = 64 * 1024 * 1024
@@ -77,8 +85,11 @@ class AsyncClient(ClientBase[AsyncAction]):
         name: Optional[str],
         token: Optional[str],
         every_tick: bool,
+        match: Optional[str] = None,
+        template: Optional[str] = None,
+        on_lobby: Optional[Callable[[Lobby], None]] = None,
     ) -> None:
-        super().__init__(host, port, name, token, every_tick)
+        super().__init__(host, port, name, token, every_tick, match, template, on_lobby)
         self._reader: Optional[asyncio.StreamReader] = None
         self._writer: Optional[asyncio.StreamWriter] = None
         self._task: Optional["asyncio.Task[None]"] = None
@@ -100,14 +111,21 @@ class AsyncClient(ClientBase[AsyncAction]):
         *,
         session: Optional[str] = None,
         timeout: Optional[float] = 30.0,
+        match: Optional[str] = None,
+        template: Optional[str] = None,
+        on_lobby: Optional[Callable[[Lobby], None]] = None,
     ) -> "AsyncClient":
-        """Connect and join the match; see :meth:`bw4t.Client.connect`."""
+        """Connect and join a match; see :meth:`bw4t.Client.connect` (``on_lobby`` is a
+        plain function, called from the task that reads the connection)."""
+        check_join(match, template)
         host, port, name, token = resolve_address(host, port, name, token)
-        client = cls(host, port, name, token, every_tick)
+        client = cls(host, port, name, token, every_tick, match, template, on_lobby)
         await client._handshake(session, timeout)
         return client
 
-    async def _handshake(self, session: Optional[str], timeout: Optional[float]) -> None:
+    async def _handshake(
+        self, session: Optional[str], timeout: Optional[float], resume: bool = False
+    ) -> None:
         deadline = deadline_after(timeout)
         opening = asyncio.open_connection(self.host, self.port, limit=_LINE_LIMIT)
         reader, self._writer = await asyncio.wait_for(opening, timeout)
@@ -115,8 +133,13 @@ class AsyncClient(ClientBase[AsyncAction]):
         self._open = True
         self._failure = None
         self._task = asyncio.ensure_future(self._read_loop(reader))
-        joined = self._send_hello(session)  # before the read task first runs
+        core = self._core
         try:
+            joined = self._send_hello(session, resume)  # before the read task first runs
+            await self._wait(core.seated_or_queued, time_left(deadline), False)
+            if core.welcome is None:  # queued for a template: wait for a seat, unbounded
+                await self._wait(lambda: core.welcome is not None, None, False)
+                deadline = deadline_after(timeout)
             await self._wait(joined, time_left(deadline), False)
         except BaseException:
             await self._close_transport()
@@ -127,7 +150,7 @@ class AsyncClient(ClientBase[AsyncAction]):
         session = self._session_to_resume()
         await self._close_transport()
         self._core.connection_replaced()
-        await self._handshake(session, timeout)
+        await self._handshake(session, timeout, resume=True)
         return self.welcome
 
     async def close(self, bye: bool = True, timeout: float = 5.0) -> None:

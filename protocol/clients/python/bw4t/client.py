@@ -19,8 +19,16 @@ from typing import Any, Callable, Dict, Iterator, Optional
 
 from ._base import ActionBase, ClientBase
 from .beliefs import BeliefBase
-from .core import ActionRecord, deadline_after, decode, encode, resolve_address, time_left
-from .data import Ack, Result, Update, Welcome
+from .core import (
+    ActionRecord,
+    check_join,
+    deadline_after,
+    decode,
+    encode,
+    resolve_address,
+    time_left,
+)
+from .data import Ack, Lobby, Result, Update, Welcome
 from .errors import Bw4tError, ConnectionClosed, FatalServerError, Timeout
 
 
@@ -80,8 +88,11 @@ class Client(ClientBase[Action]):
         token: Optional[str],
         every_tick: bool,
         timeout: Optional[float],
+        match: Optional[str] = None,
+        template: Optional[str] = None,
+        on_lobby: Optional[Callable[[Lobby], None]] = None,
     ) -> None:
-        super().__init__(host, port, name, token, every_tick)
+        super().__init__(host, port, name, token, every_tick, match, template, on_lobby)
         self._timeout = timeout
         self._sock: Optional[socket.socket] = None
         self._buffer = b""
@@ -99,28 +110,44 @@ class Client(ClientBase[Action]):
         *,
         session: Optional[str] = None,
         timeout: Optional[float] = 30.0,
+        match: Optional[str] = None,
+        template: Optional[str] = None,
+        on_lobby: Optional[Callable[[Lobby], None]] = None,
     ) -> "Client":
-        """Connect and join the match as a player.
+        """Connect and join a match as a player.
 
         Missing ``host``/``port``/``name``/``token`` come from ``BW4T_HOST``,
         ``BW4T_PORT``, ``BW4T_NAME`` and ``BW4T_TOKEN`` (set by ``bw4t run``), else
         ``127.0.0.1:12300`` and no name (the server picks ``PlayerN``). ``session``
         takes back the robot of an earlier connection. Returns after ``welcome`` and the
         first full snapshot (the first update of ``updates()``). ``timeout`` bounds the
-        handshake; raises :class:`~bw4t.errors.FatalServerError` when refused.
+        handshake, except the time spent waiting in a template's queue; raises
+        :class:`~bw4t.errors.FatalServerError` when refused.
+
+        ``match`` joins the live match of that name; ``template`` queues for the next
+        match of that template with a free seat; neither joins the server's default
+        match. Giving both raises :class:`ValueError` before connecting. ``on_lobby`` is
+        called with every :class:`~bw4t.data.Lobby` received (also during ``connect``,
+        while queued); an exception it raises ends the wait and closes the connection.
         """
+        check_join(match, template)
         host, port, name, token = resolve_address(host, port, name, token)
-        client = cls(host, port, name, token, every_tick, timeout)
+        client = cls(host, port, name, token, every_tick, timeout, match, template, on_lobby)
         client._handshake(session, timeout)
         return client
 
-    def _handshake(self, session: Optional[str], timeout: Optional[float]) -> None:
+    def _handshake(self, session: Optional[str], timeout: Optional[float], resume: bool = False) -> None:
         deadline = deadline_after(timeout)
         self._buffer = b""
         self._sock = socket.create_connection((self.host, self.port), timeout=timeout)
         self._sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-        joined = self._send_hello(session)
+        core = self._core
         try:
+            joined = self._send_hello(session, resume)
+            self._wait(core.seated_or_queued, time_left(deadline), False)
+            if core.welcome is None:  # queued for a template: wait for a seat, unbounded
+                self._wait(lambda: core.welcome is not None, None, False)
+                deadline = deadline_after(timeout)
             self._wait(joined, time_left(deadline), False)
         except BaseException:
             self._close_socket()
@@ -132,13 +159,15 @@ class Client(ClientBase[Action]):
         Closes the current connection if it is still open (without ``bye``, which would
         make the robot leave), connects again and waits for ``welcome`` and the full
         snapshot (queued as the next update). Actions without answers are lost
-        (:class:`~bw4t.errors.ActionLost`). Raises :class:`~bw4t.errors.FatalServerError`
-        with ``bad_session`` when the grace period has passed.
+        (:class:`~bw4t.errors.ActionLost`). The ``hello`` names the match the session
+        belongs to (``match.name``), also when the client joined by template. Raises
+        :class:`~bw4t.errors.FatalServerError` with ``bad_session`` when the grace
+        period has passed.
         """
         session = self._session_to_resume()
         self._close_socket()
         self._core.connection_replaced()
-        self._handshake(session, timeout)
+        self._handshake(session, timeout, resume=True)
         return self.welcome
 
     def close(self, bye: bool = True, timeout: float = 5.0) -> None:

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from typing import Any, Callable, Deque, Dict, List, Optional, Tuple
 
 from .beliefs import BeliefBase
-from .data import Ack, ActId, MatchEnd, Message, Result, Update, Welcome
+from .data import Ack, ActId, Lobby, MatchEnd, Message, Result, Update, Welcome
 from .errors import (
     ActionLost,
     ActionRejected,
@@ -49,6 +49,16 @@ def resolve_address(
     name = name or os.environ.get("BW4T_NAME") or None
     token = token or os.environ.get("BW4T_TOKEN") or None
     return host, int(port), name, token
+
+
+def check_join(match: Optional[str], template: Optional[str]) -> None:
+    """Refuse a ``hello`` that names both a match and a template (the server would
+    answer ``bad_message``): a player joins one match, or is queued for a template."""
+    if match and template:
+        raise ValueError(
+            f"give match= or template=, not both (match {match!r}, template {template!r}): "
+            "match joins that live match, template queues for the next match of that template"
+        )
 
 
 def deadline_after(timeout: Optional[float]) -> Optional[float]:
@@ -164,6 +174,12 @@ class ProtocolCore:
         self.awaiting_snapshot = False
         self.last_snapshot: Optional[Update] = None
         self.pongs: Dict[Any, int] = {}
+        #: The latest ``lobby`` received (``None`` before any).
+        self.lobby: Optional[Lobby] = None
+        #: Called with each ``lobby`` as it is received.
+        self.on_lobby: Optional[Callable[[Lobby], None]] = None
+        #: True from a ``lobby`` with a queue place until ``welcome`` (no seat yet).
+        self.in_queue = False
         self._actions: Dict[ActId, ActionRecord] = {}
         self._next_id = 1
         self._acks: List[Ack] = []
@@ -191,8 +207,15 @@ class ProtocolCore:
         token: Optional[str] = None,
         session: Optional[str] = None,
         every_tick: bool = False,
+        match: Optional[str] = None,
+        template: Optional[str] = None,
     ) -> Dict[str, Any]:
-        """The ``hello`` message (a player's)."""
+        """The ``hello`` message (a player's), joining the live match ``match``, queued
+        for the template ``template``, or (neither) the server's default match.
+
+        Raises :class:`ValueError` if both ``match`` and ``template`` are given.
+        """
+        check_join(match, template)
         msg: Dict[str, Any] = {"type": "hello", "protocol": PROTOCOL, "versions": list(VERSIONS)}
         if name:
             msg["name"] = name
@@ -202,6 +225,10 @@ class ProtocolCore:
             msg["session"] = session
         if every_tick:
             msg["every_tick"] = True
+        if match:
+            msg["match"] = match
+        if template:
+            msg["template"] = template
         return msg
 
     def begin_handshake(
@@ -210,17 +237,31 @@ class ProtocolCore:
         token: Optional[str] = None,
         session: Optional[str] = None,
         every_tick: bool = False,
+        match: Optional[str] = None,
+        template: Optional[str] = None,
     ) -> Tuple[Dict[str, Any], Callable[[], bool]]:
         """Start over on a new connection: the ``hello`` to send, and the condition the
         handshake waits for (``welcome`` and the first full snapshot received)."""
+        hello = self.hello(name, token, session, every_tick, match, template)
         self.welcome = None
         self.fatal = None
+        self.in_queue = False
         first = len(self.queue)
 
         def joined() -> bool:
             return self.welcome is not None and len(self.queue) > first
 
-        return self.hello(name, token, session, every_tick), joined
+        return hello, joined
+
+    def seated_or_queued(self) -> bool:
+        """During the handshake: ``welcome`` arrived, or the player waits in a template's
+        queue (then the wait for a seat has no time limit)."""
+        return self.welcome is not None or self.in_queue
+
+    def resume_match(self) -> Optional[str]:
+        """The name of the match this connection's session belongs to (sent as ``match``
+        when taking the robot back), if the server named it."""
+        return None if self.welcome is None else self.welcome.match.name
 
     def _new_id(self) -> int:
         action_id = self._next_id
@@ -306,6 +347,15 @@ class ProtocolCore:
             self._errors.append(error)
         elif kind == "welcome":
             self.welcome = Welcome.from_json(msg)
+            self.in_queue = False
+        elif kind == "lobby":
+            # Before the first tick only (and before welcome while queued); it changes no
+            # tick state, so it is not part of any update.
+            self.lobby = Lobby.from_json(msg)
+            if self.welcome is None and self.lobby.in_queue:
+                self.in_queue = True
+            if self.on_lobby is not None:
+                self.on_lobby(self.lobby)
         elif kind == "pong":
             key = msg.get("id")
             self.pongs[key] = self.pongs.get(key, 0) + 1

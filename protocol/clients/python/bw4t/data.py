@@ -27,6 +27,11 @@ class MatchInfo:
     every_tick: bool
     deadline_ms: Optional[int] = None
     max_ticks: Optional[int] = None
+    #: The match's name on the server (what ``match=`` names, and what a reconnecting
+    #: client sends); ``None`` from a server that hosts a single unnamed match.
+    name: Optional[str] = None
+    #: The template the match was made from, if any.
+    template: Optional[str] = None
     raw: Dict[str, Any] = field(default_factory=dict, compare=False, repr=False)
 
     @property
@@ -46,6 +51,55 @@ class MatchInfo:
             every_tick=bool(obj.get("every_tick", False)),
             deadline_ms=obj.get("deadline_ms"),
             max_ticks=obj.get("max_ticks"),
+            name=obj.get("name") or None,
+            template=obj.get("template") or None,
+            raw=dict(obj),
+        )
+
+
+@dataclass(frozen=True)
+class Lobby:
+    """A ``lobby`` message: a match waiting for its players, or a place in a template's queue.
+
+    Before ``welcome`` (the player is queued for a template whose matches are full),
+    ``match`` is ``None`` and ``queued`` is the player's place in the queue (1: next).
+    After ``welcome`` and until the first tick it tells who is in the match.
+
+    Attributes:
+        match: the match's name (``None`` while queued).
+        template: the template the match comes from, or the one queued for.
+        players: names of the players in the match now (built-in agents included), in
+            robot order.
+        awaited: how many more players the match waits for before it starts.
+        start_in_ms: the match starts anyway in this many milliseconds, if set.
+        queued: the place in the template's queue, before ``welcome``.
+    """
+
+    match: Optional[str]
+    template: Optional[str]
+    players: Tuple[str, ...]
+    awaited: int
+    start_in_ms: Optional[int] = None
+    queued: Optional[int] = None
+    raw: Dict[str, Any] = field(default_factory=dict, compare=False, repr=False)
+
+    @property
+    def in_queue(self) -> bool:
+        """Whether the player is waiting in a template's queue (no seat yet)."""
+        return self.queued is not None
+
+    @classmethod
+    def from_json(cls, obj: Dict[str, Any]) -> "Lobby":
+        """Build from a ``lobby`` message."""
+        start_in_ms = obj.get("start_in_ms")
+        queued = obj.get("queued")
+        return cls(
+            match=obj.get("match") or None,
+            template=obj.get("template") or None,
+            players=tuple(str(p) for p in obj.get("players") or ()),
+            awaited=int(obj.get("awaited", 0)),
+            start_in_ms=None if start_in_ms is None else int(start_in_ms),
+            queued=None if queued is None else int(queued),
             raw=dict(obj),
         )
 

@@ -34,8 +34,10 @@ class ServerError(Bw4tError):
 class FatalServerError(ServerError):
     """A fatal ``error`` from the server; the server closes the connection after it.
 
-    Raised, for example, by ``Client.connect`` for ``name_taken`` or ``bad_session``,
-    or while playing for ``replaced``, ``too_slow`` or ``unresponsive``.
+    Raised, for example, by ``Client.connect`` for ``name_taken``, ``bad_session``,
+    ``unknown_match`` (no live match of the name given as ``match=``) or
+    ``unknown_template``, or while playing for ``replaced``, ``too_slow`` or
+    ``unresponsive``.
     """
 
 

@@ -17,6 +17,8 @@ from typing import Callable, Iterator, List, Tuple
 
 import pytest
 
+from fake_server import FakeConnection, FakeServer
+
 CLIENT_DIR = Path(__file__).resolve().parents[1]
 REPO = Path(__file__).resolve().parents[4]
 
@@ -116,6 +118,22 @@ def serve(bw4t_bin: str, tmp_path: Path) -> Iterator[Callable[..., Server]]:
             pytest.fail(f"unexpected first line from bw4t serve: {line!r}")
         host, port = line.split()[-1].rsplit(":", 1)
         server.host, server.port = host, int(port)
+        return server
+
+    yield start
+    for server in servers:
+        server.stop()
+
+
+@pytest.fixture
+def fake_server() -> Iterator[Callable[[Callable[[FakeConnection], None]], FakeServer]]:
+    """Start a :class:`FakeServer` running a script per connection; each is stopped at
+    the end, and an error in its scripts fails the test."""
+    servers: List[FakeServer] = []
+
+    def start(script: Callable[[FakeConnection], None]) -> FakeServer:
+        server = FakeServer(script)
+        servers.append(server)
         return server
 
     yield start

@@ -1,0 +1,235 @@
+"""Joining a named match or a template, ``lobby`` messages and reconnecting to the
+session's match, checked against a scripted server (see ``fake_server.py``): what the
+client sends and what it makes of the answers."""
+
+from __future__ import annotations
+
+import asyncio
+import time
+from typing import Callable, List
+
+import pytest
+
+from bw4t import AsyncClient, Client, FatalServerError, Lobby, ProtocolCore, Timeout
+from fake_server import FakeConnection, FakeServer, fatal, lobby, snapshot, welcome
+from conftest import WAIT
+
+FakeFn = Callable[[Callable[[FakeConnection], None]], FakeServer]
+
+
+def seat(conn: FakeConnection, **welcome_fields: object) -> dict:
+    """Answer the client's ``hello`` with ``welcome`` and a snapshot, then wait until the
+    client closes; returns the ``hello``."""
+    hello = conn.expect("hello")
+    conn.send(welcome(**welcome_fields), snapshot())  # type: ignore[arg-type]
+    conn.wait_closed()
+    return hello
+
+
+def test_hello_names_the_match(fake_server: FakeFn) -> None:
+    server = fake_server(lambda conn: seat(conn, match="team-a"))
+    client = Client.connect(server.host, server.port, name="Ann", match="team-a", timeout=WAIT)
+    client.close(bye=False)
+    hello = server.next_connection().received[0]
+    assert hello["match"] == "team-a" and "template" not in hello
+    assert (hello["name"], hello["protocol"], hello["versions"]) == ("Ann", "bw4t", [1])
+    assert client.match.name == "team-a" and client.match.template is None
+
+
+def test_hello_names_the_template(fake_server: FakeFn) -> None:
+    server = fake_server(lambda conn: seat(conn, match="ladder-3", template="ladder"))
+    client = Client.connect(server.host, server.port, name="Ann", template="ladder", timeout=WAIT)
+    client.close(bye=False)
+    hello = server.next_connection().received[0]
+    assert hello["template"] == "ladder" and "match" not in hello
+    assert (client.match.name, client.match.template) == ("ladder-3", "ladder")
+    assert client.match.raw["name"] == "ladder-3"
+
+
+def test_hello_without_match_or_template_joins_the_default_match(fake_server: FakeFn) -> None:
+    server = fake_server(lambda conn: seat(conn, match=None))
+    client = Client.connect(server.host, server.port, name="Ann", timeout=WAIT)
+    client.close(bye=False)
+    hello = server.next_connection().received[0]
+    assert "match" not in hello and "template" not in hello
+    assert client.match.name is None  # a server of one unnamed match
+
+
+def test_match_and_template_together_are_refused_before_sending(fake_server: FakeFn) -> None:
+    server = fake_server(lambda conn: seat(conn))
+    with pytest.raises(ValueError, match="not both"):
+        Client.connect(server.host, server.port, name="Ann", match="team-a", template="ladder", timeout=WAIT)
+
+    async def main() -> None:
+        await AsyncClient.connect(server.host, server.port, match="team-a", template="ladder", timeout=WAIT)
+
+    with pytest.raises(ValueError, match="not both"):
+        asyncio.run(main())
+    with pytest.raises(ValueError):
+        ProtocolCore().hello("Ann", match="team-a", template="ladder")
+    # Neither attempt connected: the first connection the server sees is this one.
+    Client.connect(server.host, server.port, name="Bob", timeout=WAIT).close(bye=False)
+    assert server.next_connection().received[0]["name"] == "Bob"
+
+
+def test_reconnect_names_the_sessions_match(fake_server: FakeFn) -> None:
+    session = "00112233445566778899aabb"
+
+    def script(conn: FakeConnection) -> None:
+        hello = conn.expect("hello")
+        if "session" in hello:  # taking the robot back
+            assert hello["session"] == session
+        conn.send(welcome(match="ladder-3", template="ladder", session=session), snapshot())
+        conn.wait_closed()
+
+    server = fake_server(script)
+    client = Client.connect(server.host, server.port, name="Ann", template="ladder", timeout=WAIT)
+    client.close(bye=False)
+    again = client.reconnect(WAIT)
+    client.close(bye=False)
+    first, second = server.next_connection().received[0], server.next_connection().received[0]
+    assert first["template"] == "ladder" and "match" not in first and "session" not in first
+    assert second["match"] == "ladder-3" and second["session"] == session and "template" not in second
+    assert again.match.name == "ladder-3"
+
+
+def test_async_reconnect_names_the_sessions_match(fake_server: FakeFn) -> None:
+    server = fake_server(lambda conn: seat(conn, match="ladder-4", template="ladder"))
+
+    async def main() -> None:
+        client = await AsyncClient.connect(server.host, server.port, name="Ann", template="ladder", timeout=WAIT)
+        await client.close(bye=False)
+        await client.reconnect(WAIT)
+        await client.close(bye=False)
+
+    asyncio.run(asyncio.wait_for(main(), WAIT))
+    first, second = server.next_connection().received[0], server.next_connection().received[0]
+    assert first["template"] == "ladder" and "match" not in first
+    assert second["match"] == "ladder-4" and "template" not in second and second["session"]
+
+
+def lobby_script(conn: FakeConnection) -> None:
+    """Queued twice, seated, a lobby before and after the tick-0 snapshot, then two
+    lockstep ticks and the end."""
+    hello = conn.expect("hello")
+    assert hello["template"] == "ladder"
+    conn.send(
+        lobby(template="ladder", players=[], awaited=0, queued=2),
+        lobby(template="ladder", players=[], awaited=0, queued=1),
+        welcome(match="ladder-3", template="ladder", mode="lockstep"),
+        lobby(match="ladder-3", template="ladder", players=["Ann"], awaited=1, start_in_ms=25000),
+        snapshot(0),
+        lobby(match="ladder-3", template="ladder", players=["Ann", "Bot1"], awaited=0),
+    )
+    # One ready answers tick 0: the lobby after the snapshot asks for none.
+    assert conn.expect("ready")["tick"] == 0
+    conn.send({"type": "percepts", "tick": 1, "add": [["state", "traveling"]], "not": [["state", "arrived"]]})
+    assert conn.expect("ready")["tick"] == 1
+    conn.send({"type": "match_end", "reason": "interrupted", "result": {"completed": False}},
+              {"type": "bye", "reason": "match_over"})  # then the server closes
+
+
+def check_lobbies(seen: List[Lobby]) -> None:
+    assert [(l.match, l.queued, l.in_queue) for l in seen] == [
+        (None, 2, True), (None, 1, True), ("ladder-3", None, False), ("ladder-3", None, False),
+    ]
+    assert all(l.template == "ladder" for l in seen)
+    assert (seen[2].players, seen[2].awaited, seen[2].start_in_ms) == (("Ann",), 1, 25000)
+    assert (seen[3].players, seen[3].awaited, seen[3].start_in_ms) == (("Ann", "Bot1"), 0, None)
+
+
+def test_lobby_messages_before_and_after_welcome(fake_server: FakeFn) -> None:
+    server = fake_server(lobby_script)
+    seen: List[Lobby] = []
+    client = Client.connect(server.host, server.port, name="Ann", template="ladder", on_lobby=seen.append, timeout=WAIT)
+    assert [l.queued for l in seen[:2]] == [2, 1] and client.match.name == "ladder-3"
+    ticks = [u.tick for u in client.updates(WAIT)]
+    assert ticks == [0, 1] and client.match_end is not None
+    check_lobbies(seen)
+    assert client.lobby is seen[-1]
+    assert client.errors == []
+    server.stop()
+    assert [m["type"] for m in server.next_connection().received] == ["hello", "ready", "ready"]
+
+
+def test_async_lobby_messages(fake_server: FakeFn) -> None:
+    server = fake_server(lobby_script)
+    seen: List[Lobby] = []
+
+    async def main() -> List[int]:
+        client = await AsyncClient.connect(
+            server.host, server.port, name="Ann", template="ladder", on_lobby=seen.append, timeout=WAIT
+        )
+        ticks = [u.tick async for u in client.updates(WAIT)]
+        assert client.lobby is seen[-1] and client.finished
+        return ticks
+
+    assert asyncio.run(asyncio.wait_for(main(), WAIT)) == [0, 1]
+    check_lobbies(seen)
+
+
+def test_time_in_a_templates_queue_is_not_bounded_by_the_timeout(fake_server: FakeFn) -> None:
+    timeout = 0.3
+
+    def script(conn: FakeConnection) -> None:
+        conn.expect("hello")
+        conn.send(lobby(template="ladder", players=[], awaited=0, queued=1))
+        time.sleep(3 * timeout)  # the queue moves slowly: longer than the handshake timeout
+        conn.send(welcome(match="ladder-1", template="ladder"), snapshot())
+        conn.wait_closed()
+
+    server = fake_server(script)
+    client = Client.connect(server.host, server.port, template="ladder", timeout=timeout)
+    assert client.match.name == "ladder-1" and client.lobby is not None and client.lobby.queued == 1
+    client.close(bye=False)
+
+
+def test_a_silent_server_still_times_out(fake_server: FakeFn) -> None:
+    server = fake_server(lambda conn: conn.wait_closed())
+    with pytest.raises(Timeout):
+        Client.connect(server.host, server.port, template="ladder", timeout=0.3)
+
+
+def test_on_lobby_raising_gives_up_the_wait(fake_server: FakeFn) -> None:
+    def script(conn: FakeConnection) -> None:
+        conn.expect("hello")
+        conn.send(lobby(template="ladder", players=[], awaited=0, queued=7))
+        conn.wait_closed()  # the client leaves the queue by closing
+
+    server = fake_server(script)
+
+    def too_far(entry: Lobby) -> None:
+        if entry.queued is not None and entry.queued > 3:
+            raise RuntimeError(f"place {entry.queued} in the queue")
+
+    with pytest.raises(RuntimeError, match="place 7"):
+        Client.connect(server.host, server.port, template="ladder", on_lobby=too_far, timeout=WAIT)
+
+
+@pytest.mark.parametrize(
+    "kwargs, code",
+    [({"match": "nope"}, "unknown_match"), ({"template": "nope"}, "unknown_template")],
+)
+def test_unknown_match_or_template_is_a_fatal_error(fake_server: FakeFn, kwargs: dict, code: str) -> None:
+    def script(conn: FakeConnection) -> None:
+        conn.expect("hello")
+        conn.send(*fatal(code, "no live match named 'nope'"))
+
+    server = fake_server(script)
+    with pytest.raises(FatalServerError) as info:
+        Client.connect(server.host, server.port, timeout=WAIT, **kwargs)
+    assert info.value.code == code and info.value.fatal and "nope" in info.value.message
+
+
+def test_lobby_from_json() -> None:
+    full = Lobby.from_json(
+        {"type": "lobby", "match": "ladder-3", "template": "ladder", "players": ["Ann", "Bot1"],
+         "awaited": 1, "start_in_ms": 25000}
+    )
+    assert (full.match, full.template, full.players, full.awaited, full.start_in_ms, full.queued) == (
+        "ladder-3", "ladder", ("Ann", "Bot1"), 1, 25000, None
+    )
+    queued = Lobby.from_json({"type": "lobby", "template": "ladder", "players": [], "awaited": 0, "queued": 2})
+    assert queued.in_queue and queued.match is None and queued.queued == 2 and queued.players == ()
+    bare = Lobby.from_json({"type": "lobby"})
+    assert (bare.match, bare.template, bare.players, bare.awaited) == (None, None, (), 0)
