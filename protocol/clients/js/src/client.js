@@ -18,14 +18,24 @@ import { BW4TError, ActionRejected } from './errors.js';
  * @property {string} [token] the shared secret; default: `BW4T_TOKEN` (when set and not empty)
  * @property {boolean} [everyTick] ask for a `percepts` every tick (`every_tick`); default false
  * @property {string} [session] the `session` of an earlier `welcome`, to take a robot back
+ *   (with `match`: the match it belongs to, `welcome.match.name`)
+ * @property {string} [match] the name of a live match to join (`hello.match`)
+ * @property {string} [template] the name of a template: queued into its next match with
+ *   a free seat (`hello.template`). Not together with `match`
+ * @property {(lobby: Lobby) => void} [onLobby] called with every `lobby` received, also
+ *   during `connect()` while queued; throwing from it during `connect()` gives up (the
+ *   connection is closed and `connect()` rejects with that error)
  * @property {boolean} [autoReady] lockstep: answer `ready` by itself for ticks no
  *   `updates()` iterator is handling (default true; see the README)
- * @property {number} [timeoutMs] how long connecting and the handshake may take; default 10000
+ * @property {number} [timeoutMs] how long connecting and the handshake may take, not
+ *   counting the time spent in a template's queue; default 10000 (`Infinity`: no limit)
  */
 
 /**
  * `welcome.match`.
  * @typedef {object} MatchInfo
+ * @property {string} [name] the match's name on the server (the `match` of a later `hello`)
+ * @property {string} [template] the template the match was made from, if any
  * @property {string} map
  * @property {number} seed
  * @property {'realtime'|'lockstep'} mode
@@ -45,6 +55,20 @@ import { BW4TError, ActionRejected } from './errors.js';
  * @property {number} robot
  * @property {string} session
  * @property {MatchInfo} match
+ */
+
+/**
+ * `lobby`: the match waiting for its players (after `welcome`, until the first tick), or,
+ * before `welcome`, the player's place in a template's queue (`queued`, 1 = next).
+ * `players` and `awaited` are filled in (`[]`, 0) when the server left them out.
+ * @typedef {object} Lobby
+ * @property {'lobby'} type
+ * @property {string} [match] the match's name (absent while queued)
+ * @property {string} [template] the match's template, or the one queued for
+ * @property {string[]} players the players in the match now (built-in agents included), in robot order
+ * @property {number} awaited how many more players the match waits for before it starts
+ * @property {number} [start_in_ms] the match starts anyway in this many milliseconds
+ * @property {number} [queued] before `welcome`: the place in the template's queue
  */
 
 /**
@@ -115,6 +139,31 @@ import { BW4TError, ActionRejected } from './errors.js';
  */
 
 const MAX_LINE_BYTES = 65536;
+
+/**
+ * `setTimeout`, or nothing for an endless wait (`Infinity`).
+ * @param {number} ms
+ * @param {() => void} fire
+ * @returns {NodeJS.Timeout|undefined}
+ */
+function timer(ms, fire) {
+  return Number.isFinite(ms) ? setTimeout(fire, ms) : undefined;
+}
+
+/**
+ * Refuse a `hello` that names both a match and a template (the server would answer
+ * `bad_message`): a player joins one match, or is queued for a template.
+ * @param {{match?: string, template?: string}} options
+ */
+function checkJoin({ match, template }) {
+  if (match && template) {
+    throw new BW4TError(
+      'bad_options',
+      `give match or template, not both (match "${match}", template "${template}"): match joins ` +
+        'that live match, template queues for the next match of that template',
+    );
+  }
+}
 
 /**
  * A promise with its settle functions; its rejection is marked handled so that an
@@ -217,8 +266,10 @@ export class ActionHandle {
  * A connected player. Create it with `connect()`.
  *
  * Events (EventEmitter): `update` (Update, every tick's update, iterated or not),
- * `server` (every message from the server), `serverError` (a non-fatal `error`),
- * `end` (the connection is over; `client.error` tells whether it failed).
+ * `lobby` (Lobby, while the match waits for its players; those before `connect()`
+ * resolves only reach the `onLobby` option), `server` (every message from the server),
+ * `serverError` (a non-fatal `error`), `end` (the connection is over; `client.error`
+ * tells whether it failed).
  */
 export class Client extends EventEmitter {
   /** @type {net.Socket} */
@@ -251,6 +302,12 @@ export class Client extends EventEmitter {
   #pings = [];
   /** @type {Deferred<Client>} */
   #handshake = new Deferred();
+  #joined = false;
+  /** The options given to `connect()` (defaults resolved), for `reconnect()`. @type {ConnectOptions} */
+  #options;
+  /** The handshake's timer; stopped while queued for a template. @type {NodeJS.Timeout|undefined} */
+  #handshakeTimer;
+  #queued = false;
   /** @type {Deferred<MatchResult|null>} */
   #finished = new Deferred();
   #ended = false;
@@ -270,6 +327,8 @@ export class Client extends EventEmitter {
   session = null;
   /** About the match (`welcome.match`). @type {MatchInfo|null} */
   match = null;
+  /** The latest `lobby` received (kept after the match started). @type {Lobby|null} */
+  lobby = null;
   /** The tick of the last `percepts` received. @type {number|null} */
   tick = null;
   /** The match result, once `match_end` arrived. @type {MatchResult|null} */
@@ -296,23 +355,25 @@ export class Client extends EventEmitter {
     if (!Number.isInteger(port) || port < 0 || port > 65535) {
       throw new BW4TError('connect_failed', `bad port ${String(options.port ?? env.BW4T_PORT)}`);
     }
+    checkJoin(options);
     const socket = await new Promise((resolve, reject) => {
       const s = net.connect({ host, port });
-      const timer = setTimeout(() => {
+      const connecting = timer(timeoutMs, () => {
         s.destroy();
         reject(new BW4TError('timeout', `could not connect to ${host}:${port} within ${timeoutMs} ms`));
-      }, timeoutMs);
+      });
       s.once('connect', () => {
-        clearTimeout(timer);
+        clearTimeout(connecting);
         s.removeAllListeners('error');
         resolve(s);
       });
       s.once('error', (err) => {
-        clearTimeout(timer);
+        clearTimeout(connecting);
         reject(new BW4TError('connect_failed', `could not connect to ${host}:${port}: ${err.message}`, { cause: err }));
       });
     });
-    const client = new Client(socket, options.autoReady ?? true);
+    const resolved = { ...options, host, port, name, token, timeoutMs };
+    const client = new Client(socket, options.autoReady ?? true, resolved);
     client.#send({
       type: 'hello',
       protocol: 'bw4t',
@@ -321,35 +382,57 @@ export class Client extends EventEmitter {
       token,
       session: options.session,
       every_tick: options.everyTick ? true : undefined,
+      match: options.match || undefined,
+      template: options.template || undefined,
     });
-    let timer;
+    client.#armHandshakeTimer();
     try {
-      return await Promise.race([
-        client.#handshake.promise,
-        new Promise((_, reject) => {
-          timer = setTimeout(
-            () => reject(new BW4TError('timeout', `no welcome and snapshot within ${timeoutMs} ms`)),
-            timeoutMs,
-          );
-        }),
-      ]);
+      return await client.#handshake.promise;
     } catch (err) {
       client.close();
       throw err;
     } finally {
-      clearTimeout(timer);
+      clearTimeout(client.#handshakeTimer);
     }
+  }
+
+  /** (Re)start the bound on the handshake (`timeoutMs`). */
+  #armHandshakeTimer() {
+    clearTimeout(this.#handshakeTimer);
+    const ms = this.#options.timeoutMs ?? 10000;
+    this.#handshakeTimer = timer(ms, () =>
+      this.#handshake.reject(new BW4TError('timeout', `no welcome and snapshot within ${ms} ms`)),
+    );
+  }
+
+  /**
+   * Take the robot back on a new connection, after a drop or to replace this one: closes
+   * this connection if it is still open (without `bye`, which would make the robot
+   * leave), then connects with this client's options, its `session` and `match` = the
+   * match the session belongs to (`match.name`; never `template`). Resolves with the new
+   * `Client` (its first update is the full snapshot); rejects like `connect()`, e.g. with
+   * `bad_session` once the server's grace period has passed.
+   * @param {ConnectOptions} [options] overrides (e.g. `timeoutMs`)
+   * @returns {Promise<Client>}
+   */
+  async reconnect(options = {}) {
+    if (!this.session) throw new BW4TError('not_connected', 'no session to reconnect with');
+    this.close();
+    const { template: _template, ...kept } = this.#options;
+    return Client.connect({ ...kept, session: this.session, match: this.match?.name || kept.match, ...options });
   }
 
   /**
    * Use `connect()`.
    * @param {net.Socket} socket
    * @param {boolean} autoReady
+   * @param {ConnectOptions} [options] what `connect()` was given, defaults resolved
    */
-  constructor(socket, autoReady) {
+  constructor(socket, autoReady, options = {}) {
     super();
     this.#socket = socket;
     this.#autoReady = autoReady;
+    this.#options = options;
     socket.setNoDelay(true);
     socket.setEncoding('utf8');
     socket.on('data', (chunk) => this.#onData(String(chunk)));
@@ -688,6 +771,14 @@ export class Client extends EventEmitter {
         this.robot = message.robot ?? null;
         this.session = message.session ?? null;
         this.match = message.match ?? null;
+        if (this.#queued) {
+          // Seated after waiting in a template's queue: the handshake's bound starts again.
+          this.#queued = false;
+          if (!this.#joined) this.#armHandshakeTimer();
+        }
+        break;
+      case 'lobby':
+        this.#onLobby(message);
         break;
       case 'percepts':
         this.#onPercepts(message);
@@ -758,7 +849,10 @@ export class Client extends EventEmitter {
     }
     this.#latest = update;
     this.emit('update', update);
-    if (this.welcome) this.#handshake.resolve(this);
+    if (this.welcome) {
+      this.#joined = true;
+      this.#handshake.resolve(this);
+    }
 
     // A resync reply for the tick the iterator's handler is working on belongs to that
     // tick: it is returned by resync() and not yielded again.
@@ -766,6 +860,33 @@ export class Client extends EventEmitter {
     this.#queue.push(update);
     if (this.#iterating) this.#wake();
     else setImmediate(() => this.#autoReadyFor(update));
+  }
+
+  /**
+   * A `lobby`: kept, emitted and passed to `onLobby`. It comes only before the first tick
+   * and changes nothing of the tick's state (no update, no `ready`).
+   * @param {any} message
+   */
+  #onLobby(message) {
+    /** @type {Lobby} */
+    const lobby = { ...message, players: Array.isArray(message.players) ? message.players : [], awaited: message.awaited ?? 0 };
+    this.lobby = lobby;
+    if (!this.welcome && lobby.queued !== undefined && !this.#queued) {
+      // Waiting for a seat in a template's queue can take long: it is not bounded.
+      this.#queued = true;
+      clearTimeout(this.#handshakeTimer);
+    }
+    const onLobby = this.#options.onLobby;
+    if (onLobby) {
+      try {
+        onLobby(lobby);
+      } catch (err) {
+        if (this.#joined) throw err;
+        this.#handshake.reject(err instanceof Error ? err : new Error(String(err)));
+        return;
+      }
+    }
+    this.emit('lobby', lobby);
   }
 
   /** @param {Ack} message */

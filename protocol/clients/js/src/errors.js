@@ -2,9 +2,10 @@
 
 /**
  * An error reported by the server (`error` message), or the end of the connection.
- * `code` is the protocol's stable code (`name_taken`, `bad_token`, `unresponsive`, ...)
- * or one of the client's own: `connection_closed`, `connect_failed`, `timeout`,
- * `match_over`, `not_connected`.
+ * `code` is the protocol's stable code (`name_taken`, `bad_token`, `unknown_match`,
+ * `unknown_template`, `unresponsive`, ...) or one of the client's own:
+ * `connection_closed`, `connect_failed`, `timeout`, `match_over`, `not_connected`,
+ * `bad_options` (options that cannot go together, such as `match` with `template`).
  */
 export class BW4TError extends Error {
   /**

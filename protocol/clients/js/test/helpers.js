@@ -1,8 +1,10 @@
-// Test support: find the real bw4t binary, start `bw4t serve` on a free port, bound
-// every wait. Not a test file itself (the runner loads it and finds no tests).
+// Test support: find the real bw4t binary, start `bw4t serve` on a free port, run a
+// scripted fake server in the test process, bound every wait. Not a test file itself
+// (the runner loads it and finds no tests).
 
 import { spawn } from 'node:child_process';
 import fs from 'node:fs';
+import net from 'node:net';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
 
@@ -157,3 +159,143 @@ export async function runMatch(args, options = {}) {
   if (code !== 0) throw new Error(`bw4t run exited with ${code}:\n${stderr}\n${stdout}`);
   return JSON.parse(stdout);
 }
+
+/**
+ * One client connection seen by a fake server: the client's messages in order, read
+ * with `next()`/`expect(type)` (bounded), and `send(...)` to answer.
+ */
+export class FakeConnection {
+  /** @param {import('node:net').Socket} socket */
+  constructor(socket) {
+    this.socket = socket;
+    /** Every message received, in order. @type {any[]} */
+    this.received = [];
+    /** @type {any[]} */
+    this.unread = [];
+    /** @type {Array<() => void>} */
+    this.waiting = [];
+    this.ended = false;
+    let buffer = '';
+    socket.setEncoding('utf8');
+    socket.on('data', (chunk) => {
+      buffer += chunk;
+      let newline;
+      while ((newline = buffer.indexOf('\n')) >= 0) {
+        const message = JSON.parse(buffer.slice(0, newline));
+        buffer = buffer.slice(newline + 1);
+        this.received.push(message);
+        this.unread.push(message);
+      }
+      this.#wake();
+    });
+    socket.on('close', () => {
+      this.ended = true;
+      this.#wake();
+    });
+    socket.on('error', () => {});
+  }
+
+  #wake() {
+    for (const wake of this.waiting.splice(0)) wake();
+  }
+
+  /**
+   * The client's next message, or `null` once it closed the connection.
+   * @param {number} [ms]
+   * @returns {Promise<any>}
+   */
+  async next(ms = 10000) {
+    const arrived = async () => {
+      while (this.unread.length === 0 && !this.ended) await new Promise((resolve) => this.waiting.push(() => resolve(undefined)));
+      return this.unread.shift() ?? null;
+    };
+    return within(arrived(), ms, 'a message from the client');
+  }
+
+  /**
+   * The client's next message, which must be of this type.
+   * @param {string} type
+   */
+  async expect(type) {
+    const message = await this.next();
+    if (message?.type !== type) throw new Error(`expected ${type} from the client, got ${JSON.stringify(message)}`);
+    return message;
+  }
+
+  /** Read what the client still sends until it closes the connection. */
+  async closed() {
+    while ((await this.next()) !== null);
+  }
+
+  /** @param {...object} messages */
+  send(...messages) {
+    this.socket.write(messages.map((m) => JSON.stringify(m) + '\n').join(''));
+  }
+}
+
+/**
+ * A scripted bw4t server in the test process: each connection runs `script(conn)`.
+ * `stop()` closes it, waits for the scripts (bounded) and throws the first error of one,
+ * so a failed check inside a script fails the test.
+ * @param {(conn: FakeConnection) => Promise<void>} script
+ * @returns {Promise<{host: string, port: number, connections: FakeConnection[], stop: () => Promise<void>}>}
+ */
+export async function startFakeServer(script) {
+  /** @type {FakeConnection[]} */
+  const connections = [];
+  /** @type {Promise<void>[]} */
+  const runs = [];
+  /** @type {unknown[]} */
+  const errors = [];
+  const server = net.createServer((socket) => {
+    const conn = new FakeConnection(socket);
+    connections.push(conn);
+    runs.push(
+      script(conn)
+        .catch((err) => {
+          errors.push(err);
+        })
+        .finally(() => socket.end()),
+    );
+  });
+  await new Promise((resolve) => server.listen(0, '127.0.0.1', () => resolve(undefined)));
+  const { port } = /** @type {import('node:net').AddressInfo} */ (server.address());
+  const stop = async () => {
+    const closed = new Promise((resolve) => server.close(() => resolve(undefined)));
+    await within(Promise.all(runs), 10000, 'the fake server scripts to finish');
+    await within(closed, 10000, 'the fake server to close');
+    if (errors.length > 0) throw errors[0];
+  };
+  return { host: '127.0.0.1', port, connections, stop };
+}
+
+/** Messages of a many-match server, for fake servers. */
+export const fake = {
+  /**
+   * @param {{name?: string, match?: string, template?: string, session?: string, mode?: string}} [fields]
+   */
+  welcome({ name = 'Ann', match = 'default', template, session = '0123456789abcdef01234567', mode = 'realtime' } = {}) {
+    const info = { name: match, template, map: 'fixed', seed: 1, mode, tick_hz: 20, players_needed: 2, every_tick: false };
+    if (mode === 'lockstep') info.deadline_ms = 0;
+    return { type: 'welcome', version: 1, name, robot: 0, session, match: info };
+  },
+  snapshot(tick = 0, name = 'Ann') {
+    const add = [['ownName', name], ['bot', 0], ['at', 'FrontDropZone'], ['state', 'arrived'], ['player', name]];
+    return { type: 'percepts', tick, add, not: [], full: true };
+  },
+  /** @param {object} fields */
+  lobby(fields) {
+    return { type: 'lobby', ...fields };
+  },
+  /**
+   * A fatal error and the bye after it.
+   * @param {string} code
+   * @param {string} message
+   */
+  fatal(code, message) {
+    return [
+      { type: 'error', code, message, fatal: true },
+      { type: 'bye', reason: code },
+    ];
+  },
+};
