@@ -448,41 +448,19 @@ fn play_one(
         }
     });
     // A match that could not run is a row too, with end reason `error`.
-    let mut row = Row {
-        key: p.key.clone(),
-        index: p.index,
-        team: team.name.clone(),
-        map: resolved.maps[p.map].clone(),
-        seed: p.seed,
-        repetition: p.repetition,
-        robots: team.robots,
-        completed: false,
-        ticks: 0,
-        completed_tick: None,
-        wall_ms: 0,
-        good_drops: 0,
-        wrong_drops: 0,
-        messages: 0,
-        late_agents: 0,
-        crashed_agents: 0,
-        end_reason: EndReason::Error,
-        error: None,
-        digest: String::new(),
-        replay: None,
-    };
+    let mut row = Row::unplayed(
+        p.key.clone(),
+        p.index,
+        team.name.clone(),
+        resolved.maps[p.map].clone(),
+        p.seed,
+        team.robots,
+    );
+    row.repetition = p.repetition;
     match played {
         Ok((result, agents)) => {
-            row.completed = result.completed;
-            row.ticks = result.ticks;
-            row.completed_tick = result.completed_tick;
-            row.wall_ms = result.wall_ms;
-            row.good_drops = result.good_drops;
-            row.wrong_drops = result.wrong_drops;
-            row.messages = result.messages;
-            row.late_agents = result.per_robot.iter().filter(|r| r.late_ticks > 0).count() as u32;
+            row.record(&result);
             row.crashed_agents = agents.iter().filter(|a| a.status != AgentStatus::Ok).count() as u32;
-            row.end_reason = result.end_reason;
-            row.digest = result.digest;
         }
         Err(message) => row.error = Some(message),
     }

@@ -2,20 +2,20 @@
 //! (queued lines to the socket). Malformed input is answered here and never reaches the match.
 
 use std::sync::Arc;
-use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use std::future::Future;
 
 use bw4t_protocol::{
-    ByeReason, ClientMessage, DecodeError, ErrorCode, ErrorMessage, LineBuffer, Pong, ServerBye,
-    ServerMessage, encode,
+    ByeReason, ClientMessage, DecodeError, ErrorCode, ErrorMessage, Leaving, LineBuffer, Lobby, Pong,
+    ServerBye, ServerMessage, encode,
 };
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::tcp::{OwnedReadHalf, OwnedWriteHalf};
 use tokio::net::{TcpListener, TcpSocket, TcpStream};
 use tokio::sync::{Notify, mpsc, watch};
 
-use crate::ServerConfig;
+use crate::arena::{Arena, QueueNews, Route, Routed};
 
 /// Identifies a connection for the match task.
 pub type ConnId = u64;
@@ -83,13 +83,9 @@ pub fn listen(addr: std::net::SocketAddr) -> std::io::Result<TcpListener> {
 }
 
 /// Accepts connections until aborted, refusing those beyond the limit.
-pub(crate) async fn accept_loop(
-    listener: TcpListener,
-    config: ServerConfig,
-    events: mpsc::Sender<Event>,
-    ids: Arc<AtomicU64>,
-) {
+pub(crate) async fn accept_loop(listener: TcpListener, arena: Arena) {
     let open = Arc::new(AtomicUsize::new(0));
+    let max = arena.config().max_connections;
     loop {
         let Ok((stream, _)) = listener.accept().await else {
             // Out of file descriptors or a reset before accept: try again shortly.
@@ -97,15 +93,15 @@ pub(crate) async fn accept_loop(
             continue;
         };
         let _ = stream.set_nodelay(true);
-        if open.load(Ordering::SeqCst) >= config.max_connections {
-            tokio::spawn(refuse(stream, config.max_connections));
+        if open.load(Ordering::SeqCst) >= max {
+            tokio::spawn(refuse(stream, max));
             continue;
         }
         open.fetch_add(1, Ordering::SeqCst);
-        let conn = ids.fetch_add(1, Ordering::SeqCst);
-        let (events, open, config) = (events.clone(), open.clone(), config.clone());
+        let conn = arena.next_conn();
+        let (arena, open) = (arena.clone(), open.clone());
         tokio::spawn(async move {
-            handle(stream, conn, &config, events).await;
+            handle(stream, conn, &arena).await;
             open.fetch_sub(1, Ordering::SeqCst);
         });
     }
@@ -197,8 +193,6 @@ fn start_writer(conn: ConnId, queue: usize, mut sink: impl LineSink) -> Outgoing
 enum Forwarded {
     /// Answered here or passed on.
     Handled,
-    /// A `hello` was passed on.
-    Hello,
     /// The match task is gone.
     Stop,
 }
@@ -222,14 +216,10 @@ async fn forward(
             let _ = tx.try_send(Outbound::Line(encode(&ServerMessage::Pong(Pong { id: ping.id })).into()));
             Forwarded::Handled
         }
-        Ok(message) => {
-            let hello = matches!(message, ClientMessage::Hello(_));
-            match events.send(Event::Message { conn, message }).await {
-                Err(_) => Forwarded::Stop,
-                Ok(()) if hello => Forwarded::Hello,
-                Ok(()) => Forwarded::Handled,
-            }
-        }
+        Ok(message) => match events.send(Event::Message { conn, message }).await {
+            Err(_) => Forwarded::Stop,
+            Ok(()) => Forwarded::Handled,
+        },
     }
 }
 
@@ -281,59 +271,210 @@ impl LineSource for TcpLines {
     }
 }
 
-async fn handle(stream: TcpStream, conn: ConnId, config: &ServerConfig, events: mpsc::Sender<Event>) {
+async fn handle(stream: TcpStream, conn: ConnId, arena: &Arena) {
     let (reader, writer) = stream.into_split();
     let source = TcpLines { reader, lines: LineBuffer::new(), buf: vec![0u8; 16 * 1024] };
-    run(conn, config.hello_timeout, config.queue, source, writer, events).await;
+    run(conn, source, writer, arena).await;
 }
 
-/// Runs one connection, whatever carries it: lines from `source` go to the match task
-/// (bad input and `ping` are answered here), queued lines go to `sink`. A connection that
-/// has not said `hello` within `hello_timeout` gets `error` and `bye` `hello_timeout` and is
-/// closed.
-pub(crate) async fn run(
-    conn: ConnId,
-    hello_timeout: std::time::Duration,
-    queue: usize,
-    mut source: impl LineSource,
-    sink: impl LineSink,
-    events: mpsc::Sender<Event>,
-) {
+/// What a connection heard before it joined a match.
+enum Greeting {
+    /// A `hello` routed to a match, and the lines that came after it in the same read.
+    Joined(Route, ClientMessage, Vec<Result<String, DecodeError>>),
+    /// The connection is over (it left, said `bye`, was refused or timed out).
+    Over,
+}
+
+/// Runs one connection, whatever carries it: until `hello`, lines are answered here
+/// (`ping`, bad input, `no_hello`); the `hello` is routed to a match ([`Arena::route`]),
+/// possibly after waiting in a template's queue; from then on lines go to that match's
+/// task (bad input and `ping` are still answered here), and queued lines go to `sink`. A
+/// connection that has not said `hello` within the server's `hello_timeout` gets `error`
+/// and `bye` `hello_timeout` and is closed.
+pub(crate) async fn run(conn: ConnId, mut source: impl LineSource, sink: impl LineSink, arena: &Arena) {
     // The writer ends on `Close`, a kill or a dead socket; the reader then stops too.
-    let outgoing = start_writer(conn, queue, sink);
+    let outgoing = start_writer(conn, arena.config().queue, sink);
     let (tx, mut done) = (outgoing.tx.clone(), outgoing.done.clone());
-    if events.send(Event::Opened(outgoing.opened())).await.is_err() {
+    let greeting = greet(&mut source, &tx, &mut done, arena).await;
+    let Greeting::Joined(route, hello, rest) = greeting else {
+        drop(tx);
+        let _ = outgoing.tx.try_send(Outbound::Close);
+        drop(outgoing.tx);
+        let _ = outgoing.task.await;
+        return;
+    };
+    // Held while the connection is open: its seat in a waiting match.
+    let _claim = route.claim;
+    let events = route.events;
+    if events.send(Event::Opened(outgoing.opened())).await.is_err()
+        || events.send(Event::Message { conn, message: hello }).await.is_err()
+    {
+        refuse_fatally(&tx, ErrorCode::MatchFailed, "the match ended before this connection joined it");
+        drop(tx);
+        let _ = outgoing.tx.try_send(Outbound::Close);
+        drop(outgoing.tx);
+        let _ = outgoing.task.await;
         return;
     }
-    let mut greeted = false;
-    let hello_deadline = tokio::time::Instant::now() + hello_timeout;
-    'read: loop {
+    let mut stopped = false;
+    for line in rest {
+        if let Forwarded::Stop = forward(conn, line, &tx, &events).await {
+            stopped = true;
+            break;
+        }
+    }
+    while !stopped {
         let incoming = tokio::select! {
             incoming = source.next() => incoming,
-            _ = done.wait_for(|d| *d) => break 'read,
-            () = tokio::time::sleep_until(hello_deadline), if !greeted => {
-                refuse_fatally(&tx, ErrorCode::HelloTimeout, "no hello in time");
-                break 'read;
-            }
+            _ = done.wait_for(|d| *d) => break,
         };
         let lines = match incoming {
             Incoming::Lines(lines) => lines,
             Incoming::Fatal(error) => {
                 refuse_fatally(&tx, error.code, &error.message);
-                break 'read;
+                break;
             }
-            Incoming::Closed => break 'read,
+            Incoming::Closed => break,
         };
         for line in lines {
-            match forward(conn, line, &tx, &events).await {
-                Forwarded::Handled => {}
-                Forwarded::Hello => greeted = true,
-                Forwarded::Stop => break 'read,
+            if let Forwarded::Stop = forward(conn, line, &tx, &events).await {
+                stopped = true;
+                break;
             }
         }
     }
     drop(tx);
     finish(conn, outgoing, &events).await;
+}
+
+/// Reads until a `hello` is routed to a match.
+async fn greet(
+    source: &mut impl LineSource,
+    tx: &mpsc::Sender<Outbound>,
+    done: &mut watch::Receiver<bool>,
+    arena: &Arena,
+) -> Greeting {
+    let hello_deadline = tokio::time::Instant::now() + arena.config().hello_timeout;
+    loop {
+        let incoming = tokio::select! {
+            incoming = source.next() => incoming,
+            _ = done.wait_for(|d| *d) => return Greeting::Over,
+            () = tokio::time::sleep_until(hello_deadline) => {
+                refuse_fatally(tx, ErrorCode::HelloTimeout, "no hello in time");
+                return Greeting::Over;
+            }
+        };
+        let mut lines = match incoming {
+            Incoming::Lines(lines) => lines.into_iter(),
+            Incoming::Fatal(error) => {
+                refuse_fatally(tx, error.code, &error.message);
+                return Greeting::Over;
+            }
+            Incoming::Closed => return Greeting::Over,
+        };
+        while let Some(line) = lines.next() {
+            let message = match line.and_then(|l| bw4t_protocol::decode_client(&l)) {
+                Err(e) => {
+                    let _ = tx.try_send(Outbound::Line(error_line(e.code, &e.message, false)));
+                    continue;
+                }
+                Ok(message) => message,
+            };
+            let hello = match message {
+                ClientMessage::Hello(hello) => hello,
+                ClientMessage::Ping(ping) => {
+                    let _ = tx
+                        .try_send(Outbound::Line(encode(&ServerMessage::Pong(Pong { id: ping.id })).into()));
+                    continue;
+                }
+                ClientMessage::Bye(_) => {
+                    let _ = tx.try_send(Outbound::Line(bye_line(Leaving::Goodbye)));
+                    return Greeting::Over;
+                }
+                _ => {
+                    let _ =
+                        tx.try_send(Outbound::Line(error_line(ErrorCode::NoHello, "say hello first", false)));
+                    continue;
+                }
+            };
+            let route = match arena.route(&hello) {
+                Err((code, message)) => {
+                    refuse_fatally(tx, code, &message);
+                    return Greeting::Over;
+                }
+                Ok(Routed::Match(route)) => route,
+                Ok(Routed::Queued(news, place)) => {
+                    let template = hello.template.clone().unwrap_or_default();
+                    match wait_in_queue(source, tx, done, news, place, &template).await {
+                        Some(route) => route,
+                        None => return Greeting::Over,
+                    }
+                }
+            };
+            return Greeting::Joined(route, ClientMessage::Hello(hello), lines.collect());
+        }
+    }
+}
+
+/// Waits in a template's queue for a seat, telling the player its place; `None` if the
+/// player leaves (or the server stops) first. Only `ping` and `bye` are taken meanwhile.
+async fn wait_in_queue(
+    source: &mut impl LineSource,
+    tx: &mpsc::Sender<Outbound>,
+    done: &mut watch::Receiver<bool>,
+    mut news: mpsc::Receiver<QueueNews>,
+    mut place: usize,
+    template: &str,
+) -> Option<Route> {
+    loop {
+        let lobby = Lobby { template: Some(template.to_string()), queued: Some(place), ..Lobby::default() };
+        let _ = tx.try_send(Outbound::Line(encode(&ServerMessage::Lobby(lobby)).into()));
+        loop {
+            tokio::select! {
+                heard = news.recv() => match heard {
+                    Some(QueueNews::Seat(route)) => return Some(route),
+                    Some(QueueNews::Place(now)) if now != place => {
+                        place = now;
+                        break;
+                    }
+                    Some(QueueNews::Place(_)) => {}
+                    None => {
+                        refuse_fatally(tx, ErrorCode::UnknownTemplate, "the server is stopping");
+                        return None;
+                    }
+                },
+                incoming = source.next() => match incoming {
+                    Incoming::Lines(lines) => {
+                        for line in lines {
+                            match line.and_then(|l| bw4t_protocol::decode_client(&l)) {
+                                Ok(ClientMessage::Ping(ping)) => {
+                                    let pong = encode(&ServerMessage::Pong(Pong { id: ping.id }));
+                                    let _ = tx.try_send(Outbound::Line(pong.into()));
+                                }
+                                Ok(ClientMessage::Bye(_)) => {
+                                    let _ = tx.try_send(Outbound::Line(bye_line(Leaving::Goodbye)));
+                                    return None;
+                                }
+                                Ok(_) => {
+                                    let why = "waiting for a seat in a match: only ping and bye until welcome";
+                                    let _ = tx.try_send(Outbound::Line(error_line(ErrorCode::NotAPlayer, why, false)));
+                                }
+                                Err(e) => {
+                                    let _ = tx.try_send(Outbound::Line(error_line(e.code, &e.message, false)));
+                                }
+                            }
+                        }
+                    }
+                    Incoming::Fatal(error) => {
+                        refuse_fatally(tx, error.code, &error.message);
+                        return None;
+                    }
+                    Incoming::Closed => return None,
+                },
+                _ = done.wait_for(|d| *d) => return None,
+            }
+        }
+    }
 }
 
 /// Queues a fatal `error` and its `bye` (best effort: the connection closes next anyway).

@@ -34,6 +34,8 @@ const PAGE_FILES: &[(&str, &str, &str)] = &[
     ("/renderer.js", JS, include_str!("../web/renderer.js")),
     ("/panels.js", JS, include_str!("../web/panels.js")),
     ("/connection.js", JS, include_str!("../web/connection.js")),
+    ("/waiting.js", JS, include_str!("../web/waiting.js")),
+    ("/lobby.js", JS, include_str!("../web/lobby.js")),
     ("/spectator.js", JS, include_str!("../web/spectator.js")),
     ("/player.js", JS, include_str!("../web/player.js")),
     ("/replay.js", JS, include_str!("../web/replay.js")),
@@ -49,8 +51,8 @@ pub const MAX_REQUESTS: usize = 1024;
 const MAX_HEAD: usize = 16 * 1024;
 /// The most header lines in a request head.
 const MAX_HEADERS: usize = 64;
-/// The time a client has to send its request head.
-const HEAD_TIMEOUT: Duration = Duration::from_secs(10);
+/// The time a client has to send its request head (and its body).
+pub(crate) const HEAD_TIMEOUT: Duration = Duration::from_secs(10);
 /// The time a client has to take its answer.
 const WRITE_TIMEOUT: Duration = Duration::from_secs(10);
 /// How long, after answering, the rest of a request is read and dropped so that closing
@@ -115,18 +117,22 @@ pub(crate) async fn serve(
                     return;
                 }
             };
-            if let Some(live) = live.filter(|_| head.request.uri().path() == "/ws") {
-                match websocket::admit(&head.request, &live) {
+            if let Some(live) = live.as_ref().filter(|_| head.request.uri().path() == "/ws") {
+                match websocket::admit(&head.request, live) {
                     Ok(admitted) => {
                         // From here on it counts as a WebSocket, not as a request.
                         drop(permit);
-                        websocket::bridge(stream, head, admitted, &live).await;
+                        websocket::bridge(stream, head, admitted, live).await;
                     }
                     Err(reply) => reply_and_close(stream, reply).await,
                 }
                 return;
             }
-            reply_and_close(stream, respond(&head.request, &site).await).await;
+            let reply = match live.as_ref().filter(|_| crate::api::serves(head.request.uri().path())) {
+                Some(live) => crate::api::respond(head, &mut stream, &live.arena).await,
+                None => respond(&head.request, &site).await,
+            };
+            reply_and_close(stream, reply).await;
             drop(permit);
         });
     }
@@ -235,7 +241,7 @@ pub(crate) struct Reply {
 }
 
 impl Reply {
-    fn new(status: StatusCode, kind: &'static str, body: impl Into<Cow<'static, str>>) -> Reply {
+    pub(crate) fn new(status: StatusCode, kind: &'static str, body: impl Into<Cow<'static, str>>) -> Reply {
         Reply { status, kind, body: body.into(), headers: Vec::new() }
     }
 
@@ -254,6 +260,11 @@ impl Reply {
     pub(crate) fn with(mut self, name: &'static str, value: String) -> Reply {
         self.headers.push((name, value));
         self
+    }
+
+    /// A JSON answer.
+    pub(crate) fn json(status: StatusCode, body: String) -> Reply {
+        Reply::new(status, "application/json", body)
     }
 
     fn to_bytes(&self) -> Vec<u8> {

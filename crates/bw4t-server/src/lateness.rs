@@ -24,7 +24,10 @@ impl std::fmt::Debug for TickLateness {
 
 impl Default for TickLateness {
     fn default() -> Self {
-        TickLateness { buckets: (0..BUCKETS).map(|_| AtomicU64::new(0)).collect(), skipped: AtomicU64::new(0) }
+        TickLateness {
+            buckets: (0..BUCKETS).map(|_| AtomicU64::new(0)).collect(),
+            skipped: AtomicU64::new(0),
+        }
     }
 }
 

@@ -6,21 +6,26 @@
 //! The caller binds the listener and supplies the shutdown signal, so tests bind
 //! `127.0.0.1:0`.
 
+mod api;
+mod arena;
 mod connection;
 mod host;
 mod http;
 mod lateness;
 mod websocket;
 
+pub use arena::{
+    AgentFactory, Arena, ArenaConfig, ArenaError, CreateRequest, MapLookup, MatchSpec, OnEnd, ResultsStore,
+    SeatPlan, Template, check_match_name,
+};
 pub use connection::{ConnId, LISTEN_BACKLOG, listen};
 pub use host::{HostEvent, HostStatus, MatchHost, QueueRoom, Transmit};
-pub use lateness::TickLateness;
 pub use http::{FrameSource, MAX_REQUESTS, Site, serve_site};
+pub use lateness::TickLateness;
 pub use websocket::parse_origin;
 
 use std::future::Future;
 use std::sync::Arc;
-use std::sync::atomic::AtomicU64;
 use std::time::Duration;
 
 use bw4t_map::Map;
@@ -192,34 +197,62 @@ pub async fn serve(
     serve_with(listener, config, Extras::default(), shutdown).await
 }
 
-/// [`serve`] with seats taken in advance (built-in agents and reserved names) and a replay.
+/// [`serve`] with seats taken in advance (built-in agents and reserved names) and a replay:
+/// a server of this one match, which it stops after.
 pub async fn serve_with(
     listener: TcpListener,
     config: ServerConfig,
     mut extras: Extras,
     shutdown: impl Future<Output = ()>,
 ) -> Result<MatchResult, ServerError> {
-    let (events_tx, events_rx) = mpsc::channel(host::driver::EVENT_QUEUE);
-    let http = extras.http.take();
-    let replay = extras.replay.take().map(|out| (out, std::mem::take(&mut extras.program)));
-    let seats = std::mem::take(&mut extras.seats);
-    let host = host::MatchHost::new(config.clone(), seats, replay, std::time::Instant::now())?;
-    let ids = Arc::new(AtomicU64::new(1));
+    let mut settings = ArenaConfig::new(Vec::new(), &config);
+    settings.default = Some(config.name.clone());
+    settings.once = true;
+    let arena = Arena::start(settings).map_err(|e| match e {
+        ArenaError::Server(e) => e,
+        e => ServerError::Seat(e.to_string()),
+    })?;
+    let spec = MatchSpec {
+        replay: extras.replay.take().map(|out| (out, std::mem::take(&mut extras.program))),
+        seats: std::mem::take(&mut extras.seats),
+        gone_seats: extras.gone_seats.take(),
+        config,
+    };
+    arena.spawn(spec).map_err(|e| match e {
+        ArenaError::Server(e) => e,
+        e => ServerError::Seat(e.to_string()),
+    })?;
+    serve_arena(&arena, listener, extras.http.take(), shutdown).await;
+    match arena.outcomes().into_iter().next() {
+        Some((_, outcome)) => outcome.map_err(ServerError::Failed),
+        None => Err(ServerError::Failed("the match did not end".into())),
+    }
+}
+
+/// Serves `arena`'s matches on `listener`, and the page, the API and `/ws` on `http`,
+/// until `shutdown` resolves (every match then ends as `interrupted`) or, for a server
+/// run `once`, until no match is live any more. Returns when every match has recorded
+/// its end.
+pub async fn serve_arena(
+    arena: &Arena,
+    listener: TcpListener,
+    http: Option<TcpListener>,
+    shutdown: impl Future<Output = ()>,
+) {
     let site = http.map(|listener| {
-        let site = Arc::new(Site {
-            map_json: bw4t_protocol::map_layout(&config.map).to_string(),
-            info_json: serde_json::json!({"mode": "live", "protocol": bw4t_protocol::VERSION, "map": config.map.name()})
-                .to_string(),
-            replay: None,
-        });
-        let live = websocket::Live::new(&config, events_tx.clone(), ids.clone());
-        tokio::spawn(http::serve(listener, site, http::MAX_REQUESTS, Some(Arc::new(live))))
+        let site = Arc::new(Site { map_json: String::new(), info_json: String::new(), replay: None });
+        let live = Arc::new(websocket::Live::new(arena.clone()));
+        tokio::spawn(http::serve(listener, site, http::MAX_REQUESTS, Some(live)))
     });
-    let acceptor = tokio::spawn(connection::accept_loop(listener, config, events_tx, ids));
-    let outcome = host::driver::run(host, events_rx, extras.gone_seats.take(), shutdown).await;
+    let acceptor = tokio::spawn(connection::accept_loop(listener, arena.clone()));
+    let once = arena.config().once;
+    tokio::select! {
+        () = shutdown => {}
+        () = arena.idle(), if once => {}
+    }
+    arena.shutdown().await;
     acceptor.abort();
     if let Some(site) = site {
         site.abort();
     }
-    outcome.map_err(ServerError::Failed)
 }

@@ -9,22 +9,21 @@
 
 use std::net::{Ipv4Addr, Ipv6Addr};
 use std::sync::Arc;
-use std::sync::atomic::{AtomicU64, Ordering};
-use std::time::Duration;
 
 use bw4t_protocol::{DecodeError, ErrorCode, MAX_LINE};
 use futures_util::stream::{SplitSink, SplitStream};
 use futures_util::{SinkExt, StreamExt};
 use tokio::io::AsyncWriteExt;
 use tokio::net::TcpStream;
-use tokio::sync::{OwnedSemaphorePermit, Semaphore, mpsc};
+use tokio::sync::{OwnedSemaphorePermit, Semaphore};
 use tokio_tungstenite::WebSocketStream;
 use tokio_tungstenite::tungstenite::handshake::server::{Response, create_response, write_response};
 use tokio_tungstenite::tungstenite::http::{self, StatusCode};
 use tokio_tungstenite::tungstenite::protocol::{Role, WebSocketConfig};
 use tokio_tungstenite::tungstenite::{Error as WsError, Message};
 
-use crate::connection::{Event, Incoming, LineSink, LineSource};
+use crate::arena::Arena;
+use crate::connection::{Incoming, LineSink, LineSource};
 use crate::http::{Head, Reply};
 
 /// Bytes read from the socket at a time (the library's default, 128 KiB, is allocated
@@ -34,38 +33,27 @@ const READ_BUFFER: usize = 4 * 1024;
 /// written. A full `frame` of the 100-room map is 16 KB.
 const MAX_WRITE_BUFFER: usize = 1024 * 1024;
 
-/// A live match's side of the web port.
+/// The live server's side of the web port.
 pub(crate) struct Live {
-    /// Where connections report to the match task.
-    pub events: mpsc::Sender<Event>,
-    /// Connection ids, shared with the protocol port.
-    pub ids: Arc<AtomicU64>,
+    /// The matches WebSockets join.
+    pub arena: Arena,
     /// WebSockets open at once (`max_connections`); more get `503`.
     pub max_sockets: usize,
     /// The places among them.
     pub sockets: Arc<Semaphore>,
-    /// As over TCP: the time to say `hello`, and the outgoing queue.
-    pub hello_timeout: Duration,
-    pub queue: usize,
     /// Which pages may connect.
     pub origins: OriginPolicy,
 }
 
 impl Live {
-    /// The WebSocket side of a match served with `config`.
-    pub(crate) fn new(
-        config: &crate::ServerConfig,
-        events: mpsc::Sender<Event>,
-        ids: Arc<AtomicU64>,
-    ) -> Live {
+    /// The WebSocket side of `arena`.
+    pub(crate) fn new(arena: Arena) -> Live {
+        let config = arena.config();
         Live {
-            events,
-            ids,
             max_sockets: config.max_connections,
             sockets: Arc::new(Semaphore::new(config.max_connections)),
-            hello_timeout: config.hello_timeout,
-            queue: config.queue,
             origins: OriginPolicy::new(&config.allowed_origins),
+            arena,
         }
     }
 }
@@ -103,16 +91,8 @@ pub(crate) async fn bridge(mut stream: TcpStream, head: Head, admitted: Admitted
     let ws = WebSocketStream::from_partially_read(stream, head.rest, Role::Server, Some(config())).await;
     let (write, read) = ws.split();
     let mut lines = WsLines(read);
-    let conn = live.ids.fetch_add(1, Ordering::SeqCst);
-    crate::connection::run(
-        conn,
-        live.hello_timeout,
-        live.queue,
-        &mut lines,
-        WsSink(write),
-        live.events.clone(),
-    )
-    .await;
+    let conn = live.arena.next_conn();
+    crate::connection::run(conn, &mut lines, WsSink(write), &live.arena).await;
     // The writer is done, so `lines` holds the socket's last half: the place is free
     // before the socket closes, and a client that sees the close can take it at once.
     drop(place);

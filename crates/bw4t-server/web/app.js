@@ -1,23 +1,27 @@
-// The bw4t browser page: three views of a match, as ES modules the browser loads
-// itself (no build step, no dependencies, no external URLs).
+// The bw4t browser page: the matches of a server and three views of a match, as ES
+// modules the browser loads itself (no build step, no dependencies, no external URLs).
 //
-//   spectator  the whole map as the server's `frame`s show it (the default when live);
+//   lobby      the server's matches and templates, to watch or join (at / on a server of
+//              many matches, `/info.json` saying `"lobby": true`);
+//   spectator  the whole map as the server's `frame`s show it (the default when live;
+//              `?match=NAME` picks the match);
 //   player     a human drives one robot and sees only what its percepts say;
 //   replay     frames of a recorded match fetched from /replay/frame/T, with play and seek.
 //
 // It speaks protocol/PROTOCOL.md over a WebSocket at /ws (one JSON message per text
-// frame) and reads /info.json, /map.json and, for replays, /replay.json. This module
-// starts the page and runs the drawing loop; the others are
+// frame) and reads /info.json, /map.json, /api/matches (the lobby) and, for replays,
+// /replay.json. This module starts the page and runs the drawing loop; the others are
 //   dom.js · page.js (the state shown) · geometry.js · renderer.js · panels.js ·
-//   connection.js · spectator.js · player.js · replay.js,
+//   connection.js · waiting.js · lobby.js · spectator.js · player.js · replay.js,
 // and the JavaScript client's belief base, served from protocol/clients/js/src at
 // /client/beliefs.js and /client/table.js.
 
-import { $, fetchJSON, params, setText } from './dom.js';
-import { page } from './page.js';
-import { buildMap, zoneAt } from './geometry.js';
-import { Renderer } from './renderer.js';
+import { $, fetchJSON, linkTo, params, setText } from './dom.js';
+import { loadMap, page } from './page.js';
+import { zoneAt } from './geometry.js';
 import { setStatus } from './panels.js';
+import { showRefusal } from './waiting.js';
+import { startLobby } from './lobby.js';
 import { spectatorScene, startSpectator } from './spectator.js';
 import { joinAsPlayer, playerScene, setupPlayerControls } from './player.js';
 import { replay } from './replay.js';
@@ -67,26 +71,49 @@ function setupHover(canvas) {
   });
 }
 
-/** Reads the server's description of the match and its map, then opens the view it asks for. */
+/** Reads the server's description, then opens the view the address asks for: the lobby,
+ * or a match (its map first, unless a template's seat decides the match). */
 async function start() {
   let info;
-  let mapJson;
   try {
-    [info, mapJson] = await Promise.all([fetchJSON('/info.json'), fetchJSON('/map.json')]);
+    info = await fetchJSON('/info.json');
   } catch (err) {
     setStatus('error', err.message);
     return;
   }
-  page.map = buildMap(mapJson);
-  setText($('#map-name'), mapJson.name || info.map || '?');
+  // `?match=` and `?template=` mean something only to a server of many matches.
+  page.lobby = info.lobby === true && info.mode !== 'replay';
+  if (page.lobby) {
+    page.matchName = params.get('match') || null;
+    const link = $('#lobby-link');
+    link.href = linkTo();
+    link.hidden = false;
+  }
   const canvas = $('#map');
-  page.renderer = new Renderer(canvas, page.map);
   new ResizeObserver(() => {
-    if (page.renderer.resize()) page.dirty = true;
+    if (page.renderer?.resize()) page.dirty = true;
   }).observe($('#stage'));
   setupHover(canvas);
   setupPlayerControls(canvas);
   requestAnimationFrame(animate);
+
+  const name = params.get('play');
+  if (page.lobby && !page.matchName && !name) {
+    startLobby(info);
+    return;
+  }
+  const template = page.lobby && !page.matchName ? params.get('template') : null;
+  if (!(template && name)) {
+    try {
+      await loadMap(page.matchName, info.map);
+    } catch (err) {
+      setStatus('error', err.message);
+      if (page.matchName) {
+        showRefusal(`No map for match ${page.matchName} (${err.message}).`, { href: linkTo(), text: 'Back to the matches' }, 'No such match');
+      }
+      return;
+    }
+  }
 
   if (info.mode === 'replay') {
     try {
@@ -96,8 +123,7 @@ async function start() {
     }
     return;
   }
-  const name = params.get('play');
-  if (name) joinAsPlayer(name);
+  if (name) joinAsPlayer(name, template);
   else startSpectator();
 }
 

@@ -91,10 +91,13 @@ export function setWatchNote(text) {
   setText(note, text || '');
 }
 
-/** The match's settings from `welcome`: kept, and its mode shown. */
+/** The match's settings from `welcome`: kept, and its mode (and name) shown. */
 export function showMatch(match) {
   page.match = match;
   setText($('#mode'), match.mode);
+  // On a server of many matches, which one this is.
+  $('#match-field').hidden = !(page.lobby && match.name);
+  if (match.name) setText($('#match-name'), match.template ? `${match.name} (${match.template})` : match.name);
 }
 
 /** A `match_end`: the status, and a banner with the result (`me`: the player's name, to

@@ -9,13 +9,14 @@
 
 import { Beliefs } from './client/beliefs.js';
 import { DURATIVE } from './client/table.js';
-import { $, el, setText } from './dom.js';
-import { page, setView } from './page.js';
+import { $, el, linkTo, setText } from './dom.js';
+import { loadMap, page, setView } from './page.js';
 import { zoneAt } from './geometry.js';
 import { colourCss } from './renderer.js';
 import { addMessage, endMatch, log, setStatus, setTick, setWatchNote, showMatch, showSequence } from './panels.js';
 import { helloFor, openSocket } from './connection.js';
 import { spectator, startSpectator, stopSpectator } from './spectator.js';
+import { hideWaiting, showLobby, showRefusal } from './waiting.js';
 
 export const player = {
   socket: null,
@@ -25,13 +26,20 @@ export const player = {
   nextId: 1,
   pending: new Map(), // request id -> {words, durative, say}: for the log until answered
   retriedWithName: false,
+  template: null, // the template joined by (`?template=`), until a match gives a seat
 };
 
-const sessionKey = (name) => `bw4t-session:${location.host}:${name}`;
+// A session belongs to one match: on a server of many, it is kept under the match's name.
+const sessionKey = (name) => `bw4t-session:${location.host}${page.matchName ? `:match=${page.matchName}` : ''}:${name}`;
 
-/** Leaves the overview and joins the match as player `name` (or takes the robot back
- * with the session this tab was given). */
-export function joinAsPlayer(name) {
+// Refusals of a player that leave the match to be watched instead.
+const REFUSALS = ['invalid_name', 'name_taken', 'match_full', 'bad_token'];
+
+/** Leaves the overview and joins as player `name`: the match `page.matchName` (the
+ * server's default without one), or with `template`, the next match of that template
+ * with a free seat. In a match it takes the robot back with the session this tab was
+ * given, if any. */
+export function joinAsPlayer(name, template = null) {
   stopSpectator();
   spectator.frame = null;
   page.ended = false;
@@ -44,9 +52,18 @@ export function joinAsPlayer(name) {
   $('#log').replaceChildren();
   $('#messages').replaceChildren();
   setWatchNote('');
+  hideWaiting();
+  player.template = template;
   // After a reload, take the robot back with the session the server gave this tab.
-  const session = sessionStorage.getItem(sessionKey(name));
+  const session = template ? null : sessionStorage.getItem(sessionKey(name));
   connectPlayer(session ? { session } : { name });
+}
+
+/** Where a player's `hello` asks to play: the named match, a template, or neither. */
+function destination() {
+  if (page.matchName) return { match: page.matchName };
+  if (player.template) return { template: player.template };
+  return {};
 }
 
 /** Opens a player's WebSocket with fresh beliefs; `identity`: `{name}` or `{session}`. */
@@ -54,7 +71,7 @@ function connectPlayer(identity) {
   player.beliefs = new Beliefs();
   // Messages from a socket that was replaced (its trailing `bye`) are not this player's.
   const onMessage = (message) => player.socket === socket && onPlayerMessage(message);
-  const socket = openSocket(helloFor(identity), onMessage, () => {
+  const socket = openSocket(helloFor({ ...identity, ...destination() }), onMessage, () => {
     if (player.socket !== socket) return; // replaced on purpose (a new join, a retry)
     if (!page.ended && $('#status').dataset.status !== 'error') setStatus('disconnected');
     if (!page.ended) log('error', 'connection closed');
@@ -67,13 +84,27 @@ function onPlayerMessage(message) {
     case 'welcome':
       player.name = message.name;
       player.robot = message.robot;
+      if (page.lobby && message.match.name) {
+        // The match (maybe chosen by a template) is now this page's: a reload comes back to it.
+        page.matchName = message.match.name;
+        history.replaceState(null, '', linkTo({ match: page.matchName, play: message.name }));
+      }
       sessionStorage.setItem(sessionKey(message.name), message.session);
       showMatch(message.match);
       setText($('#me'), `${message.name} (robot ${message.robot})`);
       setStatus('connected');
-      log('info', `joined as ${message.name}, robot ${message.robot}; ${message.match.mode} match on ${message.match.map}`);
+      log(
+        'info',
+        `joined as ${message.name}, robot ${message.robot}; ${message.match.mode} match${message.match.name ? ` ${message.match.name}` : ''} on ${message.match.map}`,
+      );
+      // A template's match is known only now: draw its map.
+      if (!page.map) loadMap(page.matchName, message.match.map).catch((err) => log('error', `no map: ${err.message}`));
+      break;
+    case 'lobby':
+      showLobby(message); // queued for a seat, or the match waits for its players
       break;
     case 'percepts':
+      hideWaiting();
       onPercepts(message);
       break;
     case 'ack': {
@@ -109,6 +140,7 @@ function onPlayerMessage(message) {
       onPlayerError(message);
       break;
     case 'match_end':
+      hideWaiting();
       endMatch(message, player.name);
       log('info', `match over: ${message.reason}`);
       break;
@@ -132,7 +164,16 @@ function onPlayerError(message) {
     connectPlayer({ name: player.name });
     return;
   }
-  if (['invalid_name', 'name_taken', 'match_full', 'bad_token'].includes(message.code)) {
+  const noMatch = ['unknown_match', 'unknown_template'].includes(message.code);
+  if (noMatch || (REFUSALS.includes(message.code) && !page.matchName && player.template)) {
+    // No match to watch instead: say why, and where the others are.
+    player.socket = null;
+    socket?.close();
+    setStatus('error', message.code);
+    showRefusal(`could not join: ${message.message}`, page.lobby ? { href: linkTo(), text: 'Back to the matches' } : null);
+    return;
+  }
+  if (REFUSALS.includes(message.code)) {
     // Back to the overview, with the reason under the join form.
     player.socket = null;
     socket?.close();

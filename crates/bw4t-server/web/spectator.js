@@ -1,7 +1,7 @@
 // The overview: the whole match as the server's `frame`s show it (the default when live).
 // Replays show their frames through showFrame too.
 
-import { $, el, params, setText } from './dom.js';
+import { $, el, setText } from './dom.js';
 import { page, setView } from './page.js';
 import { zoneAt } from './geometry.js';
 import { colourCss } from './renderer.js';

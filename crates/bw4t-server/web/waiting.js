@@ -72,14 +72,14 @@ export function hideWaiting() {
   delete document.body.dataset.waiting;
 }
 
-/** The panel as a notice that joining failed (`link`: where to go instead, or none). */
-export function showRefusal(text, link = null) {
+/** The panel as a notice that joining or watching failed (`link`: where to go instead). */
+export function showRefusal(text, link = null, title = 'Could not join') {
   hideWaiting();
   const panel = $('#waiting');
   panel.hidden = false;
   panel.dataset.state = 'refused';
   panel.dataset.queued = '';
-  setText($('#waiting-title'), 'Could not join');
+  setText($('#waiting-title'), title);
   setText($('#waiting-about'), '');
   $('#waiting-players').replaceChildren();
   $('#waiting-players').dataset.names = '';

@@ -77,6 +77,48 @@ pub const CSV_COLUMNS: &[(&str, CsvField)] = &[
 ];
 
 impl Row {
+    /// The row of a match not (yet) played: end reason `error`, no figures; [`Row::record`]
+    /// fills in a result.
+    pub fn unplayed(key: String, index: u64, team: String, map: String, seed: u64, robots: usize) -> Row {
+        Row {
+            key,
+            index,
+            team,
+            map,
+            seed,
+            repetition: 0,
+            robots,
+            completed: false,
+            ticks: 0,
+            completed_tick: None,
+            wall_ms: 0,
+            good_drops: 0,
+            wrong_drops: 0,
+            messages: 0,
+            late_agents: 0,
+            crashed_agents: 0,
+            end_reason: EndReason::Error,
+            error: None,
+            digest: String::new(),
+            replay: None,
+        }
+    }
+
+    /// Takes the figures of a match's result (all but `crashed_agents`, which only the
+    /// player of the agents knows).
+    pub fn record(&mut self, result: &bw4t_protocol::MatchResult) {
+        self.completed = result.completed;
+        self.ticks = result.ticks;
+        self.completed_tick = result.completed_tick;
+        self.wall_ms = result.wall_ms;
+        self.good_drops = result.good_drops;
+        self.wrong_drops = result.wrong_drops;
+        self.messages = result.messages;
+        self.late_agents = result.per_robot.iter().filter(|r| r.late_ticks > 0).count() as u32;
+        self.end_reason = result.end_reason;
+        self.digest = result.digest.clone();
+    }
+
     /// The header line of `matches.csv`.
     pub fn csv_header() -> String {
         CSV_COLUMNS.iter().map(|(name, _)| *name).collect::<Vec<_>>().join(",")

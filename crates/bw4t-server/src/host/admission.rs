@@ -193,7 +193,7 @@ impl MatchHost {
 }
 
 /// Whether `given` is `secret`, in a time that does not depend on where they differ.
-fn same_secret(given: &str, secret: &str) -> bool {
+pub(crate) fn same_secret(given: &str, secret: &str) -> bool {
     let differences = given.bytes().zip(secret.bytes()).fold(0u8, |acc, (a, b)| acc | (a ^ b));
     given.len() == secret.len() && differences == 0
 }

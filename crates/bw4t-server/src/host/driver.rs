@@ -6,6 +6,7 @@
 use std::collections::BTreeMap;
 use std::future::Future;
 use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use bw4t_protocol::MatchResult;
 use tokio::sync::{Notify, mpsc, watch};
@@ -14,7 +15,7 @@ use tokio::time::{Duration, Instant};
 use bw4t_protocol::ErrorCode;
 
 use super::{HostEvent, MatchHost, QueueRoom, Transmit};
-use crate::connection::{Control, ConnId, Event, Opened, Outbound, bye_line, error_line};
+use crate::connection::{ConnId, Control, Event, Opened, Outbound, bye_line, error_line};
 
 /// Capacity of the channel from connections to the match task.
 pub(crate) const EVENT_QUEUE: usize = 4096;
@@ -51,6 +52,7 @@ pub(crate) async fn run(
     mut host: MatchHost,
     mut events: mpsc::Receiver<Event>,
     mut gone_seats: Option<mpsc::Receiver<String>>,
+    started: Arc<AtomicBool>,
     shutdown: impl Future<Output = ()>,
 ) -> Outcome {
     tokio::pin!(shutdown);
@@ -62,6 +64,10 @@ pub(crate) async fn run(
             flush(&mut host, &mut handles, &mut closing);
             if host.is_over() {
                 break;
+            }
+            if !started.load(Ordering::Relaxed) && host.has_started() {
+                // The server stops seating players here by template.
+                started.store(true, Ordering::Relaxed);
             }
             let timeout = host.poll_timeout();
             let now = Instant::now();
@@ -107,7 +113,8 @@ pub(crate) async fn run(
     .await;
     if let Err(why) = &outcome {
         // The host cannot be trusted any more: everyone connected is told and let go.
-        let error = error_line(ErrorCode::MatchFailed, &format!("the match failed in the server: {why}"), true);
+        let error =
+            error_line(ErrorCode::MatchFailed, &format!("the match failed in the server: {why}"), true);
         for h in std::mem::take(&mut handles).into_values() {
             let _ = h.tx.try_send(Outbound::Line(error.clone()));
             let _ = h.tx.try_send(Outbound::Line(bye_line(ErrorCode::MatchFailed)));

@@ -11,14 +11,16 @@
 mod admission;
 pub(crate) mod driver;
 
+pub(crate) use admission::same_secret;
+
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use bw4t_agents::Driver;
 use bw4t_protocol::{
-    Ack, ActId, ActResult, ClientMessage, Frame, FrameMessage, Lobby, MatchEnd, MatchResult, Mode,
-    Percepts, ServerMessage, action_from_act, encode, percept_to_fact,
+    Ack, ActId, ActResult, ClientMessage, Frame, FrameMessage, Lobby, MatchEnd, MatchResult, Mode, Percepts,
+    ServerMessage, action_from_act, encode, percept_to_fact,
 };
 use bw4t_protocol::{AckCode, ByeReason, EndReason, ErrorCode, Leaving, Recorder, RobotExtra};
 use bw4t_sim::{Accepted, Action, Intent, Match, OrderEnd, OrderId, Receiver, Rejection, RobotId, Seats};
@@ -519,6 +521,11 @@ impl MatchHost {
         }
     }
 
+    /// Whether the first tick has been made (the match no longer waits for players).
+    pub fn has_started(&self) -> bool {
+        matches!(self.phase, Phase::Playing { .. })
+    }
+
     /// Whether the match has ended; [`Self::finish`] then gives its result.
     pub fn is_over(&self) -> bool {
         self.end.is_some()
@@ -575,8 +582,12 @@ impl MatchHost {
             started,
         };
         let line: Arc<str> = encode(&ServerMessage::Lobby(lobby)).into();
-        let greeted: Vec<ConnId> =
-            self.conns.iter().filter(|(_, c)| c.lobby && c.role != ConnRole::New).map(|(id, _)| *id).collect();
+        let greeted: Vec<ConnId> = self
+            .conns
+            .iter()
+            .filter(|(_, c)| c.lobby && c.role != ConnRole::New)
+            .map(|(id, _)| *id)
+            .collect();
         for conn in greeted {
             self.send_line(conn, line.clone());
         }
@@ -587,7 +598,8 @@ impl MatchHost {
     fn fill_seats(&mut self) {
         let Some(strategy) = self.config.fill else { return };
         while self.players.len() < self.config.robots {
-            let Some(name) = (1..).map(|i| format!("Bot{i}")).take(1000).find(|n| self.game.check_name(n).is_ok())
+            let Some(name) =
+                (1..).map(|i| format!("Bot{i}")).take(1000).find(|n| self.game.check_name(n).is_ok())
             else {
                 return;
             };

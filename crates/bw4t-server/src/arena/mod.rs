@@ -1,0 +1,854 @@
+//! The arena: every match a server hosts, from its making to its result. Matches are made
+//! from templates (at the start, when a player asks for one, when one ends and its
+//! template says to go on) or by the operator; each runs as its own host task, so a
+//! failing match ends alone. Connections are routed to a match by their `hello`
+//! ([`route`]); finished matches go to the results store ([`store`]).
+
+mod route;
+mod store;
+
+use std::collections::{BTreeMap, VecDeque};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::Duration;
+
+use bw4t_agents::Agent;
+use bw4t_map::Map;
+use bw4t_protocol::{EndReason, MatchResult, Mode};
+use bw4t_tournament::Row;
+use tokio::sync::{mpsc, oneshot, watch};
+
+use crate::connection::{Control, Event};
+use crate::{HostStatus, Seat, ServerConfig, ServerError};
+
+pub(crate) use route::{QueueNews, Route, Routed};
+pub use store::ResultsStore;
+
+/// Makes the agent of a built-in seat for a player name.
+pub type AgentFactory = Arc<dyn Fn(&str) -> Box<dyn Agent> + Send + Sync>;
+
+/// A seat a template's matches give a built-in agent from the start.
+#[derive(Clone)]
+pub struct SeatPlan {
+    /// The player's name.
+    pub name: String,
+    /// Who plays it.
+    pub agent: AgentFactory,
+}
+
+impl SeatPlan {
+    /// A seat for a built-in agent of `strategy`.
+    pub fn builtin(name: impl Into<String>, strategy: bw4t_agents::Strategy) -> SeatPlan {
+        SeatPlan { name: name.into(), agent: Arc::new(move |name: &str| strategy.agent(name)) }
+    }
+}
+
+/// What a template does when one of its matches ends.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum OnEnd {
+    /// The match stays finished.
+    #[default]
+    Stay,
+    /// A new match of the same name starts, on the next seed.
+    Restart,
+    /// A new match of the same name starts on the next map of the template's list (after
+    /// the last, the first again), on the next seed.
+    Next,
+}
+
+impl OnEnd {
+    /// Every value, by its name in a configuration file.
+    pub const NAMES: &[(&str, OnEnd)] =
+        &[("stay", OnEnd::Stay), ("restart", OnEnd::Restart), ("next", OnEnd::Next)];
+}
+
+/// A recipe for matches: settings, built-in seats, which matches to make and what to do
+/// when one ends.
+#[derive(Clone)]
+pub struct Template {
+    /// Its name (`hello.template`).
+    pub name: String,
+    /// The matches' settings; `config.map` is the first map and `config.seed` the first
+    /// match's seed (the n-th match made gets `seed + n`).
+    pub config: ServerConfig,
+    /// The maps its matches play in turn (`OnEnd::Next`), the first being `config.map`.
+    pub maps: Vec<Map>,
+    /// Seats given to built-in agents when a match is made.
+    pub seats: Vec<SeatPlan>,
+    /// Matches made at the start under these names (a classroom's teams). Without names,
+    /// matches are made when players ask for the template, named `TEMPLATE-N`.
+    pub names: Vec<String>,
+    /// At most this many of its matches run at once; players beyond wait in a queue.
+    pub max_running: usize,
+    /// What happens when one of its matches ends.
+    pub on_end: OnEnd,
+    /// Keep a replay of each match (in the results directory).
+    pub replays: bool,
+}
+
+impl Template {
+    /// A template of one match named `name`, made at the start, with `config`.
+    pub fn single(name: &str, config: ServerConfig, on_end: OnEnd) -> Template {
+        Template {
+            name: name.to_string(),
+            maps: vec![config.map.clone()],
+            config,
+            seats: Vec::new(),
+            names: vec![name.to_string()],
+            max_running: 1,
+            on_end,
+            replays: false,
+        }
+    }
+}
+
+/// Finds a map by name for matches the operator makes through the API.
+pub type MapLookup = Arc<dyn Fn(&str) -> Result<Map, String> + Send + Sync>;
+
+/// How the server runs, besides its templates.
+#[derive(Clone)]
+pub struct ArenaConfig {
+    /// The templates, made into matches at the start when they name them.
+    pub templates: Vec<Template>,
+    /// What a `hello` that names no match joins: a match's or a template's name.
+    pub default: Option<String>,
+    /// The operator's secret: the HTTP API's credential, and each match's operator token
+    /// where the match has none of its own.
+    pub operator_token: Option<String>,
+    /// Where results, the index and replays are written; `None`: kept in memory only.
+    pub results: ResultsStore,
+    /// Connections accepted at once (protocol port; as many WebSockets on the web port).
+    pub max_connections: usize,
+    /// The time a new connection has to say `hello`.
+    pub hello_timeout: Duration,
+    /// Lines queued per connection.
+    pub queue: usize,
+    /// Pages besides the server's own that may open WebSockets.
+    pub allowed_origins: Vec<String>,
+    /// Stop when no match is live any more (after the first has ended): `--once`.
+    pub once: bool,
+    /// Maps the API may make matches on, by name; `None`: only the templates' maps.
+    pub maps: Option<MapLookup>,
+}
+
+impl ArenaConfig {
+    /// A server with these templates and the limits of `limits`.
+    pub fn new(templates: Vec<Template>, limits: &ServerConfig) -> ArenaConfig {
+        ArenaConfig {
+            templates,
+            default: Some(crate::DEFAULT_MATCH.to_string()),
+            operator_token: limits.operator_token.clone(),
+            results: ResultsStore::in_memory(),
+            max_connections: limits.max_connections,
+            hello_timeout: limits.hello_timeout,
+            queue: limits.queue,
+            allowed_origins: limits.allowed_origins.clone(),
+            once: false,
+            maps: None,
+        }
+    }
+}
+
+/// A match being made: its settings and what it starts with.
+pub struct MatchSpec {
+    /// Its settings, `name` and `template` included.
+    pub config: ServerConfig,
+    /// Seats taken at the start, in robot-id order.
+    pub seats: Vec<Seat>,
+    /// Where its replay goes, with the program name written into it.
+    pub replay: Option<(Box<dyn std::io::Write + Send>, String)>,
+    /// Names of reserved seats whose player will not come.
+    pub gone_seats: Option<mpsc::Receiver<String>>,
+}
+
+/// A match the arena is running.
+struct LiveMatch {
+    /// Unique among every match the server ever ran: `NAME.RUN`.
+    id: String,
+    run: u64,
+    template: Option<String>,
+    events: mpsc::Sender<Event>,
+    started: Arc<AtomicBool>,
+    /// Players routed to it while it waits whose connections are still open.
+    claims: usize,
+    /// Players it waits for besides its built-in seats.
+    open_seats: usize,
+    map: Arc<Map>,
+    mode: Mode,
+    seed: u64,
+    robots: usize,
+    watch_open: bool,
+}
+
+/// A finished match, as the lobby lists it.
+#[derive(Clone, Debug)]
+struct Finished {
+    name: String,
+    id: String,
+    run: u64,
+    template: Option<String>,
+    map: String,
+    mode: Mode,
+    seed: u64,
+    robots: usize,
+    players: Vec<String>,
+    tick: u64,
+    sequence: (usize, usize),
+    end_reason: EndReason,
+    watch_open: bool,
+}
+
+/// How many finished matches the lobby keeps.
+const FINISHED_KEPT: usize = 100;
+
+struct TemplateState {
+    template: Arc<Template>,
+    /// Matches made so far (the next one's number and seed offset).
+    made: u64,
+    /// Its matches running now.
+    running: usize,
+    /// Players waiting for a seat, oldest first.
+    queue: VecDeque<mpsc::Sender<QueueNews>>,
+}
+
+#[derive(Default)]
+struct State {
+    templates: BTreeMap<String, TemplateState>,
+    live: BTreeMap<String, LiveMatch>,
+    finished: VecDeque<Finished>,
+    /// Runs per match name.
+    runs: BTreeMap<String, u64>,
+    /// The n-th match finished (the index's `index`).
+    ended: u64,
+    /// Whether any match has ended (for `once`).
+    any_ended: bool,
+    stopping: bool,
+}
+
+struct Inner {
+    config: ArenaConfig,
+    state: Mutex<State>,
+    /// Connection ids, for the protocol and web ports alike.
+    ids: AtomicU64,
+    /// Becomes true when the server stops: every match ends.
+    shutdown: watch::Sender<bool>,
+    /// Counts live matches, for waiting until all have ended.
+    live_count: watch::Sender<usize>,
+    /// The outcomes of matches, in the order they ended (for `serve` and tests).
+    outcomes: Mutex<Vec<(String, Result<MatchResult, String>)>>,
+    /// Map layouts (`/map.json`), by map name.
+    layouts: Mutex<BTreeMap<String, Arc<str>>>,
+}
+
+/// A handle on the server's matches; clones share them.
+#[derive(Clone)]
+pub struct Arena {
+    inner: Arc<Inner>,
+}
+
+/// Why the arena could not make a match.
+#[derive(Debug, thiserror::Error)]
+pub enum ArenaError {
+    /// The match's settings or seats are wrong.
+    #[error(transparent)]
+    Server(#[from] ServerError),
+    /// A live match has that name.
+    #[error("a match named '{0}' is running")]
+    NameTaken(String),
+    /// No template of that name.
+    #[error("no template named '{0}'")]
+    UnknownTemplate(String),
+    /// No live match of that name.
+    #[error("no live match named '{0}'")]
+    UnknownMatch(String),
+    /// A bad request: the message says what is wrong.
+    #[error("{0}")]
+    Bad(String),
+    /// The server is stopping.
+    #[error("the server is stopping")]
+    Stopping,
+}
+
+impl Arena {
+    /// An arena with `config`; its templates' named matches are made at once. Must be
+    /// called inside a tokio runtime.
+    pub fn start(config: ArenaConfig) -> Result<Arena, ArenaError> {
+        let mut names = std::collections::BTreeSet::new();
+        for template in &config.templates {
+            if template.maps.is_empty() {
+                return Err(ArenaError::Bad(format!("template '{}' has no map", template.name)));
+            }
+            for name in &template.names {
+                if !names.insert(name.clone()) {
+                    return Err(ArenaError::Bad(format!("two matches are named '{name}'")));
+                }
+            }
+        }
+        let templates = config
+            .templates
+            .iter()
+            .map(|t| {
+                let state = TemplateState {
+                    template: Arc::new(t.clone()),
+                    made: 0,
+                    running: 0,
+                    queue: VecDeque::new(),
+                };
+                (t.name.clone(), state)
+            })
+            .collect();
+        let arena = Arena {
+            inner: Arc::new(Inner {
+                config,
+                state: Mutex::new(State { templates, ..State::default() }),
+                ids: AtomicU64::new(1),
+                shutdown: watch::Sender::new(false),
+                live_count: watch::Sender::new(0),
+                outcomes: Mutex::new(Vec::new()),
+                layouts: Mutex::new(BTreeMap::new()),
+            }),
+        };
+        let starting: Vec<(String, String)> = arena
+            .inner
+            .config
+            .templates
+            .iter()
+            .flat_map(|t| t.names.iter().map(|n| (t.name.clone(), n.clone())))
+            .collect();
+        for (template, name) in starting {
+            let mut state = arena.lock();
+            arena.make_from_template(&mut state, &template, Some(name))?;
+        }
+        Ok(arena)
+    }
+
+    /// Runs a match made from `spec` (not from a template): it stays finished when it ends.
+    pub fn spawn(&self, spec: MatchSpec) -> Result<String, ArenaError> {
+        let mut state = self.lock();
+        self.launch(&mut state, spec, None)
+    }
+
+    /// The server's settings.
+    pub fn config(&self) -> &ArenaConfig {
+        &self.inner.config
+    }
+
+    /// A new connection id.
+    pub(crate) fn next_conn(&self) -> u64 {
+        self.inner.ids.fetch_add(1, Ordering::SeqCst)
+    }
+
+    fn lock(&self) -> MutexGuard<'_, State> {
+        // A panic while the lock was held cannot leave the maps half-changed in a way that
+        // matters more than stopping every match would.
+        self.inner.state.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+    }
+
+    /// Makes the next match of `template`, named `name` (or `TEMPLATE-N`).
+    fn make_from_template(
+        &self,
+        state: &mut State,
+        template: &str,
+        name: Option<String>,
+    ) -> Result<String, ArenaError> {
+        let t =
+            state.templates.get_mut(template).ok_or_else(|| ArenaError::UnknownTemplate(template.into()))?;
+        let template = t.template.clone();
+        let n = t.made;
+        t.made += 1;
+        let name = name.unwrap_or_else(|| format!("{}-{}", template.name, n + 1));
+        let run = state.runs.get(&name).copied().unwrap_or(0) + 1;
+        let mut config = template.config.clone();
+        // `Next` walks the list by the match name's runs; otherwise every match plays the first map.
+        let map_at =
+            if template.on_end == OnEnd::Next { (run as usize - 1) % template.maps.len() } else { 0 };
+        config.map = template.maps[map_at].clone();
+        config.seed = config.seed.wrapping_add(n);
+        config.name = name;
+        config.template = Some(template.name.clone());
+        let seats = template
+            .seats
+            .iter()
+            .map(|seat| Seat::Local(seat.name.clone(), (seat.agent)(&seat.name)))
+            .collect();
+        let replay = if template.replays {
+            self.inner.config.results.replay_writer(&format!("{}.{run}", config.name))
+        } else {
+            None
+        };
+        let spec = MatchSpec { config, seats, replay, gone_seats: None };
+        self.launch(state, spec, Some(template))
+    }
+
+    /// Starts a match's host task.
+    fn launch(
+        &self,
+        state: &mut State,
+        spec: MatchSpec,
+        template: Option<Arc<Template>>,
+    ) -> Result<String, ArenaError> {
+        if state.stopping {
+            return Err(ArenaError::Stopping);
+        }
+        let MatchSpec { mut config, seats, replay, gone_seats } = spec;
+        if state.live.contains_key(&config.name) {
+            return Err(ArenaError::NameTaken(config.name));
+        }
+        if config.operator_token.is_none() {
+            config.operator_token.clone_from(&self.inner.config.operator_token);
+        }
+        let now = std::time::Instant::now();
+        let open_seats = config.robots.saturating_sub(seats.len());
+        let host = crate::MatchHost::new(config.clone(), seats, replay, now)?;
+        let name = config.name.clone();
+        let run = state.runs.get(&name).copied().unwrap_or(0) + 1;
+        state.runs.insert(name.clone(), run);
+        let (events, events_rx) = mpsc::channel(crate::host::driver::EVENT_QUEUE);
+        let started = Arc::new(AtomicBool::new(false));
+        let live = LiveMatch {
+            id: format!("{name}.{run}"),
+            run,
+            template: template.as_ref().map(|t| t.name.clone()),
+            events,
+            started: started.clone(),
+            claims: 0,
+            open_seats,
+            map: Arc::new(config.map.clone()),
+            mode: config.mode,
+            seed: config.seed,
+            robots: config.robots,
+            watch_open: config.token.is_none() && config.spectator_token.is_none(),
+        };
+        if let Some(t) = template.as_ref().and_then(|t| state.templates.get_mut(&t.name)) {
+            t.running += 1;
+        }
+        let id = live.id.clone();
+        state.live.insert(name.clone(), live);
+        self.inner.live_count.send_modify(|n| *n += 1);
+        tracing::info!(target: "bw4t::arena", r#match = %name, id = %id, map = %config.map.name(), seed = config.seed, "match made");
+        let arena = self.clone();
+        let mut stop = self.inner.shutdown.subscribe();
+        let task_name = name.clone();
+        tokio::spawn(async move {
+            let shutdown = async move {
+                let _ = stop.wait_for(|s| *s).await;
+            };
+            let outcome = crate::host::driver::run(host, events_rx, gone_seats, started, shutdown).await;
+            arena.ended(&task_name, &id, outcome);
+        });
+        Ok(name)
+    }
+
+    /// Records a match's end and does what its template says next.
+    fn ended(&self, name: &str, id: &str, outcome: Result<MatchResult, String>) {
+        let mut state = self.lock();
+        let Some(live) = state.live.remove(name).filter(|l| l.id == id) else { return };
+        state.ended += 1;
+        state.any_ended = true;
+        let template =
+            live.template.as_ref().and_then(|t| state.templates.get(t)).map(|t| t.template.clone());
+        let mut row = Row::unplayed(
+            id.to_string(),
+            state.ended,
+            live.template.clone().unwrap_or_else(|| name.to_string()),
+            live.map.name().to_string(),
+            live.seed,
+            live.robots,
+        );
+        row.repetition = u32::try_from(live.run.saturating_sub(1)).unwrap_or(u32::MAX);
+        let (players, tick, sequence) = match &outcome {
+            Ok(result) => {
+                row.record(result);
+                tracing::info!(target: "bw4t::arena", r#match = %name, id = %id, reason = %result.end_reason, ticks = result.ticks, "match ended");
+                let players = result.per_robot.iter().map(|r| r.name.clone()).collect();
+                (players, result.ticks, (result.sequence_index as usize, result.sequence.len()))
+            }
+            Err(why) => {
+                row.error = Some(format!("the match failed in the server: {why}"));
+                tracing::error!(target: "bw4t::arena", r#match = %name, id = %id, error = %why, "match failed");
+                (Vec::new(), 0, (0, 0))
+            }
+        };
+        row.replay = self.inner.config.results.replay_name(id, template.as_ref().is_some_and(|t| t.replays));
+        self.inner.config.results.record(&row, outcome.as_ref().ok());
+        state.finished.push_front(Finished {
+            name: name.to_string(),
+            id: id.to_string(),
+            run: live.run,
+            template: live.template.clone(),
+            map: live.map.name().to_string(),
+            mode: live.mode,
+            seed: live.seed,
+            robots: live.robots,
+            players,
+            tick,
+            sequence,
+            end_reason: row.end_reason,
+            watch_open: live.watch_open,
+        });
+        state.finished.truncate(FINISHED_KEPT);
+        if let Some(t) = live.template.as_ref().and_then(|t| state.templates.get_mut(t)) {
+            t.running = t.running.saturating_sub(1);
+        }
+        self.inner.outcomes.lock().unwrap_or_else(|p| p.into_inner()).push((id.to_string(), outcome));
+        if let Some(template) = template {
+            if template.on_end != OnEnd::Stay && !state.stopping && !self.inner.config.once {
+                if let Err(e) = self.make_from_template(&mut state, &template.name, Some(name.to_string())) {
+                    tracing::error!(target: "bw4t::arena", r#match = %name, error = %e, "match not restarted");
+                }
+            }
+            self.serve_queue(&mut state, &template.name);
+        }
+        drop(state);
+        self.inner.live_count.send_modify(|n| *n = n.saturating_sub(1));
+    }
+
+    /// Where every live and recently finished match is, newest finished last. Each live
+    /// match answers for itself; one that does not answer at once is listed as waiting
+    /// at tick 0.
+    pub async fn list(&self, operator: bool) -> Vec<serde_json::Value> {
+        let (asks, finished) = {
+            let state = self.lock();
+            let asks: Vec<_> = state
+                .live
+                .iter()
+                .map(|(name, live)| {
+                    let (tx, rx) = oneshot::channel();
+                    let asked = live.events.try_send(Event::Control(Control::Status(tx))).is_ok();
+                    (summary_of_live(name, live, operator), asked.then_some(rx))
+                })
+                .collect();
+            (asks, state.finished.iter().map(|f| summary_of_finished(f, operator)).collect::<Vec<_>>())
+        };
+        let mut out = Vec::with_capacity(asks.len() + finished.len());
+        for (mut summary, rx) in asks {
+            let status = match rx {
+                Some(rx) => tokio::time::timeout(Duration::from_secs(1), rx).await.ok().and_then(Result::ok),
+                None => None,
+            };
+            fill_status(&mut summary, &status.unwrap_or_default(), operator);
+            out.push(summary);
+        }
+        out.extend(finished);
+        out
+    }
+
+    /// One match's summary: the live one of that name, else the latest finished.
+    pub async fn summary(&self, name: &str, operator: bool) -> Option<serde_json::Value> {
+        let ask = {
+            let state = self.lock();
+            match state.live.get(name) {
+                Some(live) => {
+                    let (tx, rx) = oneshot::channel();
+                    let asked = live.events.try_send(Event::Control(Control::Status(tx))).is_ok();
+                    Some((summary_of_live(name, live, operator), asked.then_some(rx)))
+                }
+                None => {
+                    return state
+                        .finished
+                        .iter()
+                        .find(|f| f.name == name)
+                        .map(|f| summary_of_finished(f, operator));
+                }
+            }
+        };
+        let (mut summary, rx) = ask?;
+        let status = match rx {
+            Some(rx) => tokio::time::timeout(Duration::from_secs(1), rx).await.ok().and_then(Result::ok),
+            None => None,
+        };
+        fill_status(&mut summary, &status.unwrap_or_default(), operator);
+        Some(summary)
+    }
+
+    /// Ends a live match as `interrupted`; returns once it has ended.
+    pub async fn stop(&self, name: &str) -> Result<(), ArenaError> {
+        let (events, id) = {
+            let state = self.lock();
+            let live = state.live.get(name).ok_or_else(|| ArenaError::UnknownMatch(name.into()))?;
+            (live.events.clone(), live.id.clone())
+        };
+        let _ = events.send(Event::Control(Control::Stop)).await;
+        // The match's task holds the other end until it has recorded its end.
+        events.closed().await;
+        let mut count = self.inner.live_count.subscribe();
+        let ended = |_: &usize| self.lock().live.get(name).is_none_or(|l| l.id != id);
+        let _ = count.wait_for(ended).await;
+        Ok(())
+    }
+
+    /// Makes a match from a template (by name) or from the first template, changed by
+    /// `changes`; returns its name. For the API.
+    pub fn create(&self, request: CreateRequest) -> Result<String, ArenaError> {
+        let mut state = self.lock();
+        let template =
+            match &request.template {
+                Some(name) => state
+                    .templates
+                    .get(name)
+                    .map(|t| t.template.clone())
+                    .ok_or_else(|| ArenaError::UnknownTemplate(name.clone()))?,
+                None => state.templates.values().next().map(|t| t.template.clone()).ok_or_else(|| {
+                    ArenaError::Bad("the server has no template to make a match from".into())
+                })?,
+            };
+        let mut config = template.config.clone();
+        config.map = template.maps[0].clone();
+        if let Some(map) = &request.map {
+            config.map = self.find_map(&template, map)?;
+        }
+        if let Some(seed) = request.seed {
+            config.seed = seed;
+        }
+        if let Some(mode) = request.mode {
+            config.mode = mode;
+        }
+        if let Some(hz) = request.tick_hz {
+            config.game.ticks_per_second = hz;
+            config.game.validate().map_err(|e| ArenaError::Bad(format!("tick_hz: {e}")))?;
+        }
+        if let Some(max) = request.max_ticks {
+            config.max_ticks = (max > 0).then_some(max);
+        }
+        let builtin = request.builtin.unwrap_or(template.seats.len());
+        config.robots = request.robots.unwrap_or(config.robots.max(builtin));
+        if config.robots == 0 || config.robots > config.map.spawns().len() {
+            return Err(ArenaError::Bad(format!(
+                "robots: {} but map '{}' has {} spawn points",
+                config.robots,
+                config.map.name(),
+                config.map.spawns().len()
+            )));
+        }
+        if builtin > config.robots {
+            return Err(ArenaError::Bad(format!("builtin: {builtin} but robots: {}", config.robots)));
+        }
+        let name = match request.name {
+            Some(name) => {
+                check_match_name(&name)?;
+                name
+            }
+            None => {
+                let t = state.templates.get_mut(&template.name).map(|t| {
+                    t.made += 1;
+                    t.made
+                });
+                format!("{}-{}", template.name, t.unwrap_or(1))
+            }
+        };
+        config.name = name;
+        config.template = request.template.clone();
+        let seats = (1..=builtin)
+            .map(|i| {
+                let plan = template.seats.get(i - 1).cloned();
+                let plan = plan.unwrap_or_else(|| {
+                    SeatPlan::builtin(format!("Bot{i}"), bw4t_agents::Strategy::Cooperative)
+                });
+                Seat::Local(plan.name.clone(), (plan.agent)(&plan.name))
+            })
+            .collect();
+        let replay = if template.replays {
+            let run = state.runs.get(&config.name).copied().unwrap_or(0) + 1;
+            self.inner.config.results.replay_writer(&format!("{}.{run}", config.name))
+        } else {
+            None
+        };
+        self.launch(&mut state, MatchSpec { config, seats, replay, gone_seats: None }, None)
+    }
+
+    fn find_map(&self, template: &Template, name: &str) -> Result<Map, ArenaError> {
+        if let Some(map) = self
+            .inner
+            .config
+            .templates
+            .iter()
+            .flat_map(|t| &t.maps)
+            .chain(&template.maps)
+            .find(|m| m.name() == name)
+        {
+            return Ok(map.clone());
+        }
+        match &self.inner.config.maps {
+            Some(lookup) => lookup(name).map_err(|e| ArenaError::Bad(format!("map: {e}"))),
+            None => Err(ArenaError::Bad(format!("map: no map named '{name}' on this server"))),
+        }
+    }
+
+    /// The layout (`/map.json`) of a live or finished match's map; without a name, the
+    /// default match's.
+    pub fn layout(&self, name: Option<&str>) -> Option<Arc<str>> {
+        let map = {
+            let state = self.lock();
+            let name = name.map(str::to_string).or_else(|| self.default_match(&state))?;
+            match state.live.get(&name) {
+                Some(live) => live.map.clone(),
+                None => {
+                    let finished = state.finished.iter().find(|f| f.name == name)?;
+                    let map = self
+                        .inner
+                        .config
+                        .templates
+                        .iter()
+                        .flat_map(|t| &t.maps)
+                        .find(|m| m.name() == finished.map)?;
+                    Arc::new(map.clone())
+                }
+            }
+        };
+        let mut layouts = self.inner.layouts.lock().unwrap_or_else(|p| p.into_inner());
+        let layout = layouts
+            .entry(map.name().to_string())
+            .or_insert_with(|| bw4t_protocol::map_layout(&map).to_string().into());
+        Some(layout.clone())
+    }
+
+    /// The name of the match a `hello` naming none joins, if it is live or has ended.
+    fn default_match(&self, state: &State) -> Option<String> {
+        let default = self.inner.config.default.as_ref()?;
+        if state.live.contains_key(default) || state.finished.iter().any(|f| &f.name == default) {
+            return Some(default.clone());
+        }
+        // A template's name: its first live match.
+        state.live.iter().find(|(_, l)| l.template.as_deref() == Some(default)).map(|(n, _)| n.clone())
+    }
+
+    /// `/info.json` of a live server.
+    pub fn info(&self) -> serde_json::Value {
+        let state = self.lock();
+        let templates: Vec<_> = self
+            .inner
+            .config
+            .templates
+            .iter()
+            .filter(|t| t.names.is_empty())
+            .map(|t| serde_json::json!({"name": t.name, "robots": t.config.robots, "map": t.maps[0].name()}))
+            .collect();
+        serde_json::json!({
+            "mode": "live",
+            "protocol": bw4t_protocol::VERSION,
+            "map": self.default_match(&state).and_then(|n| state.live.get(&n).map(|l| l.map.name().to_string())),
+            "default_match": self.default_match(&state),
+            "lobby": !self.inner.config.once,
+            "templates": templates,
+        })
+    }
+
+    /// Ends every match (`interrupted`) and waits until each has recorded its end.
+    pub async fn shutdown(&self) {
+        self.lock().stopping = true;
+        self.inner.shutdown.send_replace(true);
+        let mut count = self.inner.live_count.subscribe();
+        let _ = count.wait_for(|n| *n == 0).await;
+    }
+
+    /// Resolves when no match is live any more and at least one has ended.
+    pub async fn idle(&self) {
+        let mut count = self.inner.live_count.subscribe();
+        let _ = count.wait_for(|n| *n == 0 && self.lock().any_ended).await;
+    }
+
+    /// The outcomes of the matches ended so far, by match id, in the order they ended.
+    pub fn outcomes(&self) -> Vec<(String, Result<MatchResult, String>)> {
+        self.inner.outcomes.lock().unwrap_or_else(|p| p.into_inner()).clone()
+    }
+
+    /// The results store.
+    pub fn results(&self) -> &ResultsStore {
+        &self.inner.config.results
+    }
+}
+
+/// What the operator asks for in `POST /api/matches`.
+#[derive(Clone, Debug, Default, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CreateRequest {
+    /// The match's name (default: `TEMPLATE-N`).
+    pub name: Option<String>,
+    /// The template whose settings to start from (default: the first).
+    pub template: Option<String>,
+    /// A map's name.
+    pub map: Option<String>,
+    /// The seed.
+    pub seed: Option<u64>,
+    /// Players, built-in agents included.
+    pub robots: Option<usize>,
+    /// Built-in cooperative agents among them.
+    pub builtin: Option<usize>,
+    /// `realtime` or `lockstep`.
+    pub mode: Option<Mode>,
+    /// Ticks per second.
+    pub tick_hz: Option<u32>,
+    /// The tick limit (0: none).
+    pub max_ticks: Option<u64>,
+}
+
+/// Checks a match name the operator chose: what a URL and a log line carry unchanged.
+pub fn check_match_name(name: &str) -> Result<(), ArenaError> {
+    let ok = !name.is_empty()
+        && name.len() <= 64
+        && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_' || c == '.');
+    if ok {
+        Ok(())
+    } else {
+        Err(ArenaError::Bad(format!(
+            "name: '{name}' is not a match name (1 to 64 letters, digits, '-', '_' or '.')"
+        )))
+    }
+}
+
+fn summary_of_live(name: &str, live: &LiveMatch, operator: bool) -> serde_json::Value {
+    let mut summary = serde_json::json!({
+        "name": name,
+        "template": live.template,
+        "map": live.map.name(),
+        "mode": live.mode,
+        "state": "waiting",
+        "players": [],
+        "robots": live.robots,
+        "awaited": 0,
+        "tick": 0,
+        "sequence": [0, 0],
+        "watch": if live.watch_open { "open" } else { "token" },
+        "run": live.run,
+    });
+    if operator {
+        summary["seed"] = live.seed.into();
+        summary["id"] = live.id.clone().into();
+    }
+    summary
+}
+
+fn fill_status(summary: &mut serde_json::Value, status: &HostStatus, operator: bool) {
+    summary["state"] = (if status.started { "playing" } else { "waiting" }).into();
+    summary["players"] = status.players.clone().into();
+    summary["awaited"] = status.awaited.into();
+    summary["tick"] = status.tick.into();
+    summary["sequence"] = serde_json::json!([status.sequence.0, status.sequence.1]);
+    if operator {
+        summary["connections"] = status.connections.into();
+    }
+}
+
+fn summary_of_finished(f: &Finished, operator: bool) -> serde_json::Value {
+    let mut summary = serde_json::json!({
+        "name": f.name,
+        "template": f.template,
+        "map": f.map,
+        "mode": f.mode,
+        "state": "finished",
+        "players": f.players,
+        "robots": f.robots,
+        "awaited": 0,
+        "tick": f.tick,
+        "sequence": [f.sequence.0, f.sequence.1],
+        "watch": if f.watch_open { "open" } else { "token" },
+        "end_reason": f.end_reason,
+        "run": f.run,
+    });
+    if operator {
+        summary["seed"] = f.seed.into();
+        summary["id"] = f.id.clone().into();
+        summary["result"] = f.id.clone().into();
+    }
+    summary
+}
