@@ -644,7 +644,11 @@ async fn the_builtin_team_over_tcp_plays_the_same_match_as_headless() {
     let mut clients = Vec::new();
     for name in ["Bot3", "Bot1", "Bot2"] {
         let agent = bw4t_agents::Strategy::Cooperative.agent(name);
-        clients.push(tokio::spawn(bw4t_runner::play_remote(server.addr, name, None, agent)));
+        clients.push(tokio::spawn(bw4t_runner::play_remote(
+            server.addr,
+            bw4t_protocol::Hello::agent(name, None),
+            agent,
+        )));
     }
     let served = server.finish().await;
     for client in clients {

@@ -5,6 +5,7 @@
 
 #[macro_use]
 mod output;
+mod arena_config;
 mod bench;
 mod bench_net;
 mod map_cmd;
@@ -40,7 +41,8 @@ enum Command {
     /// Play many matches over teams, maps and seeds, and summarise them.
     #[command(after_help = status::TOURNAMENT_HELP)]
     Tournament(tournament::TournamentArgs),
-    /// Serve one match over TCP (JSON lines; see protocol/PROTOCOL.md).
+    /// Serve matches over TCP (JSON lines; see protocol/PROTOCOL.md) until stopped: one
+    /// restarted as it ends, or the templates of a --config file; --once: one match.
     Serve(serve::ServeArgs),
     /// Measure performance; prints one JSON object per line per case.
     Bench(bench::BenchArgs),

@@ -1,23 +1,48 @@
-//! `bw4t serve`: one match on a TCP server, until it ends or the process is told to stop.
+//! `bw4t serve`: a server of many matches until it is told to stop, from the command
+//! line's one match (restarted when it ends) or a file of templates (`--config`); with
+//! `--once`, one match and exit.
 
 use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::time::Duration;
 
-use anyhow::{Context, Result};
+use std::sync::Arc;
+
+use anyhow::{Context, Result, bail};
 use bw4t_protocol::Mode;
-use bw4t_server::ServerConfig;
+use bw4t_server::{ArenaConfig, OnEnd, SeatPlan, ServerConfig, Template};
 use bw4t_sim::MatchConfig;
 use clap::{Args, ValueEnum};
 
 /// Options of `bw4t serve`.
 #[derive(Args)]
 pub(crate) struct ServeArgs {
+    /// Serve the match templates of this TOML file (see the README); the options that
+    /// describe one match cannot be given with it.
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+    /// Serve one match and exit when it ends (as scripts expect); without it the server
+    /// runs until stopped, starting the match again when it ends.
+    #[arg(long)]
+    once: bool,
+    /// Write every finished match's result, an index (`matches.jsonl`, one row per match)
+    /// and kept replays into this directory.
+    #[arg(long, value_name = "DIR")]
+    results_dir: Option<PathBuf>,
+    /// More log lines (-v: each connection's events, -vv: everything).
+    #[arg(short, long, action = clap::ArgAction::Count, conflicts_with = "quiet")]
+    verbose: u8,
+    /// Only warnings and errors in the log.
+    #[arg(short, long)]
+    quiet: bool,
+    /// Log lines as JSON objects (one per line) instead of text.
+    #[arg(long)]
+    log_json: bool,
     /// Map: a shipped map's name or a file path.
-    #[arg(long, default_value = "default")]
+    #[arg(long, default_value = "default", conflicts_with = "config")]
     map: String,
     /// Match seed (random content); a random one is chosen and printed when omitted.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "config")]
     seed: Option<u64>,
     /// Address to listen on.
     #[arg(long, default_value = "127.0.0.1")]
@@ -26,60 +51,60 @@ pub(crate) struct ServeArgs {
     #[arg(long, default_value_t = 12300)]
     port: u16,
     /// Pacing: ticks on the wall clock, or as fast as every player answers.
-    #[arg(long, value_enum, default_value_t = PaceArg::Realtime)]
+    #[arg(long, value_enum, default_value_t = PaceArg::Realtime, conflicts_with = "config")]
     mode: PaceArg,
     /// Ticks per simulated second (and per wall-clock second in realtime mode).
-    #[arg(long, default_value_t = 20)]
+    #[arg(long, default_value_t = 20, conflicts_with = "config")]
     tick_hz: u32,
     /// Players the match waits for before its first tick, and admits at most (built-in
     /// agents included); more get `match_full`.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, conflicts_with = "config")]
     robots: usize,
     /// End the match after this many ticks (default: derived from the map, at least 20000;
     /// see the README); 0 for no limit.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "config")]
     max_ticks: Option<u64>,
     /// Lockstep: milliseconds to wait for a player's `ready` before counting it late (0: forever).
-    #[arg(long, default_value_t = 1000)]
+    #[arg(long, default_value_t = 1000, conflicts_with = "config")]
     deadline_ms: u64,
     /// The player token: a secret players must send in `hello`. With it set, watching
     /// needs the spectator or operator token.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "config")]
     token: Option<String>,
     /// The spectator token: a secret spectators must send in `hello` (without it or
     /// --token, anyone may watch). Spectators see public messages only.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "config")]
     spectator_token: Option<String>,
     /// The operator token: the secret of the `operator` role, which watches and sees every
     /// message, private ones included.
     #[arg(long)]
     operator_token: Option<String>,
     /// Spectators see private (addressed) messages too.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "config")]
     spectators_see_private: bool,
     /// Send every player `percepts` every tick, even empty ones (lockstep then waits every tick).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "config")]
     every_tick: bool,
     /// Seconds a dropped player's robot waits for its session to reconnect.
-    #[arg(long, default_value_t = 30)]
+    #[arg(long, default_value_t = 30, conflicts_with = "config")]
     grace_s: u64,
     /// Connections accepted at once; more are refused with `server_full`.
     #[arg(long, default_value_t = 256)]
     max_connections: usize,
     /// Actions and messages a player may send per tick; more are rejected (`rate_limited`).
-    #[arg(long, default_value_t = 16)]
+    #[arg(long, default_value_t = 16, conflicts_with = "config")]
     max_actions: u32,
     /// Seconds a new connection has to say `hello`.
     #[arg(long, default_value_t = 10)]
     hello_timeout_s: u64,
     /// Robots block each other outside rooms.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "config")]
     robot_collisions: bool,
     /// Write the match result as JSON to this file when the match ends.
     #[arg(long)]
     results: Option<PathBuf>,
     /// Write a replay (JSON lines) of the match to this file.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "config")]
     replay: Option<PathBuf>,
     /// Also serve the browser page (overview, human players) on this port, bound like the
     /// TCP port; 0 picks a free one. Off by default.
@@ -90,7 +115,7 @@ pub(crate) struct ServeArgs {
     #[arg(long, value_name = "URL", value_parser = bw4t_server::parse_origin)]
     allow_origin: Vec<String>,
     /// Add this many built-in agents (cooperative) to the match; they count toward --robots.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, conflicts_with = "config")]
     builtin: usize,
 }
 
@@ -100,10 +125,109 @@ enum PaceArg {
     Lockstep,
 }
 
-/// Serves one match and writes its result.
+/// Serves matches until stopped (or, with `--once`, one match) and writes the last result.
 pub(crate) fn run(args: &ServeArgs) -> Result<()> {
-    let map = crate::maps::load(&args.map)?;
+    init_logs(args);
     let seed = args.seed.unwrap_or_else(crate::random_seed);
+    let mut settings = ArenaConfig::new(Vec::new());
+    settings.max_connections = args.max_connections;
+    settings.hello_timeout = Duration::from_secs(args.hello_timeout_s);
+    settings.allowed_origins = args.allow_origin.clone();
+    settings.operator_token = args.operator_token.clone();
+    let (templates, default, results_dir) = match &args.config {
+        Some(path) => {
+            let file = crate::arena_config::load(path, seed)?;
+            if let Some(max) = file.max_connections {
+                settings.max_connections = max;
+            }
+            if settings.operator_token.is_none() {
+                settings.operator_token = file.operator_token;
+            }
+            for t in &file.templates {
+                let matches = if t.names.is_empty() {
+                    format!("made on demand, at most {} at once", t.max_running)
+                } else {
+                    bw4t_runner::plural(t.names.len(), "match")
+                };
+                eprintln!(
+                    "bw4t: template '{}': map '{}', {} mode, {}, {matches}",
+                    t.name,
+                    t.config.map.name(),
+                    t.config.mode.name(),
+                    bw4t_runner::plural(t.config.robots, "player")
+                );
+            }
+            (file.templates, file.default, args.results_dir.clone().or(file.results_dir))
+        }
+        None => {
+            let template = single_match(args, seed)?;
+            (vec![template], Some(bw4t_server::DEFAULT_MATCH.to_string()), args.results_dir.clone())
+        }
+    };
+    settings.templates = templates;
+    settings.default = default;
+    settings.once = args.once;
+    if let Some(dir) = &results_dir {
+        settings.results = bw4t_server::ResultsStore::in_dir(dir)
+            .with_context(|| format!("cannot write results into {}", dir.display()))?;
+    }
+    if let Some(replay) = crate::replay::writer(args.replay.as_deref())? {
+        *settings.first_replay.lock().map_err(|_| anyhow::anyhow!("replay lock"))? =
+            Some((replay, bw4t_runner::program()));
+    }
+    // Matches made through the API may use the shipped maps besides the templates' own.
+    settings.maps = Some(Arc::new(|name: &str| {
+        if crate::maps::BUILTIN.iter().any(|(shipped, _)| *shipped == name) {
+            crate::maps::load(name).map_err(|e| format!("{e:#}"))
+        } else {
+            Err(format!("no shipped map named '{name}'"))
+        }
+    }));
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .context("cannot start the runtime")?;
+    let outcomes = runtime.block_on(async {
+        let stop = stop_signal();
+        let (listener, local) = listen(SocketAddr::new(args.bind, args.port))?;
+        outln!("listening on {local}");
+        let http = match args.http {
+            Some(port) => {
+                let (http, local) = listen(SocketAddr::new(args.bind, port))?;
+                outln!("http on {local}");
+                Some(http)
+            }
+            None => None,
+        };
+        let arena = bw4t_server::Arena::start(settings).context("cannot start the matches")?;
+        bw4t_server::serve_arena(&arena, listener, http, stop).await;
+        anyhow::Ok(arena.outcomes())
+    })?;
+    let Some((id, last)) = outcomes.into_iter().last() else { return Ok(()) };
+    let result = match last {
+        Ok(result) => result,
+        Err(why) => anyhow::bail!("match {id} failed: {why}"),
+    };
+    eprintln!(
+        "bw4t: match over ({}): {} ticks, sequence {}/{}, digest {}",
+        result.end_reason,
+        result.ticks,
+        result.sequence_index,
+        result.sequence.len(),
+        result.digest
+    );
+    if let Some(path) = &args.results {
+        let json = serde_json::to_string_pretty(&result)?;
+        std::fs::write(path, json + "\n")
+            .with_context(|| format!("cannot write results to {}", path.display()))?;
+    }
+    Ok(())
+}
+
+/// The template of the one match the command line describes: restarted when it ends,
+/// unless `--once`.
+fn single_match(args: &ServeArgs, seed: u64) -> Result<Template> {
+    let map = crate::maps::load(&args.map)?;
     let mut config = ServerConfig::new(map);
     config.seed = seed;
     config.game = MatchConfig {
@@ -135,29 +259,16 @@ pub(crate) fn run(args: &ServeArgs) -> Result<()> {
     config.spectators_see_private = args.spectators_see_private;
     config.every_tick = args.every_tick;
     config.grace = Duration::from_secs(args.grace_s);
-    config.max_connections = args.max_connections;
     config.max_actions_per_tick = args.max_actions;
-    config.hello_timeout = Duration::from_secs(args.hello_timeout_s);
-    config.allowed_origins = args.allow_origin.clone();
-    if args.robots > config.map.spawns().len() {
-        anyhow::bail!(
-            "--robots {} but map '{}' has {} spawn points",
-            args.robots,
-            config.map.name(),
-            config.map.spawns().len()
-        );
+    let spawns = config.map.spawns().len();
+    if args.robots > spawns {
+        bail!("--robots {} but map '{}' has {spawns} spawn points", args.robots, config.map.name());
     }
-    let replay = crate::replay::writer(args.replay.as_deref())?;
-    if args.builtin > config.map.spawns().len() {
-        anyhow::bail!(
-            "--builtin {} but map '{}' has {} spawn points",
-            args.builtin,
-            config.map.name(),
-            config.map.spawns().len()
-        );
+    if args.builtin > spawns {
+        bail!("--builtin {} but map '{}' has {spawns} spawn points", args.builtin, config.map.name());
     }
     if args.builtin > args.robots {
-        anyhow::bail!(
+        bail!(
             "--builtin {} but --robots {}: --robots counts every player, built-in ones included \
              (use --robots {} or more)",
             args.builtin,
@@ -165,53 +276,34 @@ pub(crate) fn run(args: &ServeArgs) -> Result<()> {
             args.builtin
         );
     }
-    let seats = (1..=args.builtin)
-        .map(|i| {
-            let name = format!("Bot{i}");
-            bw4t_server::Seat::Local(name.clone(), bw4t_agents::Strategy::Cooperative.agent(&name))
-        })
-        .collect();
-    let mut extras = bw4t_server::Extras {
-        replay,
-        seats,
-        program: bw4t_runner::program(),
-        ..bw4t_server::Extras::default()
-    };
-    let runtime = tokio::runtime::Builder::new_multi_thread()
-        .enable_all()
-        .build()
-        .context("cannot start the runtime")?;
-    let result = runtime.block_on(async {
-        let stop = stop_signal();
-        let (listener, local) = listen(SocketAddr::new(args.bind, args.port))?;
-        outln!("listening on {local}");
-        if let Some(port) = args.http {
-            let (http, local) = listen(SocketAddr::new(args.bind, port))?;
-            outln!("http on {local}");
-            extras.http = Some(http);
-        }
-        eprintln!(
-            "bw4t: map '{}', seed {seed}, {} mode, {limit}; waiting for {}",
-            config.map.name(),
-            config.mode.name(),
-            bw4t_runner::plural(config.robots, "player")
-        );
-        bw4t_server::serve_with(listener, config, extras, stop).await.context("the match failed")
-    })?;
     eprintln!(
-        "bw4t: match over ({}): {} ticks, sequence {}/{}, digest {}",
-        result.end_reason,
-        result.ticks,
-        result.sequence_index,
-        result.sequence.len(),
-        result.digest
+        "bw4t: map '{}', seed {seed}, {} mode, {limit}; waiting for {}",
+        config.map.name(),
+        config.mode.name(),
+        bw4t_runner::plural(config.robots, "player")
     );
-    if let Some(path) = &args.results {
-        let json = serde_json::to_string_pretty(&result)?;
-        std::fs::write(path, json + "\n")
-            .with_context(|| format!("cannot write results to {}", path.display()))?;
-    }
-    Ok(())
+    let on_end = if args.once { OnEnd::Stay } else { OnEnd::Restart };
+    let mut template = Template::single(bw4t_server::DEFAULT_MATCH, config, on_end);
+    template.seats = (1..=args.builtin)
+        .map(|i| SeatPlan::builtin(format!("Bot{i}"), bw4t_agents::Strategy::Cooperative))
+        .collect();
+    Ok(template)
+}
+
+/// Sends log lines to standard error: as text or JSON, at the level `-v`/`-q` choose.
+fn init_logs(args: &ServeArgs) {
+    use tracing_subscriber::fmt;
+    let level = match (args.quiet, args.verbose) {
+        (true, _) => tracing::Level::WARN,
+        (false, 0) => tracing::Level::INFO,
+        (false, 1) => tracing::Level::DEBUG,
+        (false, _) => tracing::Level::TRACE,
+    };
+    let colour = std::io::IsTerminal::is_terminal(&std::io::stderr());
+    let builder =
+        fmt().with_writer(std::io::stderr).with_max_level(level).with_target(false).with_ansi(colour);
+    // A second subscriber (tests calling this twice in one process) is simply not installed.
+    let _ = if args.log_json { builder.json().try_init() } else { builder.try_init() };
 }
 
 /// Listens on `addr` (with a deep queue, see [`bw4t_server::listen`]); returns the listener

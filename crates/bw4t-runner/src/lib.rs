@@ -21,7 +21,4 @@ pub use replay::{
     read_replay, verify_replay,
 };
 
-/// The program name and version written into replays.
-pub fn program() -> String {
-    format!("bw4t {}", env!("CARGO_PKG_VERSION"))
-}
+pub use bw4t_server::program;

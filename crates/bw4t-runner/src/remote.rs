@@ -31,20 +31,18 @@ impl From<std::io::Error> for RemoteError {
     }
 }
 
-/// Connects, joins as `name` (with `token` if the server wants one) and lets `agent` play
-/// until the match ends; returns the result the server sent.
+/// Connects, says `hello` (an agent's: its name, token, and the match or template it
+/// joins) and lets `agent` play until the match ends; returns the result the server sent.
 pub async fn play_remote(
     addr: SocketAddr,
-    name: &str,
-    token: Option<&str>,
+    hello: Hello,
     mut agent: Box<dyn Agent>,
 ) -> Result<MatchResult, RemoteError> {
     let stream = TcpStream::connect(addr).await?;
     stream.set_nodelay(true)?;
     let (reader, mut writer) = stream.into_split();
     let mut lines = BufReader::new(reader).lines();
-    let hello = ClientMessage::Hello(Hello::agent(name, token.map(str::to_string)));
-    writer.write_all(encode(&hello).as_bytes()).await?;
+    writer.write_all(encode(&ClientMessage::Hello(hello)).as_bytes()).await?;
     let mut told = Observation::default();
     let mut next_action = 0u64;
     // `act` ids are the agent's action numbers, so acks and results map straight back.

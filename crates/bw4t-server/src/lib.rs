@@ -15,8 +15,8 @@ mod lateness;
 mod websocket;
 
 pub use arena::{
-    AgentFactory, Arena, ArenaConfig, ArenaError, CreateRequest, MapLookup, MatchSpec, OnEnd, ResultsStore,
-    SeatPlan, Template, check_match_name,
+    AgentFactory, Arena, ArenaConfig, ArenaError, CreateRequest, FirstReplay, MapLookup, MatchSpec, OnEnd,
+    ResultsStore, SeatPlan, Template, check_match_name,
 };
 pub use connection::{ConnId, LISTEN_BACKLOG, listen};
 pub use host::{HostEvent, HostStatus, MatchHost, QueueRoom, Transmit};
@@ -131,6 +131,11 @@ impl ServerConfig {
     }
 }
 
+/// The program name written into replays: `bw4t VERSION`.
+pub fn program() -> String {
+    format!("bw4t {}", env!("CARGO_PKG_VERSION"))
+}
+
 /// The name of the match that clients naming none join.
 pub const DEFAULT_MATCH: &str = "default";
 
@@ -205,7 +210,7 @@ pub async fn serve_with(
     mut extras: Extras,
     shutdown: impl Future<Output = ()>,
 ) -> Result<MatchResult, ServerError> {
-    let mut settings = ArenaConfig::new(Vec::new(), &config);
+    let mut settings = ArenaConfig::new(Vec::new()).with_limits_of(&config);
     settings.default = Some(config.name.clone());
     settings.once = true;
     let arena = Arena::start(settings).map_err(|e| match e {

@@ -129,23 +129,40 @@ pub struct ArenaConfig {
     pub once: bool,
     /// Maps the API may make matches on, by name; `None`: only the templates' maps.
     pub maps: Option<MapLookup>,
+    /// Where the replay of the first match made goes (`bw4t serve --replay FILE`).
+    pub first_replay: FirstReplay,
 }
 
+/// A replay writer taken by the first match made, once.
+pub type FirstReplay = Arc<Mutex<Option<(Box<dyn std::io::Write + Send>, String)>>>;
+
 impl ArenaConfig {
-    /// A server with these templates and the limits of `limits`.
-    pub fn new(templates: Vec<Template>, limits: &ServerConfig) -> ArenaConfig {
+    /// A server with these templates and the default limits (those of [`ServerConfig`]).
+    pub fn new(templates: Vec<Template>) -> ArenaConfig {
         ArenaConfig {
             templates,
             default: Some(crate::DEFAULT_MATCH.to_string()),
-            operator_token: limits.operator_token.clone(),
+            operator_token: None,
             results: ResultsStore::in_memory(),
-            max_connections: limits.max_connections,
-            hello_timeout: limits.hello_timeout,
-            queue: limits.queue,
-            allowed_origins: limits.allowed_origins.clone(),
+            max_connections: 256,
+            hello_timeout: Duration::from_secs(10),
+            queue: 1024,
+            allowed_origins: Vec::new(),
             once: false,
             maps: None,
+            first_replay: Arc::default(),
         }
+    }
+
+    /// Takes the server-wide limits (connections, hello timeout, queue, origins, operator
+    /// token) of a one-match configuration.
+    pub fn with_limits_of(mut self, config: &ServerConfig) -> ArenaConfig {
+        self.operator_token.clone_from(&config.operator_token);
+        self.max_connections = config.max_connections;
+        self.hello_timeout = config.hello_timeout;
+        self.queue = config.queue;
+        self.allowed_origins.clone_from(&config.allowed_origins);
+        self
     }
 }
 
@@ -371,10 +388,13 @@ impl Arena {
             .iter()
             .map(|seat| Seat::Local(seat.name.clone(), (seat.agent)(&seat.name)))
             .collect();
-        let replay = if template.replays {
-            self.inner.config.results.replay_writer(&format!("{}.{run}", config.name))
-        } else {
-            None
+        let first = self.inner.config.first_replay.lock().unwrap_or_else(|p| p.into_inner()).take();
+        let replay = match first {
+            Some(replay) => Some(replay),
+            None if template.replays => {
+                self.inner.config.results.replay_writer(&format!("{}.{run}", config.name))
+            }
+            None => None,
         };
         let spec = MatchSpec { config, seats, replay, gone_seats: None };
         self.launch(state, spec, Some(template))

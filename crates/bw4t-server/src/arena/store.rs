@@ -58,7 +58,7 @@ impl ResultsStore {
     pub(crate) fn replay_writer(&self, id: &str) -> Option<(Box<dyn Write + Send>, String)> {
         let path = self.dir.as_ref()?.join("replays").join(format!("{id}.jsonl"));
         match File::create(&path) {
-            Ok(file) => Some((Box::new(BufWriter::new(file)), program())),
+            Ok(file) => Some((Box::new(BufWriter::new(file)), crate::program())),
             Err(e) => {
                 tracing::error!(target: "bw4t::arena", path = %path.display(), error = %e, "cannot write a replay");
                 None
@@ -137,9 +137,4 @@ fn valid_id(id: &str) -> bool {
         && !id.starts_with('.')
         && id.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_' || c == '.')
         && !id.contains("..")
-}
-
-/// The program name written into replays.
-fn program() -> String {
-    format!("bw4t {}", env!("CARGO_PKG_VERSION"))
 }

@@ -59,6 +59,7 @@ impl MatchHost {
             if let Some(c) = self.conns.get_mut(&conn) {
                 c.role = ConnRole::Watcher(sight);
             }
+            tracing::debug!(target: "bw4t::match", r#match = %self.config.name, conn, role = ?hello.role, "watcher joined");
             self.welcome(conn, None, false, Some(sight == Sight::Everything));
             return self.send_frames(true);
         }
@@ -107,6 +108,9 @@ impl MatchHost {
         if let Some(c) = self.conns.get_mut(&conn) {
             c.role = ConnRole::Agent(robot);
         }
+        let name = self.players.get(&robot).map(|p| p.name.as_str()).unwrap_or_default();
+        let how = if hello.session.is_some() { "player reconnected" } else { "player joined" };
+        tracing::info!(target: "bw4t::match", r#match = %self.config.name, player = %name, robot = robot.0, conn, "{how}");
         self.welcome(conn, Some(robot), every_tick, None);
         self.send_percepts(robot, Delivery::Snapshot);
     }

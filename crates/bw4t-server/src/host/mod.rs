@@ -840,6 +840,7 @@ impl MatchHost {
         if let ConnRole::Agent(id) = closed.role {
             if let Some(player) = self.players.get_mut(&id) {
                 if player.conn == Some(conn) {
+                    tracing::info!(target: "bw4t::match", r#match = %self.config.name, player = %player.name, robot = id.0, conn, "player dropped");
                     self.lobby_changed |= matches!(self.phase, Phase::Waiting { .. });
                     // The robot stands still (holding what it holds) until its player returns.
                     player.conn = None;
@@ -921,6 +922,7 @@ impl MatchHost {
     fn remove_player(&mut self, id: RobotId) {
         self.lobby_changed |= matches!(self.phase, Phase::Waiting { .. });
         if let Some(player) = self.players.remove(&id) {
+            tracing::info!(target: "bw4t::match", r#match = %self.config.name, player = %player.name, robot = id.0, "player left");
             self.gone.insert(id, (player.errors, player.connected_ever));
         }
         let _ = self.game.leave_logged(id, &mut self.recorder);
@@ -955,6 +957,7 @@ impl MatchHost {
     fn error(&mut self, conn: ConnId, code: ErrorCode, message: &str, fatal: bool) {
         self.send_line(conn, error_line(code, message, fatal));
         if fatal {
+            tracing::warn!(target: "bw4t::match", r#match = %self.config.name, conn, %code, message, "connection refused");
             self.disconnect(conn, code.into());
         }
     }
