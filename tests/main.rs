@@ -27,6 +27,9 @@ mod coop_deadlock;
 /// The match server over real loopback TCP.
 mod server;
 
+/// One server, many matches: templates, routing, the queue, the API, isolation.
+mod arena;
+
 /// The match host over TCP: roles and tokens, seats, join/leave churn, lockstep timing.
 mod host;
 

@@ -415,6 +415,8 @@ pub struct Seen {
     pub errors: Vec<String>,
     pub tick: u64,
     pub ended: bool,
+    /// `lobby` messages, in order.
+    pub lobbies: Vec<bw4t_protocol::Lobby>,
 }
 
 /// A player that answers every `percepts` with `ready`, so lockstep matches
@@ -446,6 +448,11 @@ impl AutoPlayer {
                 _ => None,
             })
             .await;
+        AutoPlayer::adopt(client, welcome)
+    }
+
+    /// Plays on for a client that has been welcomed.
+    pub fn adopt(client: Client, welcome: bw4t_protocol::Welcome) -> AutoPlayer {
         let (mut lines, writer) = client.into_parts();
         let writer = Arc::new(tokio::sync::Mutex::new(writer));
         let seen = Arc::new(Mutex::new(Seen::default()));
@@ -484,6 +491,10 @@ impl AutoPlayer {
                         }
                         ServerMessage::MatchEnd(_) | ServerMessage::Bye(_) => {
                             s.ended = true;
+                            None
+                        }
+                        ServerMessage::Lobby(l) => {
+                            s.lobbies.push(l);
                             None
                         }
                         _ => None,

@@ -251,6 +251,8 @@ struct Inner {
     shutdown: watch::Sender<bool>,
     /// Counts live matches, for waiting until all have ended.
     live_count: watch::Sender<usize>,
+    /// Counts matches ended.
+    ended_count: watch::Sender<u64>,
     /// The outcomes of matches, in the order they ended (for `serve` and tests).
     outcomes: Mutex<Vec<(String, Result<MatchResult, String>)>>,
     /// Map layouts (`/map.json`), by map name.
@@ -321,6 +323,7 @@ impl Arena {
                 ids: AtomicU64::new(1),
                 shutdown: watch::Sender::new(false),
                 live_count: watch::Sender::new(0),
+                ended_count: watch::Sender::new(0),
                 outcomes: Mutex::new(Vec::new()),
                 layouts: Mutex::new(BTreeMap::new()),
             }),
@@ -454,13 +457,13 @@ impl Arena {
                 let _ = stop.wait_for(|s| *s).await;
             };
             let outcome = crate::host::driver::run(host, events_rx, gone_seats, started, shutdown).await;
-            arena.ended(&task_name, &id, outcome);
+            arena.record_end(&task_name, &id, outcome);
         });
         Ok(name)
     }
 
     /// Records a match's end and does what its template says next.
-    fn ended(&self, name: &str, id: &str, outcome: Result<MatchResult, String>) {
+    fn record_end(&self, name: &str, id: &str, outcome: Result<MatchResult, String>) {
         let mut state = self.lock();
         let Some(live) = state.live.remove(name).filter(|l| l.id == id) else { return };
         state.ended += 1;
@@ -521,6 +524,13 @@ impl Arena {
         }
         drop(state);
         self.inner.live_count.send_modify(|n| *n = n.saturating_sub(1));
+        self.inner.ended_count.send_modify(|n| *n += 1);
+    }
+
+    /// Resolves once `n` matches have ended (in all, since the server started).
+    pub async fn ended(&self, n: u64) {
+        let mut count = self.inner.ended_count.subscribe();
+        let _ = count.wait_for(|ended| *ended >= n).await;
     }
 
     /// Where every live and recently finished match is, newest finished last. Each live

@@ -1,0 +1,451 @@
+//! One server, many matches, over real loopback sockets: a classroom of teams, a ladder
+//! that starts again, players queued into a template, the operator's API, a failing
+//! match ending alone, hostile clients in one match leaving another untouched, and old
+//! clients joining the default match.
+
+use std::net::SocketAddr;
+use std::sync::Arc;
+use std::time::Duration;
+
+use bw4t_agents::{Agent, Observation, Strategy};
+use bw4t_protocol::{Hello, Mode, ServerMessage};
+use bw4t_server::{Arena, ArenaConfig, OnEnd, ResultsStore, SeatPlan, ServerConfig, Template};
+use bw4t_sim::Action;
+use serde_json::{Value, json};
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::sync::oneshot;
+
+use crate::util::{AutoPlayer, Client, WAIT, shipped_map};
+
+/// An arena served on loopback ports, stopped when dropped.
+struct ArenaServer {
+    arena: Arena,
+    addr: SocketAddr,
+    http: SocketAddr,
+    stop: Option<oneshot::Sender<()>>,
+    task: tokio::task::JoinHandle<()>,
+}
+
+impl ArenaServer {
+    async fn start(config: ArenaConfig) -> ArenaServer {
+        let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.expect("bind");
+        let http = tokio::net::TcpListener::bind("127.0.0.1:0").await.expect("bind");
+        let (addr, http_addr) = (listener.local_addr().expect("addr"), http.local_addr().expect("addr"));
+        let arena = Arena::start(config).expect("the arena starts");
+        let (stop, stopped) = oneshot::channel::<()>();
+        let served = arena.clone();
+        let task = tokio::spawn(async move {
+            let shutdown = async {
+                let _ = stopped.await;
+            };
+            bw4t_server::serve_arena(&served, listener, Some(http), shutdown).await;
+        });
+        ArenaServer { arena, addr, http: http_addr, stop: Some(stop), task }
+    }
+
+    /// Waits until `n` matches have ended.
+    async fn ended(&self, n: u64) {
+        tokio::time::timeout(WAIT, self.arena.ended(n)).await.expect("matches end in time");
+    }
+
+    async fn shutdown(mut self) {
+        if let Some(stop) = self.stop.take() {
+            let _ = stop.send(());
+        }
+        tokio::time::timeout(WAIT, &mut self.task).await.expect("the server stops in time").expect("task");
+    }
+}
+
+/// A lockstep match config on a shipped map.
+fn lockstep(map: &str, robots: usize, max_ticks: u64) -> ServerConfig {
+    let mut config = ServerConfig::new(shipped_map(map));
+    config.mode = Mode::Lockstep;
+    config.robots = robots;
+    config.max_ticks = Some(max_ticks);
+    config.deadline = Some(Duration::from_secs(10));
+    config.seed = 5;
+    config
+}
+
+fn template(name: &str, config: ServerConfig) -> Template {
+    let mut t = Template::single(name, config, OnEnd::Stay);
+    t.names.clear();
+    t
+}
+
+fn temp_dir(what: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("bw4t-arena-{what}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+/// `hello` fields joining a match or a template.
+fn hello_in(name: &str, field: &str, value: &str) -> Value {
+    json!({"name": name, field: value})
+}
+
+/// One HTTP request; returns the status and the body.
+async fn http(
+    addr: SocketAddr,
+    method: &str,
+    path: &str,
+    token: Option<&str>,
+    body: Option<&str>,
+) -> (u16, String) {
+    let mut stream = tokio::net::TcpStream::connect(addr).await.expect("connect");
+    let mut request = format!("{method} {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n");
+    if let Some(token) = token {
+        request += &format!("Authorization: Bearer {token}\r\n");
+    }
+    let body = body.unwrap_or("");
+    request += &format!("Content-Length: {}\r\n\r\n{body}", body.len());
+    stream.write_all(request.as_bytes()).await.expect("request");
+    let mut answer = String::new();
+    tokio::time::timeout(WAIT, stream.read_to_string(&mut answer))
+        .await
+        .expect("an answer in time")
+        .expect("read");
+    let status = answer.split(' ').nth(1).and_then(|s| s.parse().ok()).expect("a status");
+    let body = answer.split_once("\r\n\r\n").map(|(_, b)| b.to_string()).unwrap_or_default();
+    (status, body)
+}
+
+fn json_of(body: &str) -> Value {
+    serde_json::from_str(body).unwrap_or_else(|e| panic!("not JSON ({e}): {body}"))
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_classroom_of_teams_each_completes_its_match_at_once() {
+    let dir = temp_dir("classroom");
+    let teams: Vec<String> = (0..6).map(|i| format!("team-{}", (b'a' + i) as char)).collect();
+    let mut classroom = template("classroom", lockstep("default", 2, 20_000));
+    classroom.names = teams.clone();
+    classroom.max_running = teams.len();
+    classroom.seats = vec![SeatPlan::builtin("Bot1", Strategy::Cooperative)];
+    let mut config = ArenaConfig::new(vec![classroom]);
+    config.results = ResultsStore::in_dir(&dir).expect("results dir");
+    let server = ArenaServer::start(config).await;
+    // Each team's student is a program over TCP naming its team's match.
+    let players: Vec<_> = teams
+        .iter()
+        .map(|team| {
+            let hello = Hello { match_name: Some(team.clone()), ..Hello::agent("Student", None) };
+            tokio::spawn(bw4t_runner::play_remote(server.addr, hello, Strategy::Cooperative.agent("Student")))
+        })
+        .collect();
+    for player in players {
+        let result =
+            tokio::time::timeout(WAIT * 3, player).await.expect("in time").expect("task").expect("played");
+        assert!(result.completed, "{result:?}");
+        let names: Vec<&str> = result.per_robot.iter().map(|r| r.name.as_str()).collect();
+        assert_eq!(names, ["Bot1", "Student"]);
+    }
+    server.ended(teams.len() as u64).await;
+    let index = std::fs::read_to_string(dir.join("matches.jsonl")).expect("the index");
+    let mut keys: Vec<String> =
+        index.lines().map(|l| json_of(l)["key"].as_str().expect("key").to_string()).collect();
+    keys.sort();
+    let expected: Vec<String> = teams.iter().map(|t| format!("{t}.1")).collect();
+    assert_eq!(keys, expected);
+    assert!(index.lines().all(|l| json_of(l)["completed"] == true), "{index}");
+    // Each team played its own match: its own seed.
+    let seeds: std::collections::BTreeSet<u64> =
+        index.lines().map(|l| json_of(l)["seed"].as_u64().expect("seed")).collect();
+    assert_eq!(seeds.len(), teams.len());
+    server.shutdown().await;
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_ladder_template_starts_again_when_its_match_ends() {
+    let mut ladder = Template::single("ladder", lockstep("default", 3, 60), OnEnd::Restart);
+    ladder.seats = (1..=3).map(|i| SeatPlan::builtin(format!("Bot{i}"), Strategy::Cooperative)).collect();
+    let server = ArenaServer::start(ArenaConfig::new(vec![ladder])).await;
+    server.ended(4).await;
+    let outcomes = server.arena.outcomes();
+    let ids: Vec<&str> = outcomes.iter().take(4).map(|(id, _)| id.as_str()).collect();
+    assert_eq!(ids, ["ladder.1", "ladder.2", "ladder.3", "ladder.4"]);
+    let seeds: Vec<u64> = outcomes.iter().take(4).map(|(_, r)| r.as_ref().expect("a result").seed).collect();
+    assert_eq!(seeds, [5, 6, 7, 8], "each run plays the next seed");
+    // The name stays live: a spectator naming it watches the current run.
+    let mut watcher = Client::connect(server.addr).await;
+    watcher.send(json!({"type": "hello", "protocol": "bw4t", "versions": [1], "role": "spectator", "match": "ladder"})).await;
+    let name = watcher
+        .until(|m| match m {
+            ServerMessage::Welcome(w) => Some(w.match_info.name.clone()),
+            _ => None,
+        })
+        .await;
+    assert_eq!(name, "ladder");
+    server.shutdown().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn players_asking_for_a_template_share_a_match_and_the_next_one_waits_in_line() {
+    let mut open = template("open", lockstep("default", 2, 40));
+    open.max_running = 1;
+    let server = ArenaServer::start(ArenaConfig::new(vec![open])).await;
+    let mut ann = Client::connect(server.addr).await;
+    ann.send(
+        json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": "Ann", "template": "open"}),
+    )
+    .await;
+    let welcome = ann.until(|m| if let ServerMessage::Welcome(w) = m { Some(w.clone()) } else { None }).await;
+    assert_eq!(
+        (welcome.match_info.name.as_str(), welcome.match_info.template.as_deref()),
+        ("open-1", Some("open"))
+    );
+    let lobby = ann.until(|m| if let ServerMessage::Lobby(l) = m { Some(l.clone()) } else { None }).await;
+    assert_eq!((lobby.players.clone(), lobby.awaited, lobby.started), (vec!["Ann".to_string()], 1, false));
+    // Bob takes the other seat of the same match, and it starts.
+    let bob = AutoPlayer::join_with(server.addr, hello_in("Bob", "template", "open")).await;
+    assert_eq!(bob.welcome.match_info.name, "open-1");
+    let lobby = ann.until(|m| if let ServerMessage::Lobby(l) = m { Some(l.clone()) } else { None }).await;
+    assert_eq!((lobby.players, lobby.awaited), (vec!["Ann".to_string(), "Bob".to_string()], 0));
+    let lobby = ann.until(|m| if let ServerMessage::Lobby(l) = m { Some(l.clone()) } else { None }).await;
+    assert!(lobby.started, "{lobby:?}");
+    // The template runs one match at most: Cy waits in line until it ends.
+    let mut cy = Client::connect(server.addr).await;
+    cy.send(json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": "Cy", "template": "open"}))
+        .await;
+    let queued = cy.until(|m| if let ServerMessage::Lobby(l) = m { Some(l.clone()) } else { None }).await;
+    assert_eq!((queued.queued, queued.match_name), (Some(1), None));
+    // Ann plays on (answers ready) so the match reaches its tick limit.
+    let ann = AutoPlayer::adopt(ann, welcome);
+    let welcome = cy.until(|m| if let ServerMessage::Welcome(w) = m { Some(w.clone()) } else { None }).await;
+    assert_eq!(welcome.match_info.name, "open-2");
+    server.ended(1).await;
+    drop((ann, bob));
+    server.shutdown().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_operator_makes_lists_inspects_and_stops_matches_through_the_api() {
+    let dir = temp_dir("api");
+    let mut base = template("base", lockstep("default", 1, 0));
+    base.config.max_ticks = None;
+    base.replays = true;
+    let mut config = ArenaConfig::new(vec![base]);
+    config.operator_token = Some("op".into());
+    config.results = ResultsStore::in_dir(&dir).expect("results dir");
+    let server = ArenaServer::start(config).await;
+    let create = r#"{"name": "demo", "robots": 2, "builtin": 1}"#;
+    let (status, body) = http(server.http, "POST", "/api/matches", None, Some(create)).await;
+    assert_eq!(status, 401, "{body}");
+    assert!(json_of(&body)["error"].as_str().expect("error").contains("operator token"), "{body}");
+    let (status, body) = http(server.http, "POST", "/api/matches", Some("op"), Some(create)).await;
+    assert_eq!(status, 201, "{body}");
+    let made = json_of(&body);
+    assert_eq!(
+        (made["name"].as_str(), made["robots"].as_u64(), made["state"].as_str()),
+        (Some("demo"), Some(2), Some("waiting"))
+    );
+    let (status, body) = http(server.http, "POST", "/api/matches", Some("op"), Some(create)).await;
+    assert_eq!(status, 409, "{body}");
+    let (status, body) =
+        http(server.http, "POST", "/api/matches", Some("op"), Some(r#"{"robots": 99}"#)).await;
+    assert_eq!(status, 400, "{body}");
+    assert!(body.contains("spawn points"), "{body}");
+    let (status, body) =
+        http(server.http, "POST", "/api/matches", Some("op"), Some(r#"{"colour": 1}"#)).await;
+    assert_eq!(status, 400, "{body}");
+    assert!(body.contains("colour"), "{body}");
+    // A player joins the match the API made; the lobby listing shows it, without the seed.
+    let _ann = AutoPlayer::join_with(server.addr, hello_in("Ann", "match", "demo")).await;
+    let (status, body) = http(server.http, "GET", "/api/matches", None, None).await;
+    assert_eq!(status, 200);
+    let listed = json_of(&body);
+    let demo = listed["matches"]
+        .as_array()
+        .expect("list")
+        .iter()
+        .find(|m| m["name"] == "demo")
+        .expect("demo listed")
+        .clone();
+    assert_eq!(demo["players"], json!(["Bot1", "Ann"]));
+    assert!(demo.get("seed").is_none(), "{demo}");
+    let (_, body) = http(server.http, "GET", "/api/matches/demo?token=op", None, None).await;
+    assert!(json_of(&body)["seed"].is_u64(), "{body}");
+    // Stopping it ends it for the player and files its result.
+    let (status, body) = http(server.http, "POST", "/api/matches/demo/stop", Some("op"), Some("")).await;
+    assert_eq!(status, 200, "{body}");
+    assert_eq!(json_of(&body)["state"], "finished");
+    assert_eq!(json_of(&body)["end_reason"], "interrupted");
+    let (status, body) = http(server.http, "GET", "/api/results", None, None).await;
+    assert_eq!(status, 401, "{body}");
+    let (_, body) = http(server.http, "GET", "/api/results", Some("op"), None).await;
+    let rows = json_of(&body)["results"].as_array().expect("rows").clone();
+    assert_eq!(rows.len(), 1, "{body}");
+    assert_eq!(
+        (rows[0]["key"].as_str(), rows[0]["end_reason"].as_str()),
+        (Some("demo.1"), Some("interrupted"))
+    );
+    let (status, body) = http(server.http, "GET", "/api/results/demo.1", Some("op"), None).await;
+    assert_eq!(status, 200);
+    assert_eq!(json_of(&body)["per_robot"].as_array().map(Vec::len), Some(2));
+    let (status, body) = http(server.http, "GET", "/api/results/demo.1/replay", Some("op"), None).await;
+    assert_eq!(status, 200, "{body}");
+    assert!(body.lines().next().is_some_and(|l| l.contains("header")), "{}", &body[..body.len().min(200)]);
+    let (status, _) = http(server.http, "GET", "/api/results/..%2Fmatches.jsonl", Some("op"), None).await;
+    assert_eq!(status, 404);
+    let (status, body) = http(server.http, "POST", "/api/matches/nothing/stop", Some("op"), Some("")).await;
+    assert_eq!(status, 404, "{body}");
+    server.shutdown().await;
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A built-in agent with a bug: it panics a few ticks into the match.
+struct Faulty;
+
+impl Agent for Faulty {
+    fn decide(&mut self, observation: &Observation) -> Vec<Action> {
+        assert!(observation.tick < 5, "a bug in an agent");
+        vec![Action::GoTo("RoomA1".into())]
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_match_that_fails_ends_alone_and_the_server_goes_on() {
+    let mut faulty = Template::single("faulty", lockstep("default", 2, 20_000), OnEnd::Stay);
+    faulty.seats =
+        vec![SeatPlan { name: "Bug".into(), agent: Arc::new(|_: &str| Box::new(Faulty) as Box<dyn Agent>) }];
+    let mut sound = Template::single("sound", lockstep("default", 2, 300), OnEnd::Stay);
+    sound.seats = vec![SeatPlan::builtin("Bot1", Strategy::Cooperative)];
+    let server = ArenaServer::start(ArenaConfig::new(vec![faulty, sound])).await;
+    let good = AutoPlayer::join_with(server.addr, hello_in("Ann", "match", "sound")).await;
+    let mut victim = AutoPlayer::join_with(server.addr, hello_in("Eve", "match", "faulty")).await;
+    victim
+        .wait("the failed match's error", |s| s.errors.iter().any(|e| e == "match_failed").then_some(()))
+        .await;
+    victim.wait("the connection's end", |s| s.ended.then_some(())).await;
+    server.ended(1).await;
+    let outcomes = server.arena.outcomes();
+    let (id, outcome) = &outcomes[0];
+    assert_eq!(id, "faulty.1");
+    assert!(outcome.as_ref().is_err_and(|why| why.contains("a bug in an agent")), "{outcome:?}");
+    // The other match plays to its end, and the server still takes new players.
+    let mut good = good;
+    good.wait("the end of the sound match", |s| s.ended.then_some(())).await;
+    server.ended(2).await;
+    let result = server.arena.outcomes()[1].1.clone().expect("the sound match's result");
+    assert_eq!((result.ticks, result.end_reason.as_str()), (300, "max_ticks"));
+    let rows = server.arena.results().rows();
+    assert_eq!(rows[0].end_reason.as_str(), "error");
+    assert!(rows[0].error.as_deref().is_some_and(|e| e.contains("a bug in an agent")), "{rows:?}");
+    let (status, _) = http(server.http, "GET", "/api/matches", None, None).await;
+    assert_eq!(status, 200);
+    server.shutdown().await;
+}
+
+/// What a well-behaved player of match `b` receives, with or without hostile clients
+/// in match `a` of the same server.
+async fn bystander_stream(hostile_in_a: bool) -> Vec<String> {
+    let mut a = Template::single("a", lockstep("fixed", 1, 400), OnEnd::Stay);
+    a.config.token = Some("sesame".into());
+    let mut b = Template::single("b", lockstep("fixed", 1, 400), OnEnd::Stay);
+    b.config.seed = 8;
+    let mut config = ArenaConfig::new(vec![a, b]);
+    config.hello_timeout = Duration::from_millis(200);
+    let server = ArenaServer::start(config).await;
+    let addr = server.addr;
+    let mut hostile = Vec::new();
+    if hostile_in_a {
+        hostile.push(tokio::spawn(async move {
+            let mut c = Client::connect(addr).await;
+            c.send(json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": "Mal", "match": "a", "token": "sesame"})).await;
+            for i in 0..300 {
+                c.send_raw(&format!("garbage {i} {{")).await;
+                c.send(json!({"type": "act", "id": i, "action": "goTo", "args": ["RoomA1"]})).await;
+            }
+            c.send_raw(&"y".repeat(1 << 20)).await;
+            c.drain().await;
+        }));
+        hostile.push(tokio::spawn(async move {
+            let mut c = Client::connect(addr).await;
+            c.send(json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": "Eve", "match": "a", "token": "guess"})).await;
+            c.drain().await;
+        }));
+        hostile.push(tokio::spawn(async move {
+            let mut c = Client::connect_small(addr).await;
+            c.send(json!({"type": "hello", "protocol": "bw4t", "versions": [1], "role": "spectator", "match": "a", "token": "sesame"})).await;
+            // A spectator that never reads.
+            std::future::pending::<()>().await;
+            c.drain().await;
+        }));
+        hostile.push(tokio::spawn(async move {
+            let mut c = Client::connect(addr).await;
+            c.send(json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": "Nob", "match": "nowhere"})).await;
+            c.drain().await;
+        }));
+    }
+    let mut good = Client::connect(addr).await;
+    good.send(json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": "Ann", "match": "b"}))
+        .await;
+    let places = ["RoomA1", "RoomC2", "DropZone", "RoomB3"];
+    let (mut stream, mut next, mut busy) = (Vec::new(), 0, false);
+    while let Some(message) = good.recv().await {
+        let mut value = serde_json::to_value(&message).expect("json");
+        for field in ["/session", "/result/wall_ms"] {
+            if let Some(v) = value.pointer_mut(field) {
+                *v = json!(0);
+            }
+        }
+        stream.push(value.to_string());
+        let tick = match message {
+            ServerMessage::Percepts(p) => p.tick,
+            ServerMessage::Result(_) => {
+                busy = false;
+                continue;
+            }
+            _ => continue,
+        };
+        if !busy {
+            busy = true;
+            next += 1;
+            good.send(
+                json!({"type": "act", "id": next, "action": "goTo", "args": [places[next % places.len()]]}),
+            )
+            .await;
+        }
+        good.send(json!({"type": "ready", "tick": tick})).await;
+    }
+    hostile.iter().for_each(|h| h.abort());
+    server.shutdown().await;
+    stream
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn hostile_clients_in_one_match_leave_another_match_s_streams_identical() {
+    let alone = bystander_stream(false).await;
+    let among = bystander_stream(true).await;
+    assert!(alone.len() > 20, "{alone:?}");
+    assert!(alone.iter().any(|l| l.contains("\"match_end\"")), "the match played to its end");
+    if let Some(i) = alone.iter().zip(&among).position(|(x, y)| x != y) {
+        panic!("message {i} differs:\n alone: {}\n among: {}", alone[i], among[i]);
+    }
+    assert_eq!(alone.len(), among.len(), "the streams have different lengths");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn clients_that_name_no_match_join_the_default_one_and_never_see_a_lobby() {
+    let mut config =
+        ArenaConfig::new(vec![Template::single("default", lockstep("fixed", 2, 20), OnEnd::Stay)]);
+    config.default = Some("default".into());
+    let server = ArenaServer::start(config).await;
+    let mut old = AutoPlayer::join(server.addr, "Ann").await;
+    assert_eq!(old.welcome.match_info.name, "default");
+    let mut new = AutoPlayer::join_with(server.addr, hello_in("Bob", "match", "default")).await;
+    new.wait("the end", |s| s.ended.then_some(())).await;
+    old.wait("the end", |s| s.ended.then_some(())).await;
+    let lobby = new.seen.lock().expect("lock").lobbies.last().cloned().expect("a lobby");
+    assert!(lobby.started && lobby.players == ["Ann", "Bob"], "{lobby:?}");
+    let old_lobbies = old.seen.lock().expect("lock").lobbies.len();
+    assert_eq!(old_lobbies, 0, "a client that named no match got a lobby");
+    // Naming a match that does not exist is refused, naming the live ones.
+    let mut lost = Client::connect(server.addr).await;
+    lost.send(json!({"type": "hello", "protocol": "bw4t", "versions": [1], "match": "nowhere"})).await;
+    let error = lost.until(|m| if let ServerMessage::Error(e) = m { Some(e.clone()) } else { None }).await;
+    assert_eq!(error.code.as_str(), "unknown_match");
+    assert!(error.message.contains("'nowhere'"), "{}", error.message);
+    server.shutdown().await;
+}
