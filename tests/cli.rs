@@ -337,3 +337,103 @@ fn serve_gives_the_map_s_tick_limit_by_default() {
         "{err}"
     );
 }
+
+/// A server configuration with a mistake is refused before anything is served, with the
+/// file, the template and the key named; match options cannot be mixed with `--config`.
+#[test]
+fn serve_refuses_a_bad_configuration_naming_the_problem() {
+    let dir = std::env::temp_dir().join(format!("bw4t-arena-config-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let cases = [
+        ("[[template]]\nname = \"lab\"\ncolour = 1\n", "unknown field `colour`"),
+        ("[[template]]\nname = \"lab\"\non_end = \"forever\"\n", "template 'lab': on_end = 'forever'"),
+        ("[[template]]\nname = \"lab\"\nfill = true\n", "fill = true needs start_timeout_s"),
+        ("[[template]]\nname = \"lab\"\nrobots = 2\nbuiltin = 3\n", "builtin = 3 but robots = 2"),
+        ("[[template]]\nname = \"lab\"\nmap = \"nowhere\"\n", "nowhere"),
+        (
+            "[[template]]\nname = \"a\"\nnames = [\"x\"]\n[[template]]\nname = \"b\"\nnames = [\"x\"]\n",
+            "two matches are named 'x'",
+        ),
+        ("default = \"lab\"\n", "no [[template]]"),
+    ];
+    for (i, (text, expected)) in cases.iter().enumerate() {
+        let file = dir.join(format!("arena{i}.toml"));
+        std::fs::write(&file, text).expect("write");
+        let out = bw4t(&["serve", "--port", "0", "--config", file.to_str().expect("utf-8")]);
+        assert_eq!(out.status.code(), Some(1), "{text}: {}", stderr(&out));
+        let err = stderr(&out);
+        assert!(err.contains(expected), "{text}: {err}");
+        if *expected != "two matches are named 'x'" {
+            assert!(err.contains(&format!("arena{i}.toml")), "the file is named: {err}");
+        }
+    }
+    let file = dir.join("arena0.toml");
+    let out = bw4t(&["serve", "--port", "0", "--map", "fixed", "--config", file.to_str().expect("utf-8")]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(stderr(&out).contains("cannot be used with"), "{}", stderr(&out));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `bw4t serve --once` exits when its match ends; without it the match starts again, so
+/// a second visitor finds a match where the first saw one end.
+#[test]
+fn serve_once_exits_after_its_match_and_otherwise_starts_it_again() {
+    use std::io::{BufRead, BufReader, Write};
+    let once = crate::util::bw4t_within(
+        &[
+            "serve",
+            "--once",
+            "--port",
+            "0",
+            "--map",
+            "fixed",
+            "--builtin",
+            "1",
+            "--mode",
+            "lockstep",
+            "--max-ticks",
+            "30",
+        ],
+        crate::util::WAIT,
+    );
+    assert!(once.status.success(), "{}", stderr(&once));
+    assert!(stderr(&once).contains("match over (max_ticks): 30 ticks"), "{}", stderr(&once));
+    let mut serve = Command::new(env!("CARGO_BIN_EXE_bw4t"));
+    serve.args([
+        "serve",
+        "--port",
+        "0",
+        "--map",
+        "fixed",
+        "--builtin",
+        "1",
+        "--mode",
+        "lockstep",
+        "--max-ticks",
+        "30",
+    ]);
+    // The log goes to a file: a pipe nobody reads would fill and stall the server.
+    let log_path = std::env::temp_dir().join(format!("bw4t-serve-again-{}.log", std::process::id()));
+    let log_file = std::fs::File::create(&log_path).expect("log file");
+    let mut child = serve.stdout(std::process::Stdio::piped()).stderr(log_file).spawn().expect("start");
+    let mut first = String::new();
+    BufReader::new(child.stdout.take().expect("stdout")).read_line(&mut first).expect("address line");
+    let addr = first.trim().strip_prefix("listening on ").expect("listening on ADDR").to_string();
+    let mut seen_ends = 0;
+    for _ in 0..2 {
+        let stream = std::net::TcpStream::connect(&addr).expect("the server is still there");
+        stream.set_read_timeout(Some(crate::util::WAIT)).expect("timeout");
+        let mut writer = stream.try_clone().expect("clone");
+        writeln!(writer, r#"{{"type":"hello","protocol":"bw4t","versions":[1],"role":"spectator"}}"#)
+            .expect("hello");
+        let ended = BufReader::new(stream).lines().map_while(Result::ok).any(|l| l.contains("\"match_end\""));
+        seen_ends += usize::from(ended);
+    }
+    assert_eq!(seen_ends, 2, "each visitor watched a match to its end");
+    let _ = Command::new("kill").arg("-TERM").arg(child.id().to_string()).status();
+    let status = child.wait().expect("exit");
+    assert!(status.success(), "{status:?}");
+    let log = std::fs::read_to_string(&log_path).expect("the log");
+    let _ = std::fs::remove_file(&log_path);
+    assert!(log.contains("match made") && log.contains("id=default.2"), "{}", &log[..log.len().min(2000)]);
+}
