@@ -277,12 +277,11 @@ async fn handle(stream: TcpStream, conn: ConnId, arena: &Arena) {
     run(conn, source, writer, arena).await;
 }
 
-/// What a connection heard before it joined a match.
-enum Greeting {
-    /// A `hello` routed to a match, and the lines that came after it in the same read.
-    Joined(Route, ClientMessage, Vec<Result<String, DecodeError>>),
-    /// The connection is over (it left, said `bye`, was refused or timed out).
-    Over,
+/// A `hello` routed to a match, and the lines that came after it in the same read.
+struct Joined {
+    route: Route,
+    hello: ClientMessage,
+    rest: Vec<Result<String, DecodeError>>,
 }
 
 /// Runs one connection, whatever carries it: until `hello`, lines are answered here
@@ -295,8 +294,8 @@ pub(crate) async fn run(conn: ConnId, mut source: impl LineSource, sink: impl Li
     // The writer ends on `Close`, a kill or a dead socket; the reader then stops too.
     let outgoing = start_writer(conn, arena.config().queue, sink);
     let (tx, mut done) = (outgoing.tx.clone(), outgoing.done.clone());
-    let greeting = greet(&mut source, &tx, &mut done, arena).await;
-    let Greeting::Joined(route, hello, rest) = greeting else {
+    // `None`: the connection is over (it left, said `bye`, was refused or timed out).
+    let Some(Joined { route, hello, rest }) = greet(&mut source, &tx, &mut done, arena).await else {
         drop(tx);
         let _ = outgoing.tx.try_send(Outbound::Close);
         drop(outgoing.tx);
@@ -353,24 +352,24 @@ async fn greet(
     tx: &mpsc::Sender<Outbound>,
     done: &mut watch::Receiver<bool>,
     arena: &Arena,
-) -> Greeting {
+) -> Option<Joined> {
     let hello_deadline = tokio::time::Instant::now() + arena.config().hello_timeout;
     loop {
         let incoming = tokio::select! {
             incoming = source.next() => incoming,
-            _ = done.wait_for(|d| *d) => return Greeting::Over,
+            _ = done.wait_for(|d| *d) => return None,
             () = tokio::time::sleep_until(hello_deadline) => {
                 refuse_fatally(tx, ErrorCode::HelloTimeout, "no hello in time");
-                return Greeting::Over;
+                return None;
             }
         };
         let mut lines = match incoming {
             Incoming::Lines(lines) => lines.into_iter(),
             Incoming::Fatal(error) => {
                 refuse_fatally(tx, error.code, &error.message);
-                return Greeting::Over;
+                return None;
             }
-            Incoming::Closed => return Greeting::Over,
+            Incoming::Closed => return None,
         };
         while let Some(line) = lines.next() {
             let message = match line.and_then(|l| bw4t_protocol::decode_client(&l)) {
@@ -389,7 +388,7 @@ async fn greet(
                 }
                 ClientMessage::Bye(_) => {
                     let _ = tx.try_send(Outbound::Line(bye_line(Leaving::Goodbye)));
-                    return Greeting::Over;
+                    return None;
                 }
                 _ => {
                     let _ =
@@ -400,18 +399,18 @@ async fn greet(
             let route = match arena.route(&hello) {
                 Err((code, message)) => {
                     refuse_fatally(tx, code, &message);
-                    return Greeting::Over;
+                    return None;
                 }
                 Ok(Routed::Match(route)) => route,
                 Ok(Routed::Queued(news, place)) => {
                     let template = hello.template.clone().unwrap_or_default();
                     match wait_in_queue(source, tx, done, news, place, &template).await {
                         Some(route) => route,
-                        None => return Greeting::Over,
+                        None => return None,
                     }
                 }
             };
-            return Greeting::Joined(route, ClientMessage::Hello(hello), lines.collect());
+            return Some(Joined { route, hello: ClientMessage::Hello(hello), rest: lines.collect() });
         }
     }
 }
