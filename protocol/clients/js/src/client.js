@@ -58,9 +58,10 @@ import { BW4TError, ActionRejected } from './errors.js';
  */
 
 /**
- * `lobby`: the match waiting for its players (after `welcome`, until the first tick), or,
- * before `welcome`, the player's place in a template's queue (`queued`, 1 = next).
- * `players` and `awaited` are filled in (`[]`, 0) when the server left them out.
+ * `lobby`: the match waiting for its players (after `welcome`, until the first tick; the
+ * last one, as the match starts, has `started`), or, before `welcome`, the player's place
+ * in a template's queue (`queued`, 1 = next). `players`, `awaited` and `started` are
+ * filled in (`[]`, 0, false) when the server left them out.
  * @typedef {object} Lobby
  * @property {'lobby'} type
  * @property {string} [match] the match's name (absent while queued)
@@ -69,6 +70,7 @@ import { BW4TError, ActionRejected } from './errors.js';
  * @property {number} awaited how many more players the match waits for before it starts
  * @property {number} [start_in_ms] the match starts anyway in this many milliseconds
  * @property {number} [queued] before `welcome`: the place in the template's queue
+ * @property {boolean} started the match has started (the connection's last `lobby`)
  */
 
 /**
@@ -869,7 +871,12 @@ export class Client extends EventEmitter {
    */
   #onLobby(message) {
     /** @type {Lobby} */
-    const lobby = { ...message, players: Array.isArray(message.players) ? message.players : [], awaited: message.awaited ?? 0 };
+    const lobby = {
+      ...message,
+      players: Array.isArray(message.players) ? message.players : [],
+      awaited: message.awaited ?? 0,
+      started: message.started === true,
+    };
     this.lobby = lobby;
     if (!this.welcome && lobby.queued !== undefined && !this.#queued) {
       // Waiting for a seat in a template's queue can take long: it is not bounded.

@@ -1,12 +1,12 @@
 // Joining a named match or a template, `lobby` messages and reconnecting to the
-// session's match, checked against a scripted server: what the client sends and what it
-// makes of the answers.
+// session's match: first against a scripted server, which checks exactly what the client
+// sends and what it makes of the answers, then against the real server.
 
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { setTimeout as sleep } from 'node:timers/promises';
 import { connect, BW4TError } from '../index.js';
-import { startFakeServer, fake, within } from './helpers.js';
+import { startFakeServer, startServer, fake, within } from './helpers.js';
 
 /**
  * Run `body` against a fake server running `script` per connection; the server is
@@ -118,7 +118,7 @@ async function lobbyScript(conn) {
   assert.deepEqual(await conn.expect('ready'), { type: 'ready', tick: 0 });
   // Someone joins: a lobby, then the first tick (a lobby asks for no ready).
   conn.send(
-    fake.lobby({ match: 'ladder-3', template: 'ladder', players: ['Ann', 'Bot1'] }),
+    fake.lobby({ match: 'ladder-3', template: 'ladder', players: ['Ann', 'Bot1'], started: true }),
     { type: 'percepts', tick: 1, add: [['state', 'traveling']], not: [['state', 'arrived']] },
   );
   assert.deepEqual(await conn.expect('ready'), { type: 'ready', tick: 1 });
@@ -138,12 +138,12 @@ test('lobby messages before and after welcome', { timeout: 10000 }, async () => 
     assert.equal(client.endReason, 'interrupted');
     assert.equal(client.error, null);
     assert.deepEqual(
-      seen.map((l) => [l.match, l.template, l.players, l.awaited, l.start_in_ms, l.queued]),
+      seen.map((l) => [l.match, l.template, l.players, l.awaited, l.start_in_ms, l.queued, l.started]),
       [
-        [undefined, 'ladder', [], 0, undefined, 2],
-        [undefined, 'ladder', [], 0, undefined, 1],
-        ['ladder-3', 'ladder', ['Ann'], 1, 25000, undefined],
-        ['ladder-3', 'ladder', ['Ann', 'Bot1'], 0, undefined, undefined],
+        [undefined, 'ladder', [], 0, undefined, 2, false],
+        [undefined, 'ladder', [], 0, undefined, 1, false],
+        ['ladder-3', 'ladder', ['Ann'], 1, 25000, undefined, false],
+        ['ladder-3', 'ladder', ['Ann', 'Bot1'], 0, undefined, undefined, true],
       ],
     );
     assert.equal(client.lobby, seen.at(-1));
@@ -209,5 +209,53 @@ for (const [option, code] of [
         return true;
       });
     });
+  });
+}
+
+// ---- the real server -------------------------------------------------------------
+// Joining the default match by its name, lobby messages, reconnecting and unknown names
+// need only `bw4t serve`; templates and named matches need `bw4t serve --config`.
+
+test('the named default match: lobby messages, then reconnect', { timeout: 20000 }, async () => {
+  const s = await startServer(['--mode', 'realtime', '--robots', '2', '--grace-s', '30', '--max-ticks', '2000']);
+  try {
+    const lobbies = [];
+    const ann = await connect({ host: s.host, port: s.port, name: 'Ann', match: 'default', everyTick: true, onLobby: (l) => lobbies.push(l) });
+    assert.equal(ann.match?.name, 'default');
+    const bob = await connect({ host: s.host, port: s.port, name: 'Bob', match: 'default' });
+    // The match started with Bob: every lobby came before the percepts of tick 1.
+    for await (const update of ann.updates()) if (update.tick >= 1) break;
+    assert.ok(lobbies.length > 0, 'no lobby after welcome');
+    const [first, last] = [lobbies[0], lobbies.at(-1)];
+    assert.deepEqual([first.match, first.players, first.awaited], ['default', ['Ann'], 1]);
+    assert.deepEqual([last.match, last.players, last.awaited, last.started], ['default', ['Ann', 'Bob'], 0, true]);
+    assert.ok(lobbies.slice(0, -1).every((l) => !l.started));
+    assert.equal(ann.lobby, last);
+    assert.ok(lobbies.every((l) => l.queued === undefined));
+
+    const again = await within(ann.reconnect(), 10000, 'reconnect');
+    assert.deepEqual([again.robot, again.name, again.match?.name], [0, 'Ann', 'default']);
+    assert.equal(again.error, null);
+    await within(Promise.all([again.bye(), bob.bye()]), 10000, 'bye');
+  } finally {
+    await s.stop();
+  }
+});
+
+for (const [option, code] of [
+  ['match', 'unknown_match'],
+  ['template', 'unknown_template'],
+]) {
+  test(`the real server refuses an unknown ${option} with ${code}`, { timeout: 20000 }, async () => {
+    const s = await startServer(['--deadline-ms', '0']);
+    try {
+      await assert.rejects(connect({ host: s.host, port: s.port, name: 'Ann', [option]: 'nope' }), (err) => {
+        assert.deepEqual([err.code, err.fatal], [code, true]);
+        assert.match(err.detail, /nope/);
+        return true;
+      });
+    } finally {
+      await s.stop();
+    }
   });
 }

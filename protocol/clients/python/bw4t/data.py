@@ -63,7 +63,8 @@ class Lobby:
 
     Before ``welcome`` (the player is queued for a template whose matches are full),
     ``match`` is ``None`` and ``queued`` is the player's place in the queue (1: next).
-    After ``welcome`` and until the first tick it tells who is in the match.
+    After ``welcome`` and until the first tick it tells who is in the match; the last
+    one, sent as the match starts, has ``started`` set.
 
     Attributes:
         match: the match's name (``None`` while queued).
@@ -73,6 +74,7 @@ class Lobby:
         awaited: how many more players the match waits for before it starts.
         start_in_ms: the match starts anyway in this many milliseconds, if set.
         queued: the place in the template's queue, before ``welcome``.
+        started: the match has started (the last ``lobby`` of the connection).
     """
 
     match: Optional[str]
@@ -81,6 +83,7 @@ class Lobby:
     awaited: int
     start_in_ms: Optional[int] = None
     queued: Optional[int] = None
+    started: bool = False
     raw: Dict[str, Any] = field(default_factory=dict, compare=False, repr=False)
 
     @property
@@ -100,6 +103,7 @@ class Lobby:
             awaited=int(obj.get("awaited", 0)),
             start_in_ms=None if start_in_ms is None else int(start_in_ms),
             queued=None if queued is None else int(queued),
+            started=bool(obj.get("started", False)),
             raw=dict(obj),
         )
 

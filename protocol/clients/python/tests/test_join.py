@@ -1,6 +1,7 @@
 """Joining a named match or a template, ``lobby`` messages and reconnecting to the
-session's match, checked against a scripted server (see ``fake_server.py``): what the
-client sends and what it makes of the answers."""
+session's match: first against a scripted server (see ``fake_server.py``), which checks
+exactly what the client sends and what it makes of the answers, then against the real
+server."""
 
 from __future__ import annotations
 
@@ -12,9 +13,10 @@ import pytest
 
 from bw4t import AsyncClient, Client, FatalServerError, Lobby, ProtocolCore, Timeout
 from fake_server import FakeConnection, FakeServer, fatal, lobby, snapshot, welcome
-from conftest import WAIT
+from conftest import WAIT, Server
 
 FakeFn = Callable[[Callable[[FakeConnection], None]], FakeServer]
+ServeFn = Callable[..., Server]
 
 
 def seat(conn: FakeConnection, **welcome_fields: object) -> dict:
@@ -119,7 +121,7 @@ def lobby_script(conn: FakeConnection) -> None:
         welcome(match="ladder-3", template="ladder", mode="lockstep"),
         lobby(match="ladder-3", template="ladder", players=["Ann"], awaited=1, start_in_ms=25000),
         snapshot(0),
-        lobby(match="ladder-3", template="ladder", players=["Ann", "Bot1"], awaited=0),
+        lobby(match="ladder-3", template="ladder", players=["Ann", "Bot1"], awaited=0, started=True),
     )
     # One ready answers tick 0: the lobby after the snapshot asks for none.
     assert conn.expect("ready")["tick"] == 0
@@ -136,6 +138,7 @@ def check_lobbies(seen: List[Lobby]) -> None:
     assert all(l.template == "ladder" for l in seen)
     assert (seen[2].players, seen[2].awaited, seen[2].start_in_ms) == (("Ann",), 1, 25000)
     assert (seen[3].players, seen[3].awaited, seen[3].start_in_ms) == (("Ann", "Bot1"), 0, None)
+    assert [l.started for l in seen] == [False, False, False, True]
 
 
 def test_lobby_messages_before_and_after_welcome(fake_server: FakeFn) -> None:
@@ -232,4 +235,48 @@ def test_lobby_from_json() -> None:
     queued = Lobby.from_json({"type": "lobby", "template": "ladder", "players": [], "awaited": 0, "queued": 2})
     assert queued.in_queue and queued.match is None and queued.queued == 2 and queued.players == ()
     bare = Lobby.from_json({"type": "lobby"})
-    assert (bare.match, bare.template, bare.players, bare.awaited) == (None, None, (), 0)
+    assert (bare.match, bare.template, bare.players, bare.awaited, bare.started) == (None, None, (), 0, False)
+
+
+# ------------------------------------------------------------- the real server
+# Joining the default match by its name, lobby messages, reconnecting and unknown names
+# need only `bw4t serve`; templates and named matches need `bw4t serve --config`.
+
+
+def test_lobby_and_reconnect_in_the_named_default_match(serve: ServeFn) -> None:
+    server = serve("--mode", "realtime", "--robots", "2", "--grace-s", "30", "--max-ticks", "2000")
+    ann_lobbies: List[Lobby] = []
+    ann = Client.connect(
+        server.host, server.port, name="Ann", match="default", every_tick=True,
+        on_lobby=ann_lobbies.append, timeout=WAIT,
+    )
+    assert ann.match.name == "default" and ann.match.template is None
+    bob = Client.connect(server.host, server.port, name="Bob", match="default", timeout=WAIT)
+    # The match started with Bob: every lobby came before the percepts of tick 1.
+    while ann.beliefs.tick < 1:
+        assert ann.next_update(WAIT) is not None
+    assert ann_lobbies, "no lobby after welcome"
+    first, last = ann_lobbies[0], ann_lobbies[-1]
+    assert (first.match, first.players, first.awaited) == ("default", ("Ann",), 1)
+    assert (last.match, last.players, last.awaited, last.started) == ("default", ("Ann", "Bob"), 0, True)
+    assert not any(l.started for l in ann_lobbies[:-1])
+    assert ann.lobby is last and not any(l.in_queue for l in ann_lobbies)
+
+    ann.close(bye=False)
+    welcome = ann.reconnect(WAIT)
+    assert (welcome.robot, welcome.match.name) == (0, "default")
+    assert ann.next_update(WAIT).full  # type: ignore[union-attr]
+    for client in (ann, bob):
+        client.close()
+        assert client.errors == []
+
+
+@pytest.mark.parametrize(
+    "kwargs, code",
+    [({"match": "nope"}, "unknown_match"), ({"template": "nope"}, "unknown_template")],
+)
+def test_unknown_names_are_refused_by_the_real_server(serve: ServeFn, kwargs: dict, code: str) -> None:
+    server = serve()
+    with pytest.raises(FatalServerError) as info:
+        Client.connect(server.host, server.port, name="Ann", timeout=WAIT, **kwargs)
+    assert info.value.code == code and info.value.fatal and "nope" in info.value.message
