@@ -83,6 +83,15 @@ enum TournamentCommand {
         #[arg(short, long)]
         out: Option<PathBuf>,
     },
+    /// Summarise the rows of a `matches.jsonl` (a tournament's, or the index of a
+    /// server's results, `bw4t serve --results-dir`): completion rates, ticks, ranking.
+    Summary {
+        /// The file, or the directory that holds it.
+        path: PathBuf,
+        /// Also print the summary as JSON.
+        #[arg(long)]
+        json: bool,
+    },
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -99,6 +108,21 @@ pub(crate) fn run(args: &TournamentArgs) -> Result<u8> {
         let outcome = merge(dirs, &out)?;
         out!("{}", outcome.summary.terminal_table());
         outln!("merged {} into {}", plural(outcome.rows.len(), "match"), out.display());
+        return Ok(status::SUCCESS);
+    }
+    if let Some(TournamentCommand::Summary { path, json }) = &args.command {
+        let file = if path.is_dir() { path.join("matches.jsonl") } else { path.clone() };
+        let rows = tournament::read_rows(&file)?;
+        if rows.is_empty() {
+            bail!("{} holds no finished matches", file.display());
+        }
+        let summary = bw4t_tournament::summarize(&rows, 0.0);
+        if *json {
+            outln!("{}", summary.to_json());
+        } else {
+            out!("{}", summary.terminal_table());
+            outln!("{} in {}", plural(rows.len(), "match"), file.display());
+        }
         return Ok(status::SUCCESS);
     }
     let config = config(args)?;

@@ -351,18 +351,10 @@ fn write_manifest(out: &Path, manifest: &Manifest) -> Result<(), TournamentError
 }
 
 /// The rows of a `matches.jsonl`; a torn last line (from a kill) is left out.
-fn read_rows(path: &Path) -> Result<Vec<Row>, TournamentError> {
+/// The rows of a `matches.jsonl` file (a tournament's, or a server's index of results).
+pub fn read_rows(path: &Path) -> Result<Vec<Row>, TournamentError> {
     let text = std::fs::read_to_string(path).map_err(|e| io(format!("cannot read {}", path.display()), e))?;
-    let lines: Vec<&str> = text.lines().filter(|l| !l.trim().is_empty()).collect();
-    let mut rows = Vec::new();
-    for (i, line) in lines.iter().enumerate() {
-        match serde_json::from_str::<Row>(line) {
-            Ok(row) => rows.push(row),
-            Err(_) if i + 1 == lines.len() => {}
-            Err(e) => return Err(io(format!("{} line {}", path.display(), i + 1), e)),
-        }
-    }
-    Ok(rows)
+    Row::parse_lines(&text).map_err(|(line, e)| io(format!("{} line {line}", path.display()), e))
 }
 
 fn rewrite_rows(out: &Path, rows: &[Row]) -> Result<(), TournamentError> {

@@ -119,6 +119,21 @@ impl Row {
         self.digest = result.digest.clone();
     }
 
+    /// The rows of a `matches.jsonl` text. A torn last line (its writer was killed
+    /// mid-line) is dropped; any other line that is not a row is an error with its number.
+    pub fn parse_lines(text: &str) -> Result<Vec<Row>, (usize, serde_json::Error)> {
+        let lines: Vec<&str> = text.lines().filter(|l| !l.trim().is_empty()).collect();
+        let mut rows = Vec::with_capacity(lines.len());
+        for (i, line) in lines.iter().enumerate() {
+            match serde_json::from_str::<Row>(line) {
+                Ok(row) => rows.push(row),
+                Err(_) if i + 1 == lines.len() => {}
+                Err(e) => return Err((i + 1, e)),
+            }
+        }
+        Ok(rows)
+    }
+
     /// The header line of `matches.csv`.
     pub fn csv_header() -> String {
         CSV_COLUMNS.iter().map(|(name, _)| *name).collect::<Vec<_>>().join(",")

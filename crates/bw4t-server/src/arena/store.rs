@@ -103,9 +103,9 @@ impl ResultsStore {
     /// The index's rows: the whole file when there is one, else those kept in memory.
     pub fn rows(&self) -> Vec<Row> {
         if let Some(dir) = &self.dir {
-            if let Ok(text) = std::fs::read_to_string(dir.join("matches.jsonl")) {
-                // A torn last line (the server was killed mid-write) is skipped.
-                return text.lines().filter_map(|l| serde_json::from_str(l).ok()).collect();
+            let rows = std::fs::read_to_string(dir.join("matches.jsonl")).ok().map(|t| Row::parse_lines(&t));
+            if let Some(Ok(rows)) = rows {
+                return rows;
             }
         }
         self.kept().rows.iter().cloned().collect()
