@@ -30,7 +30,7 @@ struct Kept {
 }
 
 impl ResultsStore {
-    /// Results kept in memory only (the latest [`KEPT`]); no replays.
+    /// Results kept in memory only (the latest thousand); no replays.
     pub fn in_memory() -> ResultsStore {
         ResultsStore { dir: None, inner: Arc::new(Mutex::new(Kept::default())) }
     }
