@@ -1,5 +1,6 @@
 // A page from another site, open in the same browser, cannot open the match's WebSocket
-// unless `bw4t serve --allow-origin` names it: the browser's own `Origin` is checked.
+// unless `bw4t serve --allow-origin` names it: the browser's own `Origin` is checked. One
+// match (`--once`), so the server's own page at / joins it (no lobby).
 
 import assert from 'node:assert/strict';
 import http from 'node:http';
@@ -40,7 +41,7 @@ test('a page from another origin is refused the WebSocket unless allowed', { tim
   t.after(() => site.close());
   const browser = await openBrowser();
   t.after(() => browser.close());
-  const args = ['serve', '--http', '0', '--port', '0', '--map', 'fixed', '--robots', '2'];
+  const args = ['serve', '--once', '--http', '0', '--port', '0', '--map', 'fixed', '--robots', '2'];
 
   const guarded = await startBw4t(args);
   t.after(() => stop(guarded.proc));

@@ -1,5 +1,6 @@
 // A person plays from the page: joins with the form, drives the robot with clicks and keys,
-// fetches a block of the needed colour and delivers it, beside a built-in agent.
+// fetches a block of the needed colour and delivers it, beside a built-in agent, in the one
+// match of `bw4t serve --once` (the page at / shows it; no lobby).
 
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
@@ -78,7 +79,7 @@ test('a human joins from the page and delivers a block beside a built-in agent',
   const mapFile = path.join(dir, 'two-reds.toml');
   fs.writeFileSync(mapFile, MAP);
   const server = await startBw4t([
-    'serve', '--http', '0', '--port', '0', '--map', mapFile, '--builtin', '1', '--robots', '2',
+    'serve', '--once', '--http', '0', '--port', '0', '--map', mapFile, '--builtin', '1', '--robots', '2',
     '--mode', 'realtime', '--seed', '1', '--max-ticks', '4000',
   ]);
   t.after(() => stop(server.proc));

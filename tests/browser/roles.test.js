@@ -1,5 +1,6 @@
 // Roles on the page: each view needs its own role's token, spectators are not shown
-// private messages while the operator is, and a full match refuses one more player.
+// private messages while the operator is, and a full match refuses one more player. The
+// server serves one match (`--once`), which the page shows at / (no lobby).
 
 import assert from 'node:assert/strict';
 import { test } from 'node:test';
@@ -20,7 +21,7 @@ async function messagesContaining(page, words) {
 
 test('each role has its own token, and spectators see public messages only', { timeout: 120_000 }, async (t) => {
   const server = await startBw4t([
-    'serve', '--http', '0', '--port', '0', '--map', 'fixed', '--seed', '3', '--mode', 'realtime',
+    'serve', '--once', '--http', '0', '--port', '0', '--map', 'fixed', '--seed', '3', '--mode', 'realtime',
     '--builtin', '1', '--robots', '2', '--max-ticks', '20000',
     '--token', 'player-secret', '--spectator-token', 'spectator-secret', '--operator-token', 'operator-secret',
   ]);

@@ -1,5 +1,5 @@
-// The overview follows a live match: `bw4t serve --http 0` with built-in robots only, the
-// page opened at / as a spectator.
+// The overview follows a live match: `bw4t serve --once --http 0` with built-in robots
+// only (one match, so / shows it rather than the lobby), the page opened at / as a spectator.
 
 import assert from 'node:assert/strict';
 import { test } from 'node:test';
@@ -24,7 +24,7 @@ function positions(page) {
 
 test('the spectator view follows a match of three built-in robots', { timeout: 120_000 }, async (t) => {
   const server = await startBw4t([
-    'serve', '--http', '0', '--port', '0', '--builtin', '3', '--robots', '3', '--mode', 'realtime',
+    'serve', '--once', '--http', '0', '--port', '0', '--builtin', '3', '--robots', '3', '--mode', 'realtime',
     '--map', 'fixed', '--seed', '5', '--max-ticks', '6000',
   ]);
   t.after(() => stop(server.proc));
@@ -65,7 +65,7 @@ test('the spectator view follows a match of three built-in robots', { timeout: 1
 
 test('the overview keeps up with 20 robots at 20 ticks/s', { timeout: 120_000 }, async (t) => {
   const server = await startBw4t([
-    'serve', '--http', '0', '--port', '0', '--builtin', '20', '--robots', '20', '--mode', 'realtime',
+    'serve', '--once', '--http', '0', '--port', '0', '--builtin', '20', '--robots', '20', '--mode', 'realtime',
     '--map', 'crowd24', '--seed', '2', '--max-ticks', '6000',
   ]);
   t.after(() => stop(server.proc));
