@@ -54,6 +54,9 @@ mod tournament;
 /// The `bw4t` binary, run as a child process.
 mod cli;
 
+/// `bw4t bench arena` on small figures: fields and invariants, no timing.
+mod bench_arena;
+
 /// Map tools: check, render, show, import.
 mod map_tools;
 

@@ -10,7 +10,7 @@ use serde_json::json;
 /// Options of `bw4t bench`.
 #[derive(Args)]
 pub(crate) struct BenchArgs {
-    /// Cases to run (all when none is given).
+    /// Cases to run (all but `arena` when none is given).
     #[arg(value_enum)]
     cases: Vec<Case>,
     /// Simulated ticks per `sim` measurement.
@@ -34,6 +34,8 @@ pub(crate) struct BenchArgs {
     /// Wall-clock seconds the `realtime` case measures for.
     #[arg(long, default_value_t = 5.0)]
     realtime_seconds: f64,
+    #[command(flatten)]
+    arena: crate::bench_arena::ArenaArgs,
 }
 
 /// A benchmark case.
@@ -54,11 +56,20 @@ enum Case {
     /// robots on 10 x 10 rooms, and 10, 30 and 100 on the largest map `bw4t map generate`
     /// makes. One thread.
     Scale,
+    /// Many matches in one arena server: realtime matches of 3 TCP players (tick lateness,
+    /// CPU, memory and descriptors per match), lockstep matches of built-in agents on 1 and
+    /// 2 worker threads, and a churn soak (`--soak-seconds`, 10 minutes by default).
+    Arena,
 }
 
 /// Runs the chosen cases and prints their figures.
 pub(crate) fn run(args: &BenchArgs) -> Result<()> {
-    let cases = if args.cases.is_empty() { Case::value_variants().to_vec() } else { args.cases.clone() };
+    // `arena` runs for many minutes: only when asked for.
+    let cases = if args.cases.is_empty() {
+        Case::value_variants().iter().copied().filter(|c| *c != Case::Arena).collect()
+    } else {
+        args.cases.clone()
+    };
     for case in cases {
         match case {
             Case::Sim => {
@@ -83,6 +94,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<()> {
                     outln!("{}", scale(args, rows, cols, robots)?);
                 }
             }
+            Case::Arena => crate::bench_arena::run(&args.arena, &args.map, args.seed)?,
         }
     }
     Ok(())

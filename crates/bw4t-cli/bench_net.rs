@@ -180,7 +180,7 @@ fn crowded_default(n: usize) -> Result<Map> {
 }
 
 /// User plus system CPU seconds of a process, from `/proc/PID/stat` (Linux).
-fn cpu_seconds(pid: u32) -> Result<f64> {
+pub(crate) fn cpu_seconds(pid: u32) -> Result<f64> {
     let stat = std::fs::read_to_string(format!("/proc/{pid}/stat"))
         .context("the realtime case needs /proc (Linux)")?;
     // Fields after the command name (which may contain spaces) start after the last ')'.

@@ -7,6 +7,7 @@
 mod output;
 mod arena_config;
 mod bench;
+mod bench_arena;
 mod bench_net;
 mod map_cmd;
 mod maps;
