@@ -159,6 +159,9 @@ async fn a_classroom_of_teams_each_completes_its_match_at_once() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_ladder_template_starts_again_when_its_match_ends() {
     let mut ladder = Template::single("ladder", lockstep("default", 3, 60), OnEnd::Restart);
+    // Realtime at 200 ticks/s: each run lasts a third of a second, long enough to join.
+    ladder.config.mode = Mode::Realtime;
+    ladder.config.game.ticks_per_second = 200;
     ladder.seats = (1..=3).map(|i| SeatPlan::builtin(format!("Bot{i}"), Strategy::Cooperative)).collect();
     let server = ArenaServer::start(ArenaConfig::new(vec![ladder])).await;
     server.ended(4).await;
@@ -167,15 +170,26 @@ async fn a_ladder_template_starts_again_when_its_match_ends() {
     assert_eq!(ids, ["ladder.1", "ladder.2", "ladder.3", "ladder.4"]);
     let seeds: Vec<u64> = outcomes.iter().take(4).map(|(_, r)| r.as_ref().expect("a result").seed).collect();
     assert_eq!(seeds, [5, 6, 7, 8], "each run plays the next seed");
-    // The name stays live: a spectator naming it watches the current run.
-    let mut watcher = Client::connect(server.addr).await;
-    watcher.send(json!({"type": "hello", "protocol": "bw4t", "versions": [1], "role": "spectator", "match": "ladder"})).await;
-    let name = watcher
-        .until(|m| match m {
-            ServerMessage::Welcome(w) => Some(w.match_info.name.clone()),
-            _ => None,
-        })
-        .await;
+    // The name stays live: a spectator naming it watches the current run. (One that
+    // arrives as a run ends is told `bye` `match_over`, and comes again.)
+    let mut name = None;
+    for _ in 0..5 {
+        let mut watcher = Client::connect(server.addr).await;
+        watcher
+            .send(json!({"type": "hello", "protocol": "bw4t", "versions": [1], "role": "spectator", "match": "ladder"}))
+            .await;
+        name = watcher
+            .until(|m| match m {
+                ServerMessage::Welcome(w) => Some(Some(w.match_info.name.clone())),
+                ServerMessage::Bye(b) if b.reason == "match_over" => Some(None),
+                _ => None,
+            })
+            .await;
+        if name.is_some() {
+            break;
+        }
+    }
+    let name = name.expect("a spectator got into a run");
     assert_eq!(name, "ladder");
     server.shutdown().await;
 }
@@ -458,4 +472,39 @@ async fn clients_that_name_no_match_join_the_default_one_and_never_see_a_lobby()
     assert_eq!(error.code.as_str(), "unknown_match");
     assert!(error.message.contains("'nowhere'"), "{}", error.message);
     server.shutdown().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_lobby_names_who_is_there_and_whose_seat_waits() {
+    let config = lockstep("fixed", 3, 20);
+    let seats = vec![
+        bw4t_server::Seat::Local("Bot1".into(), Strategy::Cooperative.agent("Bot1")),
+        bw4t_server::Seat::Remote("Bob".into()),
+    ];
+    let server =
+        crate::util::TestServer::start_with(config, bw4t_server::Extras { seats, ..Default::default() })
+            .await;
+    let mut ann = Client::connect(server.addr).await;
+    ann.send(
+        json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": "Ann", "match": "default"}),
+    )
+    .await;
+    let lobby = ann.until(|m| if let ServerMessage::Lobby(l) = m { Some(l.clone()) } else { None }).await;
+    assert_eq!(lobby.players, ["Bot1", "Ann"]);
+    assert_eq!((lobby.expected, lobby.awaited, lobby.started), (vec!["Bob".to_string()], 1, false));
+    let mut bob = Client::connect(server.addr).await;
+    bob.send(
+        json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": "Bob", "match": "default"}),
+    )
+    .await;
+    let lobby = ann.until(|m| if let ServerMessage::Lobby(l) = m { Some(l.clone()) } else { None }).await;
+    assert_eq!((lobby.players.len(), lobby.expected.len(), lobby.awaited, lobby.started), (3, 0, 0, true));
+    // A session is reconnected through its match, never through a template.
+    let mut lost = Client::connect(server.addr).await;
+    lost.send(json!({"type": "hello", "protocol": "bw4t", "versions": [1], "session": "x", "template": "t"}))
+        .await;
+    let error = lost.until(|m| if let ServerMessage::Error(e) = m { Some(e.clone()) } else { None }).await;
+    assert!(error.fatal && error.message.contains("reconnect with hello.match"), "{error:?}");
+    drop((ann, bob));
+    server.stop().await;
 }

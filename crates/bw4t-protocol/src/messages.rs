@@ -266,6 +266,9 @@ pub struct Lobby {
     /// The players in the match now, built-in agents included, in robot order.
     #[serde(default)]
     pub players: Vec<String>,
+    /// Seats kept for players by name who have not come yet (counted in `awaited`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub expected: Vec<String>,
     /// How many more players the match waits for before its first tick.
     #[serde(default)]
     pub awaited: usize,

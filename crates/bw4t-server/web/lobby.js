@@ -212,14 +212,20 @@ function showRow(row, m, operator) {
   // Buttons are made again only when what they offer changes, so a click is never lost
   // to a poll.
   const live = m.state !== 'finished';
-  const offer = `${live} ${operator} ${m.watch}`;
+  const full = m.robots !== undefined && players.length >= m.robots;
+  const offer = `${live} ${full} ${operator} ${m.watch}`;
   if (cell.actions.dataset.offer === offer) return;
   cell.actions.dataset.offer = offer;
   const buttons = [];
   if (live) {
     const watch = el('a', { class: 'watch button', href: linkTo({ match: m.name }) }, 'Watch');
     if (m.watch === 'token') watch.title = 'watching this match needs a spectator (or the operator) token';
-    buttons.push(watch, el('button', { type: 'button', class: 'play', onclick: () => play({ match: m.name }) }, 'Play'));
+    const join = el('button', { type: 'button', class: 'play', onclick: () => play({ match: m.name }) }, 'Play');
+    if (full) {
+      join.disabled = true;
+      join.title = 'every seat is taken';
+    }
+    buttons.push(watch, join);
     if (operator) buttons.push(el('button', { type: 'button', class: 'stop', onclick: () => stopMatch(m.name) }, 'Stop'));
   }
   cell.actions.replaceChildren(...buttons);

@@ -104,7 +104,9 @@ function onPlayerMessage(message) {
       showLobby(message); // queued for a seat, or the match waits for its players
       break;
     case 'percepts':
-      hideWaiting();
+      // A waiting match sends the robot's first view (tick 0) before its `lobby`; the
+      // match has started once a tick has run.
+      if (message.tick > 0) hideWaiting();
       onPercepts(message);
       break;
     case 'ack': {

@@ -38,7 +38,7 @@ export function startSpectator() {
           showLobby(message); // the match waits for its players
           break;
         case 'frame':
-          hideWaiting();
+          if (message.tick > 0) hideWaiting(); // the match has started (see player.js)
           showFrame(message);
           break;
         case 'match_end':

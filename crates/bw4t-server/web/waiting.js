@@ -1,6 +1,6 @@
 // The waiting panel: a match's `lobby` messages (who is there, how many more it waits for,
 // when it starts anyway) or a template's queue, shown over the map instead of the running
-// clock until the match starts (the first `frame` or `percepts`) or ends.
+// clock until the match starts (the first `frame` or `percepts` after tick 0) or ends.
 
 import { $, el, setText } from './dom.js';
 

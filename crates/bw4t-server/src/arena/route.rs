@@ -78,6 +78,10 @@ impl Arena {
             (None, Some(_)) if hello.role != Role::Agent => {
                 Err((ErrorCode::BadMessage, "only players join by template; watchers name a match".into()))
             }
+            (None, Some(_)) if hello.session.is_some() => Err((
+                ErrorCode::BadMessage,
+                "a session belongs to a match: reconnect with hello.match (welcome.match.name)".into(),
+            )),
             (Some(name), None) => self.route_to_match(&mut state, name, seated),
             (None, Some(template)) => self.route_to_template(&mut state, template),
             (None, None) => {

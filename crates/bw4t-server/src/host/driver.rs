@@ -111,6 +111,17 @@ pub(crate) async fn run(
         result
     })
     .await;
+    // Connections routed here as the match ended never joined it: they are told it is over.
+    events.close();
+    while let Ok(event) = events.try_recv() {
+        if let Event::Opened(Opened { tx, kill, done, .. }) = event {
+            let _ = tx.try_send(Outbound::Line(bye_line(bw4t_protocol::Leaving::MatchOver)));
+            if tx.try_send(Outbound::Close).is_err() {
+                kill.notify_one();
+            }
+            closing.push(done);
+        }
+    }
     if let Err(why) = &outcome {
         // The host cannot be trusted any more: everyone connected is told and let go.
         let error =

@@ -572,10 +572,17 @@ impl MatchHost {
             Phase::Playing { .. } => None,
         };
         let started = matches!(self.phase, Phase::Playing { .. });
+        let present = |p: &&Player| p.conn.is_some() || p.local.is_some();
         let lobby = Lobby {
             match_name: Some(self.config.name.clone()),
             template: self.config.template.clone(),
-            players: self.players.values().map(|p| p.name.clone()).collect(),
+            players: self.players.values().filter(present).map(|p| p.name.clone()).collect(),
+            expected: self
+                .players
+                .values()
+                .filter(|p| p.reserved && !p.connected_ever && !self.abandoned.contains(&p.name))
+                .map(|p| p.name.clone())
+                .collect(),
             awaited: if started { 0 } else { self.awaited() },
             start_in_ms,
             queued: None,
