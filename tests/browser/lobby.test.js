@@ -140,7 +140,7 @@ builtin = 1
     assert.equal(await page.locator(row('team-b')).getAttribute('data-state'), 'playing');
     assert.match(await text(page, `${row('team-b')} td.progress`), /^\d+\/2$/);
     assert.equal(await page.locator(`${row('team-a')} a.watch`).count(), 1);
-    assert.equal(await page.locator(`${row('team-a')} button.play`).count(), 1);
+    assert.equal(await page.locator(`${row('team-a')} button.play:disabled`).count(), 1, 'every seat is taken');
     assert.equal(await page.locator('#matches button.stop').count(), 0, 'no Stop without the operator token');
     // The template that makes matches on demand is offered to play.
     assert.equal(await page.locator('#templates li[data-template="ladder"] button.play').count(), 1);
@@ -148,6 +148,7 @@ builtin = 1
     await page.click('#templates li[data-template="ladder"] button.play');
     await page.waitForSelector('#lobby-name-error:not([hidden])');
     assert.equal(new URL(page.url()).search, '');
+    await screenshot(page, 'lobby-list');
 
     // Watch team-b: its overview, on its own map, with its frames.
     await page.click(`${row('team-b')} a.watch`);
@@ -281,6 +282,10 @@ start_timeout_s = 600
     assert.equal(await ann.isVisible('#tick'), false, 'no running clock while waiting');
     assert.equal(await ann.isVisible('#waiting-short'), true);
     assert.equal(await text(ann, '#map-name'), 'small-pair', "the match's map, known from welcome");
+    // The robot's first view (tick 0) is shown, and the panel stays until the match starts.
+    await ann.waitForFunction(() => document.querySelector('#at').textContent.trim() !== '–');
+    assert.equal(await ann.isVisible('#waiting'), true);
+    await screenshot(ann, 'lobby-waiting');
 
     // A spectator of the waiting match sees the same panel.
     await watcher.goto(`${server.url}?match=${match}`);
@@ -309,5 +314,61 @@ start_timeout_s = 600
   } finally {
     await screenshot(ann, 'lobby-player-ann');
     await screenshot(bea, 'lobby-player-bea');
+  }
+});
+
+test('a player queued for a full template waits for its place, then plays', { timeout: 120_000 }, async (t) => {
+  // One match at a time, of one person and one built-in player.
+  const config = writeConfig(
+    t,
+    `
+operator_token = "op-secret"
+
+[[template]]
+name = "solo"
+map = SMALL_MAP_FILE
+robots = 2
+builtin = 1
+max_running = 1
+`,
+  );
+  const server = await startBw4t(['serve', '--config', config, '--http', '0', '--port', '0']);
+  t.after(() => stop(server.proc));
+  const browser = await openBrowser();
+  t.after(() => browser.close());
+  const { page: ann, context } = browser;
+  const bea = await context.newPage();
+
+  try {
+    // Ann's match starts at once: she and the built-in player fill it.
+    await ann.goto(`${server.url}?template=solo&play=Ann`);
+    await ann.waitForFunction(() => document.querySelector('#at').textContent.trim() !== '–');
+    const first = new URL(ann.url()).searchParams.get('match');
+    assert.ok(first);
+
+    // Bea asks for the same template: no seat and no room for another match, so she queues.
+    await bea.goto(`${server.url}?template=solo&play=Bea`);
+    await bea.waitForSelector('#waiting[data-state="queued"][data-queued="1"]:not([hidden])');
+    assert.match(await text(bea, '#waiting-title'), /queue/);
+    assert.match(await text(bea, '#waiting-awaited'), /next/);
+    assert.equal(await bea.getAttribute('#status', 'data-status'), 'joining', 'no welcome yet');
+    await screenshot(bea, 'lobby-queued');
+
+    // Ann's match is stopped: the template makes the next, and Bea gets its seat.
+    const stopped = await fetch(`${server.url}api/matches/${first}/stop`, {
+      method: 'POST',
+      headers: { Authorization: 'Bearer op-secret' },
+    });
+    assert.equal(stopped.status, 200);
+    await ann.waitForSelector('#status[data-status="ended"]');
+    await bea.waitForSelector('#status[data-status="connected"]');
+    await bea.waitForFunction(() => document.querySelector('#at').textContent.trim() !== '–');
+    assert.equal(await bea.isVisible('#waiting'), false);
+    const second = new URL(bea.url()).searchParams.get('match');
+    assert.ok(second && second !== first, `Bea plays in ${second}, not ${first}`);
+    assert.equal(await text(bea, '#map-name'), 'small-pair');
+    assert.deepEqual(browser.errors, []);
+  } finally {
+    await screenshot(bea, 'lobby-queued-bea');
   }
 });
