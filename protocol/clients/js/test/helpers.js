@@ -74,7 +74,8 @@ process.on('exit', () => {
 
 /**
  * Start `bw4t serve --port 0` with these arguments (lockstep on the fixed map with seed 1
- * unless given) and wait (at most `timeoutMs`) for its `listening on HOST:PORT` line.
+ * unless given; nothing with `--config`, whose templates hold the settings) and wait
+ * (at most `timeoutMs`) for its `listening on HOST:PORT` line.
  * @param {string[]} [args]
  * @param {{timeoutMs?: number}} [options]
  * @returns {Promise<Server>}
@@ -82,9 +83,9 @@ process.on('exit', () => {
 export async function startServer(args = [], options = {}) {
   const has = (flag) => args.includes(flag);
   const full = ['serve', '--port', '0'];
-  if (!has('--mode')) full.push('--mode', 'lockstep');
-  if (!has('--map')) full.push('--map', 'fixed');
-  if (!has('--seed')) full.push('--seed', '1');
+  if (!has('--mode') && !has('--config')) full.push('--mode', 'lockstep');
+  if (!has('--map') && !has('--config')) full.push('--map', 'fixed');
+  if (!has('--seed') && !has('--config')) full.push('--seed', '1');
   full.push(...args);
   const proc = spawn(findBinary(), full, { stdio: ['ignore', 'pipe', 'pipe'] });
   running.add(proc);

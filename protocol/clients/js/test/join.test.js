@@ -5,6 +5,9 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import { setTimeout as sleep } from 'node:timers/promises';
+import fs from 'node:fs';
+import os from 'node:os';
+import path from 'node:path';
 import { connect, BW4TError } from '../index.js';
 import { startFakeServer, startServer, fake, within } from './helpers.js';
 
@@ -259,3 +262,117 @@ for (const [option, code] of [
     }
   });
 }
+
+// Templates and named matches (`bw4t serve --config`). The default match is `team-a`, so a
+// reconnect that did not name its match would land there and be refused.
+const ARENA = `
+default = "team-a"
+
+[[template]]
+name = "classroom"
+map = "fixed"
+robots = 2
+names = ["team-a", "team-b"]
+
+[[template]]
+name = "ladder"
+map = "fixed"
+robots = 2
+max_ticks = 2000
+
+[[template]]
+name = "solo"
+map = "fixed"
+robots = 1
+max_running = 1
+mode = "lockstep"
+deadline_ms = 0
+max_ticks = 5
+`;
+
+/** `bw4t serve --config` with the templates of ARENA. */
+async function startArena() {
+  const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'bw4t-arena-'));
+  const file = path.join(dir, 'arena.toml');
+  fs.writeFileSync(file, ARENA);
+  const server = await startServer(['--config', file]);
+  return {
+    ...server,
+    stop: async () => {
+      await server.stop();
+      fs.rmSync(dir, { recursive: true, force: true });
+    },
+  };
+}
+
+test('a named match of a template, and the default match', { timeout: 20000 }, async () => {
+  const s = await startArena();
+  try {
+    const ann = await connect({ host: s.host, port: s.port, name: 'Ann', match: 'team-b' });
+    assert.deepEqual([ann.match?.name, ann.match?.template, ann.match?.players_needed], ['team-b', 'classroom', 2]);
+    const bob = await connect({ host: s.host, port: s.port, name: 'Bob' });
+    assert.deepEqual([bob.match?.name, bob.robot], ['team-a', 0]);
+    await within(Promise.all([ann.bye(), bob.bye()]), 10000, 'bye');
+  } finally {
+    await s.stop();
+  }
+});
+
+test('a template: lobby messages, and reconnect into its match', { timeout: 20000 }, async () => {
+  const s = await startArena();
+  try {
+    const lobbies = [];
+    const first = await connect({ host: s.host, port: s.port, name: 'Ann', template: 'ladder', everyTick: true, onLobby: (l) => lobbies.push(l) });
+    const name = first.match?.name;
+    assert.equal(first.match?.template, 'ladder');
+    assert.match(String(name), /^ladder/);
+    // Names the match: the default one would refuse the session.
+    const ann = await within(first.reconnect(), 10000, 'reconnect');
+    assert.deepEqual([ann.robot, ann.session, ann.match?.name], [0, first.session, name]);
+    ann.on('lobby', (l) => lobbies.push(l));
+
+    const bob = await connect({ host: s.host, port: s.port, name: 'Bob', template: 'ladder' });
+    assert.deepEqual([bob.match?.name, bob.robot], [name, 1]); // the match with a free seat
+    for await (const update of ann.updates()) if (update.tick >= 1) break; // lobbies come before tick 1
+    assert.deepEqual([lobbies[0].match, lobbies[0].template, lobbies[0].players], [name, 'ladder', ['Ann']]);
+    const last = lobbies.at(-1);
+    assert.deepEqual([last.match, last.players, last.awaited, last.started], [name, ['Ann', 'Bob'], 0, true]);
+    await within(Promise.all([ann.bye(), bob.bye()]), 10000, 'bye');
+  } finally {
+    await s.stop();
+  }
+});
+
+test('queued for a template, then seated', { timeout: 20000 }, async () => {
+  const s = await startArena();
+  try {
+    // Ann answers tick 0 only when she iterates: until then her match (lockstep) waits.
+    const ann = await connect({ host: s.host, port: s.port, name: 'Ann', template: 'solo', autoReady: false });
+    assert.equal(ann.match?.template, 'solo');
+    const bobLobbies = [];
+    let onQueued = () => {};
+    const queued = new Promise((resolve) => (onQueued = resolve));
+    const bobJoins = connect({
+      host: s.host,
+      port: s.port,
+      name: 'Bob',
+      template: 'solo',
+      onLobby: (l) => {
+        bobLobbies.push(l);
+        if (l.queued !== undefined) onQueued(undefined);
+      },
+    });
+    // The only match of solo is Ann's (max_running = 1): Bob waits in the queue until it
+    // ends, which it does once Ann has answered its 5 ticks.
+    await within(queued, 10000, 'Bob to be queued');
+    for await (const _update of ann.updates());
+    assert.equal(ann.endReason, 'max_ticks');
+    const bob = await within(bobJoins, 10000, 'Bob to be seated');
+    assert.equal(bob.match?.template, 'solo');
+    assert.notEqual(bob.match?.name, ann.match?.name);
+    assert.deepEqual([bobLobbies[0].queued, bobLobbies[0].template, bobLobbies[0].match], [1, 'solo', undefined]);
+    await within(bob.bye(), 10000, 'bye');
+  } finally {
+    await s.stop();
+  }
+});

@@ -80,7 +80,8 @@ class Server:
 def serve(bw4t_bin: str, tmp_path: Path) -> Iterator[Callable[..., Server]]:
     """Start ``bw4t serve --port 0 ARGS...``; every server started is killed at the end.
 
-    Defaults: ``--mode lockstep --map fixed --seed 1 --deadline-ms 0`` unless given.
+    Defaults: ``--mode lockstep --map fixed --seed 1 --deadline-ms 0`` unless given; none
+    with ``--config`` (its templates hold the settings).
     """
     servers: List[Server] = []
 
@@ -89,6 +90,8 @@ def serve(bw4t_bin: str, tmp_path: Path) -> Iterator[Callable[..., Server]]:
         defaults: List[Tuple[str, str]] = [
             ("--mode", "lockstep"), ("--map", "fixed"), ("--seed", "1"), ("--deadline-ms", "0"),
         ]
+        if "--config" in argv:
+            defaults = []
         for flag, value in defaults:
             if flag not in argv:
                 argv += [flag, value]

@@ -6,14 +6,16 @@ server."""
 from __future__ import annotations
 
 import asyncio
+import threading
 import time
+from pathlib import Path
 from typing import Callable, List
 
 import pytest
 
 from bw4t import AsyncClient, Client, FatalServerError, Lobby, ProtocolCore, Timeout
 from fake_server import FakeConnection, FakeServer, fatal, lobby, snapshot, welcome
-from conftest import WAIT, Server
+from conftest import WAIT, Server, run_threads
 
 FakeFn = Callable[[Callable[[FakeConnection], None]], FakeServer]
 ServeFn = Callable[..., Server]
@@ -250,7 +252,7 @@ def test_lobby_and_reconnect_in_the_named_default_match(serve: ServeFn) -> None:
         server.host, server.port, name="Ann", match="default", every_tick=True,
         on_lobby=ann_lobbies.append, timeout=WAIT,
     )
-    assert ann.match.name == "default" and ann.match.template is None
+    assert ann.match.name == "default"
     bob = Client.connect(server.host, server.port, name="Bob", match="default", timeout=WAIT)
     # The match started with Bob: every lobby came before the percepts of tick 1.
     while ann.beliefs.tick < 1:
@@ -280,3 +282,103 @@ def test_unknown_names_are_refused_by_the_real_server(serve: ServeFn, kwargs: di
     with pytest.raises(FatalServerError) as info:
         Client.connect(server.host, server.port, name="Ann", timeout=WAIT, **kwargs)
     assert info.value.code == code and info.value.fatal and "nope" in info.value.message
+
+
+# Templates and named matches (`bw4t serve --config`). The default match is `team-a`, so a
+# reconnect that did not name its match would land there and be refused.
+ARENA = """
+default = "team-a"
+
+[[template]]
+name = "classroom"
+map = "fixed"
+robots = 2
+names = ["team-a", "team-b"]
+
+[[template]]
+name = "ladder"
+map = "fixed"
+robots = 2
+max_ticks = 2000
+
+[[template]]
+name = "solo"
+map = "fixed"
+robots = 1
+max_running = 1
+mode = "lockstep"
+deadline_ms = 0
+max_ticks = 5
+"""
+
+
+@pytest.fixture
+def arena(serve: ServeFn, tmp_path: Path) -> Server:
+    """``bw4t serve --config`` with the templates of :data:`ARENA`."""
+    config = tmp_path / "arena.toml"
+    config.write_text(ARENA)
+    return serve("--config", str(config))
+
+
+def test_a_named_match_of_a_template(arena: Server) -> None:
+    ann = Client.connect(arena.host, arena.port, name="Ann", match="team-b", timeout=WAIT)
+    assert (ann.match.name, ann.match.template, ann.match.players_needed) == ("team-b", "classroom", 2)
+    bob = Client.connect(arena.host, arena.port, name="Bob", timeout=WAIT)  # the default match
+    assert (bob.match.name, bob.robot) == ("team-a", 0)
+    ann.close()
+    bob.close()
+
+
+def test_template_lobby_and_reconnect_into_its_match(arena: Server) -> None:
+    ann_lobbies: List[Lobby] = []
+    ann = Client.connect(
+        arena.host, arena.port, name="Ann", template="ladder", every_tick=True,
+        on_lobby=ann_lobbies.append, timeout=WAIT,
+    )
+    name = ann.match.name
+    assert ann.match.template == "ladder" and name and name.startswith("ladder")
+    session = ann.session
+
+    ann.close(bye=False)
+    welcome = ann.reconnect(WAIT)  # names the match: the default one would refuse the session
+    assert (welcome.robot, welcome.session, welcome.match.name) == (0, session, name)
+
+    bob = Client.connect(arena.host, arena.port, name="Bob", template="ladder", timeout=WAIT)
+    assert (bob.match.name, bob.robot) == (name, 1)  # the match with a free seat
+    while ann.beliefs.tick < 1:  # every lobby comes before the percepts of tick 1
+        assert ann.next_update(WAIT) is not None
+    assert (ann_lobbies[0].match, ann_lobbies[0].template, ann_lobbies[0].players) == (name, "ladder", ("Ann",))
+    last = ann_lobbies[-1]
+    assert (last.match, last.players, last.awaited, last.started) == (name, ("Ann", "Bob"), 0, True)
+    for client in (ann, bob):
+        client.close()
+        assert client.errors == []
+
+
+def test_queued_for_a_template_then_seated(arena: Server) -> None:
+    ann = Client.connect(arena.host, arena.port, name="Ann", template="solo", timeout=WAIT)
+    assert ann.match.template == "solo"
+    queued = threading.Event()
+    bob_lobbies: List[Lobby] = []
+
+    def on_bob_lobby(entry: Lobby) -> None:
+        bob_lobbies.append(entry)
+        if entry.in_queue:
+            queued.set()
+
+    def bob_joins() -> Client:
+        return Client.connect(arena.host, arena.port, name="Bob", template="solo", on_lobby=on_bob_lobby, timeout=WAIT)
+
+    def ann_plays() -> None:
+        # The only match of solo is Ann's (max_running = 1): Bob waits in the queue until
+        # it ends, which it does once Ann has answered its 5 ticks.
+        assert queued.wait(WAIT), "Bob was not queued"
+        for _ in ann.updates(WAIT):
+            pass
+
+    bob, _ = run_threads(bob_joins, ann_plays, timeout=WAIT)
+    assert ann.match_end is not None and ann.match_end.reason == "max_ticks"
+    assert isinstance(bob, Client)
+    assert bob.match.template == "solo" and bob.match.name not in (None, ann.match.name)
+    assert (bob_lobbies[0].queued, bob_lobbies[0].template, bob_lobbies[0].match) == (1, "solo", None)
+    bob.close()
