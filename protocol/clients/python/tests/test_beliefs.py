@@ -54,7 +54,11 @@ def test_sequence_fact_and_views() -> None:
 
 
 @pytest.mark.parametrize(
-    "name", ["handshake.jsonl", "fetch-and-deliver.jsonl", "rejections.jsonl", "every-tick.jsonl", "bad-input.jsonl"]
+    "name",
+    [
+        "handshake.jsonl", "fetch-and-deliver.jsonl", "rejections.jsonl", "every-tick.jsonl", "bad-input.jsonl",
+        "named-match.jsonl",
+    ],
 )
 def test_transcripts_replay(name: str) -> None:
     """Feeding the server side of each transcript keeps a consistent state."""
@@ -87,6 +91,14 @@ def test_transcripts_replay(name: str) -> None:
         assert core.finished and core.match_end is not None
         assert core.match_end.reason == "max_ticks"
         assert core.take_ready() is None  # no ready is expected after the last tick
+    if name == "named-match.jsonl":
+        assert core.welcome is not None and core.welcome.match.name == "default"
+        assert core.resume_match() == "default"
+        lobby = core.lobby
+        assert lobby is not None and (lobby.match, lobby.players, lobby.awaited, lobby.started) == (
+            "default", ("Ann",), 0, True
+        )
+        assert [u.tick for u in core.queue] == [0]  # a lobby is not an update
     if name == "bad-input.jsonl":
         assert [e.code for e in core.errors] == [
             "no_hello", "bad_json", "unknown_type", "bad_message", "bad_message", "already_joined"
