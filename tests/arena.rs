@@ -508,3 +508,38 @@ async fn the_lobby_names_who_is_there_and_whose_seat_waits() {
     drop((ann, bob));
     server.stop().await;
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_restarted_server_numbers_runs_on_from_its_results() {
+    let dir = temp_dir("restart");
+    let ladder = || {
+        let mut t = Template::single("ladder", lockstep("default", 3, 30), OnEnd::Restart);
+        t.seats = (1..=3).map(|i| SeatPlan::builtin(format!("Bot{i}"), Strategy::Cooperative)).collect();
+        let mut config = ArenaConfig::new(vec![t]);
+        config.results = ResultsStore::in_dir(&dir).expect("results dir");
+        config.operator_token = Some("op".into());
+        config
+    };
+    let first = ArenaServer::start(ladder()).await;
+    first.ended(2).await;
+    first.shutdown().await;
+    let before = ResultsStore::in_dir(&dir).expect("results dir").rows().len();
+    let second = ArenaServer::start(ladder()).await;
+    // Stopping a match its template starts again answers for the run that was stopped.
+    let (status, body) = http(second.http, "POST", "/api/matches/ladder/stop", Some("op"), Some("")).await;
+    assert_eq!(status, 200, "{body}");
+    let stopped = json_of(&body);
+    assert_eq!(stopped["state"], "finished", "{body}");
+    second.shutdown().await;
+    let rows = ResultsStore::in_dir(&dir).expect("results dir").rows();
+    let keys: std::collections::BTreeSet<&str> = rows.iter().map(|r| r.key.as_str()).collect();
+    assert_eq!(keys.len(), rows.len(), "every key is unique: {keys:?}");
+    let indices: Vec<u64> = rows.iter().map(|r| r.index).collect();
+    assert_eq!(indices, (1..=rows.len() as u64).collect::<Vec<_>>());
+    assert!(rows.len() > before, "the second server added rows");
+    // The first run after the restart follows the first server's last one.
+    let run = stopped["run"].as_u64().expect("run");
+    assert!(run > before as u64, "run {run} after {before} rows: {body}");
+    assert_eq!(stopped["id"].as_str(), Some(format!("ladder.{run}").as_str()), "{body}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

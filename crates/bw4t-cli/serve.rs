@@ -88,9 +88,10 @@ pub(crate) struct ServeArgs {
     /// Seconds a dropped player's robot waits for its session to reconnect.
     #[arg(long, default_value_t = 30, conflicts_with = "config")]
     grace_s: u64,
-    /// Connections accepted at once; more are refused with `server_full`.
-    #[arg(long, default_value_t = 256)]
-    max_connections: usize,
+    /// Connections accepted at once (default 256, or the --config file's
+    /// max_connections); more are refused with `server_full`.
+    #[arg(long, value_name = "N")]
+    max_connections: Option<usize>,
     /// Actions and messages a player may send per tick; more are rejected (`rate_limited`).
     #[arg(long, default_value_t = 16, conflicts_with = "config")]
     max_actions: u32,
@@ -130,14 +131,14 @@ pub(crate) fn run(args: &ServeArgs) -> Result<()> {
     init_logs(args);
     let seed = args.seed.unwrap_or_else(crate::random_seed);
     let mut settings = ArenaConfig::new(Vec::new());
-    settings.max_connections = args.max_connections;
     settings.hello_timeout = Duration::from_secs(args.hello_timeout_s);
     settings.allowed_origins = args.allow_origin.clone();
     settings.operator_token = args.operator_token.clone();
     let (templates, default, results_dir) = match &args.config {
         Some(path) => {
             let file = crate::arena_config::load(path, seed)?;
-            if let Some(max) = file.max_connections {
+            // The command line wins over the file, which wins over the default.
+            if let Some(max) = args.max_connections.or(file.max_connections) {
                 settings.max_connections = max;
             }
             if settings.operator_token.is_none() {
@@ -160,6 +161,9 @@ pub(crate) fn run(args: &ServeArgs) -> Result<()> {
             (file.templates, file.default, args.results_dir.clone().or(file.results_dir))
         }
         None => {
+            if let Some(max) = args.max_connections {
+                settings.max_connections = max;
+            }
             let template = single_match(args, seed)?;
             (vec![template], Some(bw4t_server::DEFAULT_MATCH.to_string()), args.results_dir.clone())
         }

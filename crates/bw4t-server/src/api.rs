@@ -67,9 +67,10 @@ pub(crate) async fn respond(head: Head, stream: &mut TcpStream, arena: &Arena) -
             }
         }
         (&Method::POST, ["api", "matches", name, "stop"]) => match arena.stop(name).await {
-            Ok(()) => match arena.summary(name, true).await {
+            // The stopped run's summary (a template that goes on has a new run by now).
+            Ok(id) => match arena.finished_summary(&id, true) {
                 Some(summary) => ok(StatusCode::OK, &summary),
-                None => ok(StatusCode::OK, &json!({ "name": name, "state": "finished" })),
+                None => ok(StatusCode::OK, &json!({ "name": name, "id": id, "state": "finished" })),
             },
             Err(e) => arena_error(&e),
         },

@@ -308,7 +308,8 @@ pub(crate) async fn run(conn: ConnId, mut source: impl LineSource, sink: impl Li
     if events.send(Event::Opened(outgoing.opened())).await.is_err()
         || events.send(Event::Message { conn, message: hello }).await.is_err()
     {
-        refuse_fatally(&tx, ErrorCode::MatchFailed, "the match ended before this connection joined it");
+        // The match ended as this connection was routed to it.
+        let _ = tx.try_send(Outbound::Line(bye_line(Leaving::MatchOver)));
         drop(tx);
         let _ = outgoing.tx.try_send(Outbound::Close);
         drop(outgoing.tx);

@@ -195,6 +195,8 @@ struct LiveMatch {
     seed: u64,
     robots: usize,
     watch_open: bool,
+    /// Its template's `on_end` applies when it ends (not to matches the operator made).
+    goes_on: bool,
 }
 
 /// A finished match, as the lobby lists it.
@@ -316,10 +318,12 @@ impl Arena {
                 (t.name.clone(), state)
             })
             .collect();
+        // Runs and the index go on from the results already kept, so ids stay unique.
+        let (runs, ended) = config.results.history();
         let arena = Arena {
             inner: Arc::new(Inner {
                 config,
-                state: Mutex::new(State { templates, ..State::default() }),
+                state: Mutex::new(State { templates, runs, ended, ..State::default() }),
                 ids: AtomicU64::new(1),
                 shutdown: watch::Sender::new(false),
                 live_count: watch::Sender::new(0),
@@ -345,7 +349,7 @@ impl Arena {
     /// Runs a match made from `spec` (not from a template): it stays finished when it ends.
     pub fn spawn(&self, spec: MatchSpec) -> Result<String, ArenaError> {
         let mut state = self.lock();
-        self.launch(&mut state, spec, None)
+        self.launch(&mut state, spec, None, false)
     }
 
     /// The server's settings.
@@ -400,7 +404,7 @@ impl Arena {
             None => None,
         };
         let spec = MatchSpec { config, seats, replay, gone_seats: None };
-        self.launch(state, spec, Some(template))
+        self.launch(state, spec, Some(template), true)
     }
 
     /// Starts a match's host task.
@@ -409,6 +413,7 @@ impl Arena {
         state: &mut State,
         spec: MatchSpec,
         template: Option<Arc<Template>>,
+        goes_on: bool,
     ) -> Result<String, ArenaError> {
         if state.stopping {
             return Err(ArenaError::Stopping);
@@ -441,6 +446,7 @@ impl Arena {
             seed: config.seed,
             robots: config.robots,
             watch_open: config.token.is_none() && config.spectator_token.is_none(),
+            goes_on,
         };
         if let Some(t) = template.as_ref().and_then(|t| state.templates.get_mut(&t.name)) {
             t.running += 1;
@@ -515,7 +521,7 @@ impl Arena {
         }
         self.inner.outcomes.lock().unwrap_or_else(|p| p.into_inner()).push((id.to_string(), outcome));
         if let Some(template) = template {
-            if template.on_end != OnEnd::Stay && !state.stopping && !self.inner.config.once {
+            if live.goes_on && template.on_end != OnEnd::Stay && !state.stopping && !self.inner.config.once {
                 if let Err(e) = self.make_from_template(&mut state, &template.name, Some(name.to_string())) {
                     tracing::error!(target: "bw4t::arena", r#match = %name, error = %e, "match not restarted");
                 }
@@ -533,7 +539,8 @@ impl Arena {
         let _ = count.wait_for(|ended| *ended >= n).await;
     }
 
-    /// Where every live and recently finished match is, newest finished last. Each live
+    /// Where every live and recently finished match is: the live ones by name, then the
+    /// finished ones, newest first. Each live
     /// match answers for itself; one that does not answer at once is listed as waiting
     /// at tick 0.
     pub async fn list(&self, operator: bool) -> Vec<serde_json::Value> {
@@ -591,8 +598,8 @@ impl Arena {
         Some(summary)
     }
 
-    /// Ends a live match as `interrupted`; returns once it has ended.
-    pub async fn stop(&self, name: &str) -> Result<(), ArenaError> {
+    /// Ends a live match as `interrupted`; returns its id once it has ended.
+    pub async fn stop(&self, name: &str) -> Result<String, ArenaError> {
         let (events, id) = {
             let state = self.lock();
             let live = state.live.get(name).ok_or_else(|| ArenaError::UnknownMatch(name.into()))?;
@@ -604,7 +611,12 @@ impl Arena {
         let mut count = self.inner.live_count.subscribe();
         let ended = |_: &usize| self.lock().live.get(name).is_none_or(|l| l.id != id);
         let _ = count.wait_for(ended).await;
-        Ok(())
+        Ok(id)
+    }
+
+    /// The summary of the finished match with this id, if the lobby still lists it.
+    pub fn finished_summary(&self, id: &str, operator: bool) -> Option<serde_json::Value> {
+        self.lock().finished.iter().find(|f| f.id == id).map(|f| summary_of_finished(f, operator))
     }
 
     /// Makes a match from a template (by name) or from the first template, changed by
@@ -667,7 +679,7 @@ impl Arena {
             }
         };
         config.name = name;
-        config.template = request.template.clone();
+        config.template = Some(template.name.clone());
         let seats = (1..=builtin)
             .map(|i| {
                 let plan = template.seats.get(i - 1).cloned();
@@ -683,7 +695,7 @@ impl Arena {
         } else {
             None
         };
-        self.launch(&mut state, MatchSpec { config, seats, replay, gone_seats: None }, None)
+        self.launch(&mut state, MatchSpec { config, seats, replay, gone_seats: None }, Some(template), false)
     }
 
     fn find_map(&self, template: &Template, name: &str) -> Result<Map, ArenaError> {

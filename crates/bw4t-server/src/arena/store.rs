@@ -111,6 +111,23 @@ impl ResultsStore {
         self.kept().rows.iter().cloned().collect()
     }
 
+    /// The last run of each match name in the index, and how many rows it has: a server
+    /// restarted on the same directory goes on numbering from there.
+    pub(crate) fn history(&self) -> (std::collections::BTreeMap<String, u64>, u64) {
+        let rows = if self.dir.is_some() { self.rows() } else { Vec::new() };
+        let mut runs = std::collections::BTreeMap::new();
+        for row in &rows {
+            if let Some((name, run)) =
+                row.key.rsplit_once('.').and_then(|(n, r)| Some((n, r.parse::<u64>().ok()?)))
+            {
+                let last = runs.entry(name.to_string()).or_insert(0);
+                *last = (*last).max(run);
+            }
+        }
+        let ended = rows.iter().map(|r| r.index).max().unwrap_or(0);
+        (runs, ended)
+    }
+
     /// Match `id`'s result.
     pub fn result(&self, id: &str) -> Option<String> {
         if !valid_id(id) {
