@@ -1,6 +1,7 @@
 // The waiting panel: a match's `lobby` messages (who is there, how many more it waits for,
 // when it starts anyway) or a template's queue, shown over the map instead of the running
-// clock until the match starts (the first `frame` or `percepts` after tick 0) or ends.
+// clock until the match starts (the last `lobby`, marked `started`, or the first `frame` or
+// `percepts` after tick 0) or ends.
 
 import { $, el, setText } from './dom.js';
 
@@ -12,6 +13,9 @@ const waiting = {
 /** Shows a `lobby` message (PROTOCOL.md, lobby): the players in the match and the awaited
  * seats, or, with `queued`, the place in the template's queue. */
 export function showLobby(message) {
+  // The last lobby a connection gets: the match has started (an idle player's robot may
+  // perceive nothing new for a while, so this, not the next percepts, ends the wait).
+  if (message.started) return hideWaiting();
   const panel = $('#waiting');
   panel.hidden = false;
   document.body.dataset.waiting = '';
