@@ -379,39 +379,24 @@ fn serve_refuses_a_bad_configuration_naming_the_problem() {
 #[test]
 fn serve_once_exits_after_its_match_and_otherwise_starts_it_again() {
     use std::io::{BufRead, BufReader, Write};
-    let once = crate::util::bw4t_within(
-        &[
-            "serve",
-            "--once",
-            "--port",
-            "0",
-            "--map",
-            "fixed",
-            "--builtin",
-            "1",
-            "--mode",
-            "lockstep",
-            "--max-ticks",
-            "30",
-        ],
-        crate::util::WAIT,
-    );
+    // One match of a built-in robot, in lockstep, ending at tick 30.
+    const MATCH: [&str; 10] =
+        ["--port", "0", "--map", "fixed", "--builtin", "1", "--mode", "lockstep", "--max-ticks", "30"];
+    let results = std::env::temp_dir().join(format!("bw4t-serve-once-{}", std::process::id()));
+    let results_arg = results.to_str().expect("utf-8");
+    let once_args: Vec<&str> =
+        ["serve", "--once", "--results-dir", results_arg].into_iter().chain(MATCH).collect();
+    let once = crate::util::bw4t_within(&once_args, crate::util::WAIT);
     assert!(once.status.success(), "{}", stderr(&once));
     assert!(stderr(&once).contains("match over (max_ticks): 30 ticks"), "{}", stderr(&once));
+    // The index of results reads as a tournament's rows.
+    let summary = bw4t(&["tournament", "summary", results_arg]);
+    assert!(summary.status.success(), "{}", stderr(&summary));
+    let table = String::from_utf8_lossy(&summary.stdout);
+    assert!(table.contains("default") && table.contains("1 match in"), "{table}");
+    let _ = std::fs::remove_dir_all(&results);
     let mut serve = Command::new(env!("CARGO_BIN_EXE_bw4t"));
-    serve.args([
-        "serve",
-        "--port",
-        "0",
-        "--map",
-        "fixed",
-        "--builtin",
-        "1",
-        "--mode",
-        "lockstep",
-        "--max-ticks",
-        "30",
-    ]);
+    serve.arg("serve").args(MATCH);
     // The log goes to a file: a pipe nobody reads would fill and stall the server.
     let log_path = std::env::temp_dir().join(format!("bw4t-serve-again-{}.log", std::process::id()));
     let log_file = std::fs::File::create(&log_path).expect("log file");

@@ -466,35 +466,7 @@ async fn good_player_stream(adversaries: bool) -> Vec<String> {
         json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": "Ann", "token": "sesame"}),
     )
     .await;
-    let places = ["RoomA1", "RoomC2", "DropZone", "RoomB3"];
-    let (mut stream, mut next, mut busy) = (Vec::new(), 0, false);
-    while let Some(message) = good.recv().await {
-        let mut value = serde_json::to_value(&message).expect("json");
-        for field in ["/session", "/result/wall_ms"] {
-            if let Some(v) = value.pointer_mut(field) {
-                *v = json!(0);
-            }
-        }
-        stream.push(value.to_string());
-        let tick = match message {
-            ServerMessage::Percepts(p) => p.tick,
-            ServerMessage::Result(_) => {
-                // The tick's `percepts` follows; decide and answer then.
-                busy = false;
-                continue;
-            }
-            _ => continue,
-        };
-        if !busy {
-            busy = true;
-            next += 1;
-            good.send(
-                json!({"type": "act", "id": next, "action": "goTo", "args": [places[next % places.len()]]}),
-            )
-            .await;
-        }
-        good.send(json!({"type": "ready", "tick": tick})).await;
-    }
+    let stream = crate::util::well_behaved_stream(&mut good).await;
     server.finish().await;
     hostile.iter().for_each(|h| h.abort());
     stream

@@ -399,6 +399,43 @@ impl Client {
     }
 }
 
+/// Plays a well-behaved lockstep player on `good` (welcomed or about to be) to the end of
+/// its connection: it goes round four places, one order at a time, and answers every
+/// `percepts` with `ready`. Returns every message it got, as JSON, with the volatile
+/// fields (`session`, `wall_ms`) zeroed, so two runs can be compared line by line.
+pub async fn well_behaved_stream(good: &mut Client) -> Vec<String> {
+    let places = ["RoomA1", "RoomC2", "DropZone", "RoomB3"];
+    let (mut stream, mut next, mut busy) = (Vec::new(), 0, false);
+    while let Some(message) = good.recv().await {
+        let mut value = serde_json::to_value(&message).expect("json");
+        for field in ["/session", "/result/wall_ms"] {
+            if let Some(v) = value.pointer_mut(field) {
+                *v = json!(0);
+            }
+        }
+        stream.push(value.to_string());
+        let tick = match message {
+            ServerMessage::Percepts(p) => p.tick,
+            ServerMessage::Result(_) => {
+                // The tick's `percepts` follows; decide and answer then.
+                busy = false;
+                continue;
+            }
+            _ => continue,
+        };
+        if !busy {
+            busy = true;
+            next += 1;
+            good.send(
+                json!({"type": "act", "id": next, "action": "goTo", "args": [places[next % places.len()]]}),
+            )
+            .await;
+        }
+        good.send(json!({"type": "ready", "tick": tick})).await;
+    }
+    stream
+}
+
 /// A percepts message as a simulation delta.
 pub fn delta_of(p: &bw4t_protocol::Percepts) -> PerceptDelta {
     let facts = |list: &[Vec<Value>]| list.iter().map(|f| fact_to_percept(f).expect("a percept")).collect();
