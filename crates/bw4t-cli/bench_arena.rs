@@ -178,8 +178,7 @@ fn realtime(args: &ArenaArgs, map: &Map, seed: u64) -> Result<Value> {
 
     server.stop(&server_rt)?;
     finish_clients(&client_rt, players);
-    drop((server_rt, client_rt));
-    let fds_end = open_fds()?;
+    let fds_end = settled_fds(fds_start)?;
 
     let per_match = |cpu: f64| round(cpu * 100.0 / n as f64, 3);
     Ok(json!({
@@ -350,6 +349,7 @@ fn soak(args: &ArenaArgs, map: &Map, seed: u64) -> Result<Value> {
     }
     let connections = args.soak_players + args.soak_churners;
     check_descriptors(2 * connections, "the soak")?;
+    let (server_rt, client_rt) = (runtime(SERVER_WORKERS, SERVER_THREADS)?, runtime(1, CLIENT_THREADS)?);
     let (fds_start, rss_start) = (open_fds()?, rss_kb()?);
     // Matches short enough that several generations end within the soak.
     let steady_ticks = ((args.soak_seconds * f64::from(TICK_HZ) / 10.0) as u64).clamp(20, 1200);
@@ -383,7 +383,6 @@ fn soak(args: &ArenaArgs, map: &Map, seed: u64) -> Result<Value> {
         template(CHURN, &churn, (args.soak_churners / ROBOTS).max(1)),
     ];
 
-    let (server_rt, client_rt) = (runtime(SERVER_WORKERS, SERVER_THREADS)?, runtime(1, CLIENT_THREADS)?);
     let server = Served::start(&server_rt, ArenaConfig::new(templates).with_limits_of(&steady))?;
     let ctx = Arc::new(SoakContext {
         addr: server.addr,
@@ -420,8 +419,7 @@ fn soak(args: &ArenaArgs, map: &Map, seed: u64) -> Result<Value> {
         }
     });
     server.stop(&server_rt)?;
-    drop((server_rt, client_rt));
-    let (rss_after, fds_after) = (rss_kb()?, open_fds()?);
+    let (fds_after, rss_after) = (settled_fds(fds_start)?, rss_kb()?);
 
     let ended_of =
         |template: &str| outcomes.iter().filter(|(id, _)| id.starts_with(&format!("{template}-"))).count();
@@ -892,6 +890,20 @@ fn rss_kb() -> Result<u64> {
 fn open_fds() -> Result<usize> {
     let listed = std::fs::read_dir("/proc/self/fd").context("the arena bench needs /proc (Linux)")?.count();
     Ok(listed.saturating_sub(1))
+}
+
+/// Descriptors open once the server has stopped, the runtimes still up as at the start:
+/// sockets close as their tasks finish, so this waits (up to 2 s) for the count to fall
+/// back to `start`; what stays open beyond is reported as it is.
+fn settled_fds(start: usize) -> Result<usize> {
+    let until = Instant::now() + Duration::from_secs(2);
+    loop {
+        let open = open_fds()?;
+        if open <= start || Instant::now() >= until {
+            return Ok(open);
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
 }
 
 /// Fails, naming the limit and how to raise it, if this process may not open `needed`
