@@ -379,13 +379,14 @@ fn serve_refuses_a_bad_configuration_naming_the_problem() {
 #[test]
 fn serve_once_exits_after_its_match_and_otherwise_starts_it_again() {
     use std::io::{BufRead, BufReader, Write};
-    // One match of a built-in robot, in lockstep, ending at tick 30.
-    const MATCH: [&str; 10] =
-        ["--port", "0", "--map", "fixed", "--builtin", "1", "--mode", "lockstep", "--max-ticks", "30"];
+    // One match of a built-in robot, ending at tick 30.
+    const MATCH: [&str; 8] = ["--port", "0", "--map", "fixed", "--builtin", "1", "--max-ticks", "30"];
     let results = std::env::temp_dir().join(format!("bw4t-serve-once-{}", std::process::id()));
     let results_arg = results.to_str().expect("utf-8");
-    let once_args: Vec<&str> =
-        ["serve", "--once", "--results-dir", results_arg].into_iter().chain(MATCH).collect();
+    let once_args: Vec<&str> = ["serve", "--once", "--mode", "lockstep", "--results-dir", results_arg]
+        .into_iter()
+        .chain(MATCH)
+        .collect();
     let once = crate::util::bw4t_within(&once_args, crate::util::WAIT);
     assert!(once.status.success(), "{}", stderr(&once));
     assert!(stderr(&once).contains("match over (max_ticks): 30 ticks"), "{}", stderr(&once));
@@ -396,7 +397,8 @@ fn serve_once_exits_after_its_match_and_otherwise_starts_it_again() {
     assert!(table.contains("default") && table.contains("1 match in"), "{table}");
     let _ = std::fs::remove_dir_all(&results);
     let mut serve = Command::new(env!("CARGO_BIN_EXE_bw4t"));
-    serve.arg("serve").args(MATCH);
+    // Realtime at 200 ticks/s, so that each run lasts long enough to be watched.
+    serve.args(["serve", "--log-json", "-v"]).args(MATCH).args(["--tick-hz", "200"]);
     // The log goes to a file: a pipe nobody reads would fill and stall the server.
     let log_path = std::env::temp_dir().join(format!("bw4t-serve-again-{}.log", std::process::id()));
     let log_file = std::fs::File::create(&log_path).expect("log file");
@@ -404,8 +406,11 @@ fn serve_once_exits_after_its_match_and_otherwise_starts_it_again() {
     let mut first = String::new();
     BufReader::new(child.stdout.take().expect("stdout")).read_line(&mut first).expect("address line");
     let addr = first.trim().strip_prefix("listening on ").expect("listening on ADDR").to_string();
-    let mut seen_ends = 0;
-    for _ in 0..2 {
+    // Visitors come one after the other; one that arrives just as a run ends is told `bye`
+    // `match_over` and comes again.
+    let (mut seen_ends, mut visits) = (0, 0);
+    while seen_ends < 2 && visits < 10 {
+        visits += 1;
         let stream = std::net::TcpStream::connect(&addr).expect("the server is still there");
         stream.set_read_timeout(Some(crate::util::WAIT)).expect("timeout");
         let mut writer = stream.try_clone().expect("clone");
@@ -414,11 +419,22 @@ fn serve_once_exits_after_its_match_and_otherwise_starts_it_again() {
         let ended = BufReader::new(stream).lines().map_while(Result::ok).any(|l| l.contains("\"match_end\""));
         seen_ends += usize::from(ended);
     }
-    assert_eq!(seen_ends, 2, "each visitor watched a match to its end");
+    assert_eq!(seen_ends, 2, "two visitors in {visits} watched a match to its end");
     let _ = Command::new("kill").arg("-TERM").arg(child.id().to_string()).status();
     let status = child.wait().expect("exit");
     assert!(status.success(), "{status:?}");
     let log = std::fs::read_to_string(&log_path).expect("the log");
     let _ = std::fs::remove_file(&log_path);
-    assert!(log.contains("match made") && log.contains("id=default.2"), "{}", &log[..log.len().min(2000)]);
+    // The log is JSON lines with the match named in each event.
+    let events: Vec<serde_json::Value> = log
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("not JSON ({e}): {l}")))
+        .collect();
+    let with = |message: &'static str| events.iter().filter(move |e| e["fields"]["message"] == message);
+    assert!(with("match made").any(|e| e["fields"]["id"] == "default.2"), "{log}");
+    assert!(
+        with("watcher joined").all(|e| e["fields"]["match"] == "default" && e["level"] == "DEBUG"),
+        "{log}"
+    );
+    assert!(with("watcher joined").count() >= 2, "{log}");
 }

@@ -150,12 +150,15 @@ pub(crate) fn run(args: &ServeArgs) -> Result<()> {
                 } else {
                     bw4t_runner::plural(t.names.len(), "match")
                 };
-                eprintln!(
-                    "bw4t: template '{}': map '{}', {} mode, {}, {matches}",
-                    t.name,
-                    t.config.map.name(),
-                    t.config.mode.name(),
-                    bw4t_runner::plural(t.config.robots, "player")
+                announce(
+                    args,
+                    format!(
+                        "template '{}': map '{}', {} mode, {}, {matches}",
+                        t.name,
+                        t.config.map.name(),
+                        t.config.mode.name(),
+                        bw4t_runner::plural(t.config.robots, "player")
+                    ),
                 );
             }
             (file.templates, file.default, args.results_dir.clone().or(file.results_dir))
@@ -212,13 +215,16 @@ pub(crate) fn run(args: &ServeArgs) -> Result<()> {
         Ok(result) => result,
         Err(why) => anyhow::bail!("match {id} failed: {why}"),
     };
-    eprintln!(
-        "bw4t: match over ({}): {} ticks, sequence {}/{}, digest {}",
-        result.end_reason,
-        result.ticks,
-        result.sequence_index,
-        result.sequence.len(),
-        result.digest
+    announce(
+        args,
+        format!(
+            "match over ({}): {} ticks, sequence {}/{}, digest {}",
+            result.end_reason,
+            result.ticks,
+            result.sequence_index,
+            result.sequence.len(),
+            result.digest
+        ),
     );
     if let Some(path) = &args.results {
         let json = serde_json::to_string_pretty(&result)?;
@@ -280,11 +286,14 @@ fn single_match(args: &ServeArgs, seed: u64) -> Result<Template> {
             args.builtin
         );
     }
-    eprintln!(
-        "bw4t: map '{}', seed {seed}, {} mode, {limit}; waiting for {}",
-        config.map.name(),
-        config.mode.name(),
-        bw4t_runner::plural(config.robots, "player")
+    announce(
+        args,
+        format!(
+            "map '{}', seed {seed}, {} mode, {limit}; waiting for {}",
+            config.map.name(),
+            config.mode.name(),
+            bw4t_runner::plural(config.robots, "player")
+        ),
     );
     let on_end = if args.once { OnEnd::Stay } else { OnEnd::Restart };
     let mut template = Template::single(bw4t_server::DEFAULT_MATCH, config, on_end);
@@ -292,6 +301,16 @@ fn single_match(args: &ServeArgs, seed: u64) -> Result<Template> {
         .map(|i| SeatPlan::builtin(format!("Bot{i}"), bw4t_agents::Strategy::Cooperative))
         .collect();
     Ok(template)
+}
+
+/// Says what the server does on standard error: a `bw4t:` line, or with `--log-json` a log
+/// event, so that the log stays one JSON object per line.
+fn announce(args: &ServeArgs, text: String) {
+    if args.log_json {
+        tracing::info!("{text}");
+    } else {
+        eprintln!("bw4t: {text}");
+    }
 }
 
 /// Sends log lines to standard error: as text or JSON, at the level `-v`/`-q` choose.
