@@ -75,6 +75,7 @@ const SERVER_WORKERS: usize = 2;
 /// Thread names, to tell the server's CPU time from the clients'.
 const SERVER_THREADS: &str = "arena-server";
 const CLIENT_THREADS: &str = "arena-clients";
+const LOCKSTEP_THREADS: &str = "arena-lockstep";
 /// Clients connecting at once (below the listener's backlog).
 const CONNECTING: usize = 64;
 
@@ -303,6 +304,9 @@ fn lockstep(args: &ArenaArgs, map: &Map, seed: u64) -> Result<Value> {
         "ticks_per_s_1_worker": rate(&one).round(),
         "ticks_per_s_2_workers": rate(&two).round(),
         "speedup": round(rate(&two) / rate(&one), 2),
+        // Below 200 with 2 workers: the workers waited, or other processes had a core.
+        "worker_cpu_percent_1_worker": (one.cpu / one.seconds * 100.0).round(),
+        "worker_cpu_percent_2_workers": (two.cpu / two.seconds * 100.0).round(),
     }))
 }
 
@@ -313,6 +317,8 @@ struct LockstepRun {
     ended: usize,
     completed: usize,
     seconds: f64,
+    /// CPU seconds of the worker threads.
+    cpu: f64,
 }
 
 fn lockstep_run(args: &ArenaArgs, map: &Map, seed: u64, workers: usize) -> Result<LockstepRun> {
@@ -333,8 +339,8 @@ fn lockstep_run(args: &ArenaArgs, map: &Map, seed: u64, workers: usize) -> Resul
         replays: false,
     };
     let arena_config = ArenaConfig::new(vec![template]).with_limits_of(&config);
-    let rt = runtime(workers, "arena-lockstep")?;
-    let started = Instant::now();
+    let rt = runtime(workers, LOCKSTEP_THREADS)?;
+    let (started, cpu) = (Instant::now(), thread_cpu_seconds(LOCKSTEP_THREADS)?);
     let outcomes = rt.block_on(async {
         // Made on a worker, so that making the matches counts against the workers too.
         let arena = tokio::spawn(async { Arena::start(arena_config) }).await??;
@@ -344,7 +350,8 @@ fn lockstep_run(args: &ArenaArgs, map: &Map, seed: u64, workers: usize) -> Resul
         anyhow::Ok(arena.outcomes())
     })?;
     let seconds = started.elapsed().as_secs_f64();
-    let mut run = LockstepRun { ticks: 0, ended: outcomes.len(), completed: 0, seconds };
+    let cpu = thread_cpu_seconds(LOCKSTEP_THREADS)? - cpu;
+    let mut run = LockstepRun { ticks: 0, ended: outcomes.len(), completed: 0, seconds, cpu };
     for (id, outcome) in outcomes {
         let result = outcome.map_err(|why| anyhow::anyhow!("match {id} failed: {why}"))?;
         run.ticks += result.ticks;
