@@ -88,6 +88,7 @@ fn lockstep_matches_run_on_one_and_on_two_workers() {
         let ticks = count(line, &format!("ticks_{workers}"));
         assert!(ticks > 0 && ticks <= ended * 300, "{workers}: {line}");
         assert!(number(line, &format!("ticks_per_s_{workers}")) > 0.0, "{workers}: {line}");
+        assert!(number(line, &format!("worker_cpu_percent_{workers}")) >= 0.0, "{workers}: {line}");
     }
     assert!(number(line, "speedup") > 0.0, "{line}");
 }
