@@ -402,9 +402,10 @@ fn serve_once_exits_after_its_match_and_otherwise_starts_it_again() {
     // The log goes to a file: a pipe nobody reads would fill and stall the server.
     let log_path = std::env::temp_dir().join(format!("bw4t-serve-again-{}.log", std::process::id()));
     let log_file = std::fs::File::create(&log_path).expect("log file");
-    let mut child = serve.stdout(std::process::Stdio::piped()).stderr(log_file).spawn().expect("start");
+    let mut child =
+        KillOnDrop(serve.stdout(std::process::Stdio::piped()).stderr(log_file).spawn().expect("start"));
     let mut first = String::new();
-    BufReader::new(child.stdout.take().expect("stdout")).read_line(&mut first).expect("address line");
+    BufReader::new(child.0.stdout.take().expect("stdout")).read_line(&mut first).expect("address line");
     let addr = first.trim().strip_prefix("listening on ").expect("listening on ADDR").to_string();
     // Visitors come one after the other; one that arrives just as a run ends is told `bye`
     // `match_over` and comes again.
@@ -420,8 +421,8 @@ fn serve_once_exits_after_its_match_and_otherwise_starts_it_again() {
         seen_ends += usize::from(ended);
     }
     assert_eq!(seen_ends, 2, "two visitors in {visits} watched a match to its end");
-    let _ = Command::new("kill").arg("-TERM").arg(child.id().to_string()).status();
-    let status = child.wait().expect("exit");
+    let _ = Command::new("kill").arg("-TERM").arg(child.0.id().to_string()).status();
+    let status = child.0.wait().expect("exit");
     assert!(status.success(), "{status:?}");
     let log = std::fs::read_to_string(&log_path).expect("the log");
     let _ = std::fs::remove_file(&log_path);
@@ -437,4 +438,15 @@ fn serve_once_exits_after_its_match_and_otherwise_starts_it_again() {
         "{log}"
     );
     assert!(with("watcher joined").count() >= 2, "{log}");
+}
+
+/// A child process that is killed if the test ends before it does (a failed assertion
+/// must not leave a server running).
+struct KillOnDrop(std::process::Child);
+
+impl Drop for KillOnDrop {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
 }

@@ -295,7 +295,13 @@ fn single_match(args: &ServeArgs, seed: u64) -> Result<Template> {
             bw4t_runner::plural(config.robots, "player")
         ),
     );
-    let on_end = if args.once { OnEnd::Stay } else { OnEnd::Restart };
+    // A lockstep match of built-in agents only would be replayed back to back at full
+    // speed for ever: it is played once, and the server stays up for its page.
+    let unattended = config.mode == Mode::Lockstep && args.builtin == args.robots;
+    if unattended && !args.once {
+        announce(args, "every seat is built-in and the match is lockstep: it is played once".into());
+    }
+    let on_end = if args.once || unattended { OnEnd::Stay } else { OnEnd::Restart };
     let mut template = Template::single(bw4t_server::DEFAULT_MATCH, config, on_end);
     template.seats = (1..=args.builtin)
         .map(|i| SeatPlan::builtin(format!("Bot{i}"), bw4t_agents::Strategy::Cooperative))

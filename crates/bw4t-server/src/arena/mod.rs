@@ -255,8 +255,9 @@ struct Inner {
     live_count: watch::Sender<usize>,
     /// Counts matches ended.
     ended_count: watch::Sender<u64>,
-    /// The outcomes of matches, in the order they ended (for `serve` and tests).
-    outcomes: Mutex<Vec<(String, Result<MatchResult, String>)>>,
+    /// The outcomes of the last [`FINISHED_KEPT`] matches, in the order they ended (for
+    /// `serve` and tests; the results store keeps the rest).
+    outcomes: Mutex<VecDeque<(String, Result<MatchResult, String>)>>,
     /// Map layouts (`/map.json`), by map name.
     layouts: Mutex<BTreeMap<String, Arc<str>>>,
 }
@@ -328,7 +329,7 @@ impl Arena {
                 shutdown: watch::Sender::new(false),
                 live_count: watch::Sender::new(0),
                 ended_count: watch::Sender::new(0),
-                outcomes: Mutex::new(Vec::new()),
+                outcomes: Mutex::new(VecDeque::new()),
                 layouts: Mutex::new(BTreeMap::new()),
             }),
         };
@@ -519,7 +520,12 @@ impl Arena {
         if let Some(t) = live.template.as_ref().and_then(|t| state.templates.get_mut(t)) {
             t.running = t.running.saturating_sub(1);
         }
-        self.inner.outcomes.lock().unwrap_or_else(|p| p.into_inner()).push((id.to_string(), outcome));
+        let mut outcomes = self.inner.outcomes.lock().unwrap_or_else(|p| p.into_inner());
+        if outcomes.len() == FINISHED_KEPT {
+            outcomes.pop_front();
+        }
+        outcomes.push_back((id.to_string(), outcome));
+        drop(outcomes);
         if let Some(template) = template {
             if live.goes_on && template.on_end != OnEnd::Stay && !state.stopping && !self.inner.config.once {
                 if let Err(e) = self.make_from_template(&mut state, &template.name, Some(name.to_string())) {
@@ -789,9 +795,9 @@ impl Arena {
         let _ = count.wait_for(|n| *n == 0 && self.lock().any_ended).await;
     }
 
-    /// The outcomes of the matches ended so far, by match id, in the order they ended.
+    /// The outcomes of the last hundred matches ended, by match id, in the order they ended.
     pub fn outcomes(&self) -> Vec<(String, Result<MatchResult, String>)> {
-        self.inner.outcomes.lock().unwrap_or_else(|p| p.into_inner()).clone()
+        self.inner.outcomes.lock().unwrap_or_else(|p| p.into_inner()).iter().cloned().collect()
     }
 
     /// The results store.
