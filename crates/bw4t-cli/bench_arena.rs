@@ -341,23 +341,33 @@ fn lockstep_run(args: &ArenaArgs, map: &Map, seed: u64, workers: usize) -> Resul
     let arena_config = ArenaConfig::new(vec![template]).with_limits_of(&config);
     let rt = runtime(workers, LOCKSTEP_THREADS)?;
     let (started, cpu) = (Instant::now(), thread_cpu_seconds(LOCKSTEP_THREADS)?);
-    let outcomes = rt.block_on(async {
+    let totals = rt.block_on(async {
         // Made on a worker, so that making the matches counts against the workers too.
         let arena = tokio::spawn(async { Arena::start(arena_config) }).await??;
         tokio::time::sleep(Duration::from_secs_f64(args.arena_lockstep_seconds)).await;
         // The matches still running end here (interrupted); their ticks count too.
         arena.shutdown().await;
-        anyhow::Ok(arena.outcomes())
+        anyhow::Ok(arena.totals().values().copied().fold(bw4t_server::Totals::default(), |a, t| {
+            bw4t_server::Totals {
+                ended: a.ended + t.ended,
+                completed: a.completed + t.completed,
+                failed: a.failed + t.failed,
+                ticks: a.ticks + t.ticks,
+            }
+        }))
     })?;
     let seconds = started.elapsed().as_secs_f64();
     let cpu = thread_cpu_seconds(LOCKSTEP_THREADS)? - cpu;
-    let mut run = LockstepRun { ticks: 0, ended: outcomes.len(), completed: 0, seconds, cpu };
-    for (id, outcome) in outcomes {
-        let result = outcome.map_err(|why| anyhow::anyhow!("match {id} failed: {why}"))?;
-        run.ticks += result.ticks;
-        run.completed += usize::from(result.end_reason == bw4t_protocol::EndReason::Completed);
+    if totals.failed > 0 {
+        anyhow::bail!("{} of the lockstep matches failed in the server", totals.failed);
     }
-    Ok(run)
+    Ok(LockstepRun {
+        ticks: totals.ticks,
+        ended: totals.ended as usize,
+        completed: totals.completed as usize,
+        seconds,
+        cpu,
+    })
 }
 
 /// `soak`: for `soak_seconds`, well-behaved players play realtime matches of one template
@@ -430,7 +440,7 @@ fn soak(args: &ArenaArgs, map: &Map, seed: u64) -> Result<Value> {
     let (rss_warm, fds_warm) = (rss_kb()?, open_fds()?);
     std::thread::sleep(Duration::from_secs_f64(args.soak_seconds) - warm);
     let (rss_end, fds_end) = (rss_kb()?, open_fds()?);
-    let outcomes = server.arena.outcomes();
+    let totals = server.arena.totals();
 
     let _ = stop.send(true);
     client_rt.block_on(async {
@@ -441,8 +451,7 @@ fn soak(args: &ArenaArgs, map: &Map, seed: u64) -> Result<Value> {
     server.stop(&server_rt)?;
     let (fds_after, rss_after) = (settled_fds(fds_start)?, rss_kb()?);
 
-    let ended_of =
-        |template: &str| outcomes.iter().filter(|(id, _)| id.starts_with(&format!("{template}-"))).count();
+    let ended_of = |template: &str| totals.get(template).map_or(0, |t| t.ended);
     let c = &ctx.counts;
     let count = |n: &AtomicU64| n.load(Ordering::Relaxed);
     Ok(json!({
@@ -454,10 +463,10 @@ fn soak(args: &ArenaArgs, map: &Map, seed: u64) -> Result<Value> {
         "churners": args.soak_churners,
         "steady_max_ticks": steady_ticks,
         "churn_max_ticks": churn_ticks,
-        "matches_ended": outcomes.len(),
+        "matches_ended": totals.values().map(|t| t.ended).sum::<u64>(),
         "steady_matches_ended": ended_of(STEADY),
         "churn_matches_ended": ended_of(CHURN),
-        "matches_failed": outcomes.iter().filter(|(_, o)| o.is_err()).count(),
+        "matches_failed": totals.values().map(|t| t.failed).sum::<u64>(),
         "steady_joins": count(&c.steady_joins),
         "joins": count(&c.joins),
         "queued": count(&c.queued),

@@ -16,7 +16,7 @@ mod websocket;
 
 pub use arena::{
     AgentFactory, Arena, ArenaConfig, ArenaError, CreateRequest, FirstReplay, MapLookup, MatchSpec, OnEnd,
-    ResultsStore, SeatPlan, Template, check_match_name,
+    ResultsStore, SeatPlan, Template, Totals, check_match_name,
 };
 pub use connection::{ConnId, LISTEN_BACKLOG, listen};
 pub use host::{HostEvent, HostStatus, MatchHost, QueueRoom, Transmit};

@@ -217,6 +217,20 @@ struct Finished {
     watch_open: bool,
 }
 
+/// Matches ended since the server started, counted together (by template, or by name for a
+/// match made without one).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Totals {
+    /// Matches ended, those that failed included.
+    pub ended: u64,
+    /// Matches that completed the sequence.
+    pub completed: u64,
+    /// Matches that failed inside the server.
+    pub failed: u64,
+    /// Ticks the ended matches made.
+    pub ticks: u64,
+}
+
 /// How many finished matches the lobby keeps.
 const FINISHED_KEPT: usize = 100;
 
@@ -241,6 +255,8 @@ struct State {
     ended: u64,
     /// Whether any match has ended (for `once`).
     any_ended: bool,
+    /// Counts of the matches ended, by template (or name).
+    totals: BTreeMap<String, Totals>,
     stopping: bool,
 }
 
@@ -501,6 +517,11 @@ impl Arena {
         };
         row.replay = self.inner.config.results.replay_name(id, template.as_ref().is_some_and(|t| t.replays));
         self.inner.config.results.record(&row, outcome.as_ref().ok());
+        let totals = state.totals.entry(row.team.clone()).or_default();
+        totals.ended += 1;
+        totals.completed += u64::from(row.completed);
+        totals.failed += u64::from(outcome.is_err());
+        totals.ticks += row.ticks;
         state.finished.push_front(Finished {
             name: name.to_string(),
             id: id.to_string(),
@@ -793,6 +814,12 @@ impl Arena {
     pub async fn idle(&self) {
         let mut count = self.inner.live_count.subscribe();
         let _ = count.wait_for(|n| *n == 0 && self.lock().any_ended).await;
+    }
+
+    /// How many matches have ended, how and in how many ticks, by template (or, for a
+    /// match made without one, by name), since the server started.
+    pub fn totals(&self) -> BTreeMap<String, Totals> {
+        self.lock().totals.clone()
     }
 
     /// The outcomes of the last hundred matches ended, by match id, in the order they ended.
