@@ -17,7 +17,7 @@ use clap::{Args, ValueEnum};
 /// Options of `bw4t serve`.
 #[derive(Args)]
 pub(crate) struct ServeArgs {
-    /// Serve the match templates of this TOML file (see the README); the options that
+    /// Serve the match templates of this TOML file (every key: examples/arena.toml); the options that
     /// describe one match cannot be given with it.
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,
