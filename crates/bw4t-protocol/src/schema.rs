@@ -13,6 +13,7 @@ pub fn schemas() -> Vec<(String, Value)> {
     let mut out = vec![
         ("vocabulary.json".to_string(), vocabulary()),
         ("table.json".to_string(), crate::table::table_json()),
+        ("language.json".to_string(), crate::language::language_json()),
     ];
     for (side, whole) in [
         ("client", serde_json::to_value(schema_for!(ClientMessage))),
