@@ -233,8 +233,21 @@ async fn players_asking_for_a_template_share_a_match_and_the_next_one_waits_in_l
     let welcome = cy.until(|m| if let ServerMessage::Welcome(w) = m { Some(w.clone()) } else { None }).await;
     assert_eq!(welcome.match_info.name, "open-2");
     server.ended(1).await;
-    drop((ann, bob));
+    // Dee takes the other seat of Cy's match; Eve waits in line, and when the server stops
+    // she is told so.
+    let dee = AutoPlayer::join_with(server.addr, hello_in("Dee", "template", "open")).await;
+    assert_eq!(dee.welcome.match_info.name, "open-2");
+    let mut eve = Client::connect(server.addr).await;
+    eve.send(
+        json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": "Eve", "template": "open"}),
+    )
+    .await;
+    let queued = eve.until(|m| if let ServerMessage::Lobby(l) = m { Some(l.clone()) } else { None }).await;
+    assert_eq!(queued.queued, Some(1));
+    drop((ann, bob, dee));
     server.shutdown().await;
+    let error = eve.until(|m| if let ServerMessage::Error(e) = m { Some(e.clone()) } else { None }).await;
+    assert_eq!((error.code.as_str(), error.fatal), ("server_stopping", true));
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

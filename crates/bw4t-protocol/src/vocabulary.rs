@@ -107,6 +107,8 @@ words! {
         UnknownTemplate = "unknown_template",
         /// The match failed inside the server and was ended; other matches go on.
         MatchFailed = "match_failed",
+        /// The server is stopping: it takes no one into a match any more.
+        ServerStopping = "server_stopping",
     }
 }
 

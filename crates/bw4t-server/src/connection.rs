@@ -439,7 +439,7 @@ async fn wait_in_queue(
                     }
                     Some(QueueNews::Place(_)) => {}
                     None => {
-                        refuse_fatally(tx, ErrorCode::UnknownTemplate, "the server is stopping");
+                        refuse_fatally(tx, ErrorCode::ServerStopping, "the server is stopping");
                         return None;
                     }
                 },

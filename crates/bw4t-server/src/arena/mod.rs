@@ -804,7 +804,14 @@ impl Arena {
 
     /// Ends every match (`interrupted`) and waits until each has recorded its end.
     pub async fn shutdown(&self) {
-        self.lock().stopping = true;
+        {
+            let mut state = self.lock();
+            state.stopping = true;
+            // Players waiting in a queue are told the server is stopping.
+            for template in state.templates.values_mut() {
+                template.queue.clear();
+            }
+        }
         self.inner.shutdown.send_replace(true);
         let mut count = self.inner.live_count.subscribe();
         let _ = count.wait_for(|n| *n == 0).await;

@@ -70,7 +70,7 @@ impl Arena {
     pub(crate) fn route(&self, hello: &Hello) -> Result<Routed, Refusal> {
         let mut state = self.lock();
         if state.stopping {
-            return Err((ErrorCode::UnknownMatch, "the server is stopping".into()));
+            return Err((ErrorCode::ServerStopping, "the server is stopping".into()));
         }
         let seated = hello.role == Role::Agent && hello.session.is_none();
         match (&hello.match_name, &hello.template) {
