@@ -450,3 +450,38 @@ impl Drop for KillOnDrop {
         let _ = self.0.wait();
     }
 }
+
+/// What a second connection to a server started with `args` gets for its `ping` while a
+/// first one is open: `pong`, or the refusal `server_full`.
+fn second_connection_answer(args: &[&str]) -> String {
+    use std::io::{BufRead, BufReader, Write};
+    let mut serve = Command::new(env!("CARGO_BIN_EXE_bw4t"));
+    serve.arg("serve").args(args).stdout(std::process::Stdio::piped()).stderr(std::process::Stdio::null());
+    let mut child = KillOnDrop(serve.spawn().expect("start"));
+    let mut first = String::new();
+    BufReader::new(child.0.stdout.take().expect("stdout")).read_line(&mut first).expect("address line");
+    let addr = first.trim().strip_prefix("listening on ").expect("listening on ADDR").to_string();
+    let _held = std::net::TcpStream::connect(&addr).expect("first connection");
+    let second = std::net::TcpStream::connect(&addr).expect("second connection");
+    second.set_read_timeout(Some(crate::util::WAIT)).expect("timeout");
+    writeln!(&second, r#"{{"type":"ping"}}"#).expect("ping");
+    let mut answer = String::new();
+    BufReader::new(second).read_line(&mut answer).expect("an answer");
+    answer
+}
+
+/// `--max-connections` given on the command line wins over the `--config` file's.
+#[test]
+fn the_connection_limit_comes_from_the_file_unless_the_command_line_gives_one() {
+    let dir = std::env::temp_dir().join(format!("bw4t-limit-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let file = dir.join("arena.toml");
+    std::fs::write(&file, "max_connections = 1\n[[template]]\nname = \"lab\"\nnames = [\"lab\"]\n")
+        .expect("write");
+    let config = file.to_str().expect("utf-8");
+    let from_file = second_connection_answer(&["--port", "0", "--config", config]);
+    assert!(from_file.contains("server_full"), "{from_file}");
+    let from_flag = second_connection_answer(&["--port", "0", "--config", config, "--max-connections", "2"]);
+    assert!(from_flag.contains("\"pong\""), "{from_flag}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -120,6 +120,11 @@ pub(crate) fn error_line(code: ErrorCode, message: &str, fatal: bool) -> Arc<str
     encode(&msg).into()
 }
 
+/// An encoded `pong` answering a `ping` with this id.
+fn pong_line(id: Option<bw4t_protocol::ActId>) -> Arc<str> {
+    encode(&ServerMessage::Pong(Pong { id })).into()
+}
+
 /// An encoded `bye` message.
 pub(crate) fn bye_line(reason: impl Into<ByeReason>) -> Arc<str> {
     encode(&ServerMessage::Bye(ServerBye { reason: reason.into() })).into()
@@ -213,7 +218,7 @@ async fn forward(
             Forwarded::Handled
         }
         Ok(ClientMessage::Ping(ping)) => {
-            let _ = tx.try_send(Outbound::Line(encode(&ServerMessage::Pong(Pong { id: ping.id })).into()));
+            let _ = tx.try_send(Outbound::Line(pong_line(ping.id)));
             Forwarded::Handled
         }
         Ok(message) => match events.send(Event::Message { conn, message }).await {
@@ -383,8 +388,7 @@ async fn greet(
             let hello = match message {
                 ClientMessage::Hello(hello) => hello,
                 ClientMessage::Ping(ping) => {
-                    let _ = tx
-                        .try_send(Outbound::Line(encode(&ServerMessage::Pong(Pong { id: ping.id })).into()));
+                    let _ = tx.try_send(Outbound::Line(pong_line(ping.id)));
                     continue;
                 }
                 ClientMessage::Bye(_) => {
@@ -448,8 +452,7 @@ async fn wait_in_queue(
                         for line in lines {
                             match line.and_then(|l| bw4t_protocol::decode_client(&l)) {
                                 Ok(ClientMessage::Ping(ping)) => {
-                                    let pong = encode(&ServerMessage::Pong(Pong { id: ping.id }));
-                                    let _ = tx.try_send(Outbound::Line(pong.into()));
+                                    let _ = tx.try_send(Outbound::Line(pong_line(ping.id)));
                                 }
                                 Ok(ClientMessage::Bye(_)) => {
                                     let _ = tx.try_send(Outbound::Line(bye_line(Leaving::Goodbye)));

@@ -213,24 +213,27 @@ pub async fn serve_with(
     let mut settings = ArenaConfig::new(Vec::new()).with_limits_of(&config);
     settings.default = Some(config.name.clone());
     settings.once = true;
-    let arena = Arena::start(settings).map_err(|e| match e {
-        ArenaError::Server(e) => e,
-        e => ServerError::Seat(e.to_string()),
-    })?;
+    let arena = Arena::start(settings).map_err(one_match_error)?;
     let spec = MatchSpec {
         replay: extras.replay.take().map(|out| (out, std::mem::take(&mut extras.program))),
         seats: std::mem::take(&mut extras.seats),
         gone_seats: extras.gone_seats.take(),
         config,
     };
-    arena.spawn(spec).map_err(|e| match e {
-        ArenaError::Server(e) => e,
-        e => ServerError::Seat(e.to_string()),
-    })?;
+    arena.spawn(spec).map_err(one_match_error)?;
     serve_arena(&arena, listener, extras.http.take(), shutdown).await;
     match arena.outcomes().into_iter().next() {
         Some((_, outcome)) => outcome.map_err(ServerError::Failed),
         None => Err(ServerError::Failed("the match did not end".into())),
+    }
+}
+
+/// Why a server of one match could not make it: the match's own error, or (a name
+/// taken, the server stopping) why its seat could not be had.
+fn one_match_error(e: ArenaError) -> ServerError {
+    match e {
+        ArenaError::Server(e) => e,
+        e => ServerError::Seat(e.to_string()),
     }
 }
 

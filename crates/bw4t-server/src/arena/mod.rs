@@ -412,15 +412,7 @@ impl Arena {
             .iter()
             .map(|seat| Seat::Local(seat.name.clone(), (seat.agent)(&seat.name)))
             .collect();
-        let first = self.inner.config.first_replay.lock().unwrap_or_else(|p| p.into_inner()).take();
-        let replay = match first {
-            Some(replay) => Some(replay),
-            None if template.replays => {
-                self.inner.config.results.replay_writer(&format!("{}.{run}", config.name))
-            }
-            None => None,
-        };
-        let spec = MatchSpec { config, seats, replay, gone_seats: None };
+        let spec = MatchSpec { config, seats, replay: None, gone_seats: None };
         self.launch(state, spec, Some(template), true)
     }
 
@@ -442,16 +434,24 @@ impl Arena {
         if config.operator_token.is_none() {
             config.operator_token.clone_from(&self.inner.config.operator_token);
         }
-        let now = std::time::Instant::now();
-        let open_seats = config.robots.saturating_sub(seats.len());
-        let host = crate::MatchHost::new(config.clone(), seats, replay, now)?;
         let name = config.name.clone();
         let run = state.runs.get(&name).copied().unwrap_or(0) + 1;
+        let id = format!("{name}.{run}");
+        // Its own replay, else the one `--replay` asked for (taken by the first match made),
+        // else one in the results directory if its template keeps them.
+        let replay = replay
+            .or_else(|| self.inner.config.first_replay.lock().unwrap_or_else(|p| p.into_inner()).take())
+            .or_else(|| {
+                let kept = template.as_ref().is_some_and(|t| t.replays);
+                kept.then(|| self.inner.config.results.replay_writer(&id)).flatten()
+            });
+        let open_seats = config.robots.saturating_sub(seats.len());
+        let host = crate::MatchHost::new(config.clone(), seats, replay, std::time::Instant::now())?;
         state.runs.insert(name.clone(), run);
         let (events, events_rx) = mpsc::channel(crate::host::driver::EVENT_QUEUE);
         let started = Arc::new(AtomicBool::new(false));
         let live = LiveMatch {
-            id: format!("{name}.{run}"),
+            id: id.clone(),
             run,
             template: template.as_ref().map(|t| t.name.clone()),
             events,
@@ -468,7 +468,6 @@ impl Arena {
         if let Some(t) = template.as_ref().and_then(|t| state.templates.get_mut(&t.name)) {
             t.running += 1;
         }
-        let id = live.id.clone();
         state.live.insert(name.clone(), live);
         self.inner.live_count.send_modify(|n| *n += 1);
         tracing::info!(target: "bw4t::arena", r#match = %name, id = %id, map = %config.map.name(), seed = config.seed, "match made");
@@ -573,25 +572,13 @@ impl Arena {
     pub async fn list(&self, operator: bool) -> Vec<serde_json::Value> {
         let (asks, finished) = {
             let state = self.lock();
-            let asks: Vec<_> = state
-                .live
-                .iter()
-                .map(|(name, live)| {
-                    let (tx, rx) = oneshot::channel();
-                    let asked = live.events.try_send(Event::Control(Control::Status(tx))).is_ok();
-                    (summary_of_live(name, live, operator), asked.then_some(rx))
-                })
-                .collect();
+            let asks: Vec<StatusAsked> =
+                state.live.iter().map(|(name, live)| StatusAsked::of(name, live, operator)).collect();
             (asks, state.finished.iter().map(|f| summary_of_finished(f, operator)).collect::<Vec<_>>())
         };
         let mut out = Vec::with_capacity(asks.len() + finished.len());
-        for (mut summary, rx) in asks {
-            let status = match rx {
-                Some(rx) => tokio::time::timeout(Duration::from_secs(1), rx).await.ok().and_then(Result::ok),
-                None => None,
-            };
-            fill_status(&mut summary, &status.unwrap_or_default(), operator);
-            out.push(summary);
+        for asked in asks {
+            out.push(asked.answered(operator).await);
         }
         out.extend(finished);
         out
@@ -599,30 +586,17 @@ impl Arena {
 
     /// One match's summary: the live one of that name, else the latest finished.
     pub async fn summary(&self, name: &str, operator: bool) -> Option<serde_json::Value> {
-        let ask = {
+        let asked = {
             let state = self.lock();
             match state.live.get(name) {
-                Some(live) => {
-                    let (tx, rx) = oneshot::channel();
-                    let asked = live.events.try_send(Event::Control(Control::Status(tx))).is_ok();
-                    Some((summary_of_live(name, live, operator), asked.then_some(rx)))
-                }
+                Some(live) => StatusAsked::of(name, live, operator),
                 None => {
-                    return state
-                        .finished
-                        .iter()
-                        .find(|f| f.name == name)
-                        .map(|f| summary_of_finished(f, operator));
+                    let finished = state.finished.iter().find(|f| f.name == name);
+                    return finished.map(|f| summary_of_finished(f, operator));
                 }
             }
         };
-        let (mut summary, rx) = ask?;
-        let status = match rx {
-            Some(rx) => tokio::time::timeout(Duration::from_secs(1), rx).await.ok().and_then(Result::ok),
-            None => None,
-        };
-        fill_status(&mut summary, &status.unwrap_or_default(), operator);
-        Some(summary)
+        Some(asked.answered(operator).await)
     }
 
     /// Ends a live match as `interrupted`; returns its id once it has ended.
@@ -716,13 +690,12 @@ impl Arena {
                 Seat::Local(plan.name.clone(), (plan.agent)(&plan.name))
             })
             .collect();
-        let replay = if template.replays {
-            let run = state.runs.get(&config.name).copied().unwrap_or(0) + 1;
-            self.inner.config.results.replay_writer(&format!("{}.{run}", config.name))
-        } else {
-            None
-        };
-        self.launch(&mut state, MatchSpec { config, seats, replay, gone_seats: None }, Some(template), false)
+        self.launch(
+            &mut state,
+            MatchSpec { config, seats, replay: None, gone_seats: None },
+            Some(template),
+            false,
+        )
     }
 
     fn find_map(&self, template: &Template, name: &str) -> Result<Map, ArenaError> {
@@ -792,11 +765,12 @@ impl Arena {
             .filter(|t| t.names.is_empty())
             .map(|t| serde_json::json!({"name": t.name, "robots": t.config.robots, "map": t.maps[0].name()}))
             .collect();
+        let default = self.default_match(&state);
         serde_json::json!({
             "mode": "live",
             "protocol": bw4t_protocol::VERSION,
-            "map": self.default_match(&state).and_then(|n| state.live.get(&n).map(|l| l.map.name().to_string())),
-            "default_match": self.default_match(&state),
+            "map": default.as_ref().and_then(|n| state.live.get(n)).map(|l| l.map.name()),
+            "default_match": default,
             "lobby": !self.inner.config.once,
             "templates": templates,
         })
@@ -898,6 +872,31 @@ fn summary_of_live(name: &str, live: &LiveMatch, operator: bool) -> serde_json::
         summary["id"] = live.id.clone().into();
     }
     summary
+}
+
+/// A live match's summary, its status asked of its task (taken without waiting on the
+/// task: one whose queue is full is listed as waiting at tick 0).
+struct StatusAsked {
+    summary: serde_json::Value,
+    answer: Option<oneshot::Receiver<HostStatus>>,
+}
+
+impl StatusAsked {
+    fn of(name: &str, live: &LiveMatch, operator: bool) -> StatusAsked {
+        let (tx, rx) = oneshot::channel();
+        let asked = live.events.try_send(Event::Control(Control::Status(tx))).is_ok();
+        StatusAsked { summary: summary_of_live(name, live, operator), answer: asked.then_some(rx) }
+    }
+
+    /// The summary with the status the match gave within a second.
+    async fn answered(mut self, operator: bool) -> serde_json::Value {
+        let status = match self.answer {
+            Some(rx) => tokio::time::timeout(Duration::from_secs(1), rx).await.ok().and_then(Result::ok),
+            None => None,
+        };
+        fill_status(&mut self.summary, &status.unwrap_or_default(), operator);
+        self.summary
+    }
 }
 
 fn fill_status(summary: &mut serde_json::Value, status: &HostStatus, operator: bool) {

@@ -678,8 +678,7 @@ impl MatchHost {
     }
 
     fn start_if_ready(&mut self, now: Instant) {
-        let enough = self.connected_players() + self.abandoned.len() >= self.config.robots;
-        if self.end.is_none() && matches!(self.phase, Phase::Waiting { .. }) && enough {
+        if self.end.is_none() && matches!(self.phase, Phase::Waiting { .. }) && self.awaited() == 0 {
             self.start(now);
         }
     }
