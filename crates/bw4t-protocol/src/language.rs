@@ -2,6 +2,10 @@
 //! each kind of message has a structured form (a kind word and named arguments: a room, a
 //! colour, a player, a count), which programs read without parsing prose, and one English
 //! sentence, which people read. [`KINDS`] is the one table of both.
+//!
+//! Inside a match a structured message travels as its text form ([`Said::to_text`], the
+//! compact JSON of [`Said`]), so the simulation routes it like any text; the protocol shows
+//! it to players as the sentence plus the structured form.
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
@@ -18,6 +22,9 @@ pub enum Slot {
     Player,
     /// A number of blocks.
     Count,
+    /// A position in the goal sequence: on the wire the index as in `sequenceIndex`
+    /// (0 is the first colour); sentences count from 1.
+    Position,
 }
 
 /// What a kind of message is for.
@@ -93,6 +100,24 @@ pub const KINDS: &[KindRow] = &[
         group: Group::Blocks,
     },
     KindRow { word: "dropped", slots: COLOUR, sentence: "I dropped off {colour}.", group: Group::Blocks },
+    KindRow {
+        word: "getting_for",
+        slots: &[Slot::Colour, Slot::Room, Slot::Position],
+        sentence: "I am getting {colour} from {room} for position {position}.",
+        group: Group::Blocks,
+    },
+    KindRow {
+        word: "bringing",
+        slots: &[Slot::Colour, Slot::Position],
+        sentence: "I am bringing {colour} for position {position}.",
+        group: Group::Blocks,
+    },
+    KindRow {
+        word: "giving_up",
+        slots: &[Slot::Position],
+        sentence: "I am no longer getting position {position}.",
+        group: Group::Blocks,
+    },
     KindRow { word: "who_has", slots: COLOUR, sentence: "Who has {colour}?", group: Group::Requests },
     KindRow { word: "where_is", slots: COLOUR, sentence: "Where is {colour}?", group: Group::Requests },
     KindRow { word: "what_in", slots: ROOM, sentence: "What is in {room}?", group: Group::Requests },
@@ -147,6 +172,9 @@ pub struct Said {
     /// A number of blocks, for kinds that count.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub count: Option<u32>,
+    /// A position in the goal sequence (0 is the first colour), for kinds about one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub position: Option<u32>,
 }
 
 /// Why a [`Said`] is not a message of the language.
@@ -181,10 +209,11 @@ impl Slot {
             Slot::Colour => "colour",
             Slot::Player => "player",
             Slot::Count => "count",
+            Slot::Position => "position",
         }
     }
 
-    const ALL: [Slot; 4] = [Slot::Room, Slot::Colour, Slot::Player, Slot::Count];
+    const ALL: [Slot; 5] = [Slot::Room, Slot::Colour, Slot::Player, Slot::Count, Slot::Position];
 }
 
 impl Said {
@@ -193,14 +222,30 @@ impl Said {
         Said { kind: kind.to_string(), ..Said::default() }
     }
 
-    /// The argument in `slot`, as text.
+    /// The argument in `slot`, as a sentence shows it.
     fn value(&self, slot: Slot) -> Option<String> {
         match slot {
             Slot::Room => self.room.clone(),
             Slot::Colour => self.colour.clone(),
             Slot::Player => self.player.clone(),
             Slot::Count => self.count.map(|n| n.to_string()),
+            Slot::Position => self.position.map(|n| (u64::from(n) + 1).to_string()),
         }
+    }
+
+    /// The text form a match carries: the compact JSON, fields in a fixed order.
+    pub fn to_text(&self) -> String {
+        serde_json::to_string(self).unwrap_or_default()
+    }
+
+    /// The message a text form stands for, if the text is one (a checked [`Said`] in JSON).
+    pub fn from_text(text: &str) -> Option<Said> {
+        if !text.starts_with('{') {
+            return None;
+        }
+        let said: Said = serde_json::from_str(text).ok()?;
+        said.check().ok()?;
+        Some(said)
     }
 
     /// Its kind's row, once it has exactly the arguments its kind takes.
@@ -261,6 +306,7 @@ mod tests {
                 Slot::Colour => said.colour = Some("Red".into()),
                 Slot::Player => said.player = Some("Bot1".into()),
                 Slot::Count => said.count = Some(2),
+                Slot::Position => said.position = Some(4),
             }
         }
         said
@@ -294,6 +340,21 @@ mod tests {
         said.room = Some("RoomC3".into());
         assert_eq!(said.sentence().as_deref(), Ok("Bot1, go to RoomC3."));
         assert_eq!(Said::new("dont_know").sentence().as_deref(), Ok("I don't know."));
+        let mut said = Said::new("bringing");
+        said.colour = Some("Blue".into());
+        said.position = Some(0);
+        assert_eq!(said.sentence().as_deref(), Ok("I am bringing Blue for position 1."));
+    }
+
+    #[test]
+    fn the_text_form_round_trips_and_free_text_is_not_taken_for_it() {
+        for row in KINDS {
+            let said = filled(row);
+            assert_eq!(Said::from_text(&said.to_text()), Some(said.clone()), "{}", row.word);
+        }
+        assert_eq!(Said::from_text("room RoomA1 3:Red"), None);
+        assert_eq!(Said::from_text(r#"{"kind":"will_get"}"#), None, "a colour is missing");
+        assert_eq!(Said::from_text(r#"{"kind":"yes"} "#).map(|s| s.kind), Some("yes".into()));
     }
 
     #[test]
