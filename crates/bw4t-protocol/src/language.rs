@@ -276,6 +276,52 @@ impl Said {
     }
 }
 
+/// Which messages a match allows: some or all kinds, and free text or not.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+pub struct MessagePolicy {
+    /// The kinds' words allowed, in menu order (`None`: every kind).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kinds: Option<Vec<String>>,
+    /// Whether text outside the language may be sent.
+    pub free_text: bool,
+}
+
+impl Default for MessagePolicy {
+    fn default() -> Self {
+        MessagePolicy { kinds: None, free_text: true }
+    }
+}
+
+impl MessagePolicy {
+    /// Why the policy refuses a message (a structured one, or free text when `said` is
+    /// `None`), or `None` when it is allowed.
+    pub fn refuses(&self, said: Option<&Said>) -> Option<String> {
+        match (said, &self.kinds) {
+            (None, _) if !self.free_text => Some("this match allows only messages of the language".into()),
+            (Some(said), Some(kinds)) if !kinds.contains(&said.kind) => {
+                Some(format!("this match does not allow '{}' messages", said.kind))
+            }
+            _ => None,
+        }
+    }
+
+    /// The kinds allowed, every kind's word when all are.
+    pub fn allowed_kinds(&self) -> Vec<String> {
+        match &self.kinds {
+            Some(kinds) => kinds.clone(),
+            None => KINDS.iter().map(|row| row.word.to_string()).collect(),
+        }
+    }
+
+    /// An unknown kind among those named, if any.
+    pub fn check(&self) -> Result<(), SaidError> {
+        match self.kinds.iter().flatten().find(|k| kind_row(k).is_none()) {
+            Some(unknown) => Err(SaidError::UnknownKind(unknown.clone())),
+            None => Ok(()),
+        }
+    }
+}
+
 /// The language as JSON, for `protocol/schema/language.json`: every kind with its word,
 /// arguments, sentence and group, in menu order.
 pub fn language_json() -> serde_json::Value {

@@ -19,7 +19,7 @@ pub use convert::{
     ActError, FactError, act_message, action_from_act, action_to_act, fact_to_percept, percept_to_fact,
     receiver,
 };
-pub use language::{Group, KINDS, KindRow, Said, SaidError, Slot, kind_row, language_json};
+pub use language::{Group, KINDS, KindRow, MessagePolicy, Said, SaidError, Slot, kind_row, language_json};
 pub use messages::*;
 pub use replay::{REPLAY_FORMAT, Recorder, ReplayEvent, ReplayHeader, ReplayLine};
 pub use result::{MatchResult, RobotExtra, RobotResult};

@@ -64,6 +64,8 @@ pub(crate) enum Control {
     Status(tokio::sync::oneshot::Sender<crate::HostStatus>),
     /// End it now (`interrupted`).
     Stop,
+    /// Stop ticking until resumed (`true`), or go on (`false`).
+    Pause(bool),
 }
 
 /// How many connections the kernel may hold for a listener before they are accepted. The

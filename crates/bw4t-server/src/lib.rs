@@ -94,6 +94,10 @@ pub struct ServerConfig {
     /// Lockstep: with no player connected, wait for one instead of running on. Off for
     /// matches whose players are programs that will not come back once gone.
     pub pause_when_empty: bool,
+    /// Which messages players may send.
+    pub language: bw4t_protocol::MessagePolicy,
+    /// Free-form labels (e.g. a study's condition), written into the replay and the result.
+    pub labels: std::collections::BTreeMap<String, String>,
 }
 
 impl ServerConfig {
@@ -127,6 +131,8 @@ impl ServerConfig {
             start_timeout: None,
             max_late_in_row: None,
             pause_when_empty: true,
+            language: bw4t_protocol::MessagePolicy::default(),
+            labels: std::collections::BTreeMap::new(),
         }
     }
 }

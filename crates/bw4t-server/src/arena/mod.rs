@@ -615,6 +615,18 @@ impl Arena {
         Ok(id)
     }
 
+    /// Stops a live match's clock (`paused`) or starts it again; players stay connected.
+    pub async fn pause(&self, name: &str, paused: bool) -> Result<(), ArenaError> {
+        let events = {
+            let state = self.lock();
+            state.live.get(name).ok_or_else(|| ArenaError::UnknownMatch(name.into()))?.events.clone()
+        };
+        events
+            .send(Event::Control(Control::Pause(paused)))
+            .await
+            .map_err(|_| ArenaError::UnknownMatch(name.into()))
+    }
+
     /// The summary of the finished match with this id, if the lobby still lists it.
     pub fn finished_summary(&self, id: &str, operator: bool) -> Option<serde_json::Value> {
         self.lock().finished.iter().find(|f| f.id == id).map(|f| summary_of_finished(f, operator))
@@ -904,6 +916,7 @@ fn fill_status(summary: &mut serde_json::Value, status: &HostStatus, operator: b
     summary["players"] = status.players.clone().into();
     summary["awaited"] = status.awaited.into();
     summary["tick"] = status.tick.into();
+    summary["paused"] = status.paused.into();
     summary["sequence"] = serde_json::json!([status.sequence.0, status.sequence.1]);
     if operator {
         summary["connections"] = status.connections.into();

@@ -189,6 +189,7 @@ fn take(
             return;
         }
         Event::Control(Control::Stop) => return host.interrupt(),
+        Event::Control(Control::Pause(paused)) => return host.set_paused(Instant::now().into_std(), paused),
     };
     host.handle_event(Instant::now().into_std(), event);
 }

@@ -321,6 +321,8 @@ pub struct MatchHost {
     gone: BTreeMap<RobotId, (u64, bool)>,
     /// Who is in the waiting match changed: connections get a `lobby`.
     lobby_changed: bool,
+    /// The operator paused the match: no tick is made until it is resumed.
+    held: bool,
 }
 
 /// Where a match is, for listings: a copy made on request, so it costs nothing per tick.
@@ -328,6 +330,8 @@ pub struct MatchHost {
 pub struct HostStatus {
     /// Whether the first tick has been made.
     pub started: bool,
+    /// Whether the operator paused it.
+    pub paused: bool,
     /// Whether the match has ended.
     pub over: bool,
     /// The current tick.
@@ -381,6 +385,7 @@ impl MatchHost {
             abandoned: BTreeSet::new(),
             gone: BTreeMap::new(),
             lobby_changed: false,
+            held: false,
         };
         for seat in seats {
             let (name, local) = match seat {
@@ -435,6 +440,7 @@ impl MatchHost {
                 }
                 self.send_lobby();
             }
+            Phase::Playing { .. } if self.held => {}
             Phase::Playing { since, next_tick } => match self.config.mode {
                 Mode::Realtime if now >= next_tick => {
                     // Ticks missed while the host was late are skipped, not made up.
@@ -508,6 +514,7 @@ impl MatchHost {
         let expiry = self.players.values().filter_map(|p| p.dropped_at).min().map(|t| t + self.config.grace);
         let pacing = match self.phase {
             Phase::Waiting { start_by } => start_by,
+            Phase::Playing { .. } if self.held => None,
             Phase::Playing { next_tick, .. } => match self.config.mode {
                 Mode::Realtime => Some(next_tick),
                 Mode::Lockstep if self.awaiting_anyone() => self.deadline(),
@@ -536,6 +543,19 @@ impl MatchHost {
         self.end.get_or_insert(EndReason::Interrupted);
     }
 
+    /// Pauses the match (no ticks until resumed) or resumes it. On resuming, the next tick
+    /// (or lockstep deadline) is a full period away, so nobody loses time to the pause.
+    pub fn set_paused(&mut self, now: Instant, paused: bool) {
+        self.now = self.now.max(now);
+        if self.held && !paused {
+            if let Phase::Playing { since, .. } = self.phase {
+                self.phase = Phase::Playing { since, next_tick: self.now + self.tick_period() };
+            }
+            self.tick_sent_at = self.now;
+        }
+        self.held = paused;
+    }
+
     /// The current tick.
     pub fn tick(&self) -> u64 {
         self.game.tick()
@@ -546,6 +566,7 @@ impl MatchHost {
         let started = matches!(self.phase, Phase::Playing { .. });
         HostStatus {
             started,
+            paused: self.held,
             over: self.end.is_some(),
             tick: self.game.tick(),
             players: self.players.values().map(|p| p.name.clone()).collect(),
