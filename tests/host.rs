@@ -337,3 +337,62 @@ async fn a_scripted_lockstep_match_is_the_same_whatever_the_network_timing() {
         assert_eq!(again_digest, digest);
     }
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn messages_of_the_language_arrive_as_sentence_and_structure_and_the_policy_refuses_the_rest() {
+    let mut config = lockstep("fixed", 9, 2);
+    config.mode = Mode::Realtime;
+    config.game.ticks_per_second = 100;
+    config.language =
+        bw4t_protocol::MessagePolicy { kinds: Some(vec!["contains".into(), "yes".into()]), free_text: false };
+    let server = TestServer::start(config).await;
+    let addr = server.addr;
+    let (mut spectator, _) = welcomed(addr, hello(json!({"role": "spectator"}))).await;
+    let (mut ann, welcome) = welcomed(addr, hello(json!({"name": "Ann"}))).await;
+    assert_eq!(welcome.match_info.language.kinds, Some(vec!["contains".to_string(), "yes".to_string()]));
+    assert!(!welcome.match_info.language.free_text);
+    let (mut bob, _) = welcomed(addr, hello(json!({"name": "Bob"}))).await;
+    let contains = json!({"kind": "contains", "room": "RoomA1", "colour": "Red"});
+    ann.send(json!({"type": "say", "id": 1, "to": "all", "said": contains})).await;
+    ann.send(json!({"type": "say", "id": 2, "to": "all", "text": "hello"})).await;
+    ann.send(json!({"type": "say", "id": 3, "to": "all", "said": {"kind": "will_get", "colour": "Red"}}))
+        .await;
+    ann.send(json!({"type": "say", "id": 4, "to": "all", "said": {"kind": "contains", "room": "RoomA1"}}))
+        .await;
+    ann.send(json!({"type": "act", "id": 5, "action": "sendMessage", "args": ["Bob", {"kind": "yes"}]}))
+        .await;
+    let mut acks = std::collections::BTreeMap::new();
+    while acks.len() < 5 {
+        let (id, code) = ann
+            .until(|m| match m {
+                ServerMessage::Ack(a) => Some((a.id.clone(), a.code.map(|c| c.to_string()))),
+                _ => None,
+            })
+            .await;
+        acks.insert(serde_json::to_string(&id).expect("id"), code);
+    }
+    let code = |id: u64| acks[&id.to_string()].clone();
+    assert_eq!(code(1), None);
+    assert_eq!(code(2).as_deref(), Some("not_allowed"), "free text");
+    assert_eq!(code(3).as_deref(), Some("not_allowed"), "a kind the match does not allow");
+    assert_eq!(code(4).as_deref(), Some("bad_args"), "a message missing its colour");
+    assert_eq!(code(5), None);
+    // Bob sees each message as its sentence plus its structure.
+    let mut heard = Vec::new();
+    while heard.len() < 2 {
+        let facts = bob
+            .until(|m| match m {
+                ServerMessage::Percepts(p) => Some(p.add.clone()),
+                _ => None,
+            })
+            .await;
+        heard.extend(facts.into_iter().filter(|f| f[0] == "message"));
+    }
+    assert_eq!(heard[0], vec![json!("message"), json!("Ann"), json!("RoomA1 contains Red."), contains]);
+    assert_eq!(heard[1], vec![json!("message"), json!("Ann"), json!("Yes."), json!({"kind": "yes"})]);
+    // Spectators see the sentence, and the structure beside it.
+    let seen = frame_messages_until(&mut spectator, "RoomA1 contains Red.").await;
+    let said = seen.iter().find_map(|m| m.said.clone()).expect("a structured message");
+    assert_eq!(said.sentence().as_deref(), Ok("RoomA1 contains Red."));
+    server.stop().await;
+}

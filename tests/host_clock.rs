@@ -377,3 +377,24 @@ fn a_match_whose_reserved_players_will_not_come_starts_without_them() {
     sim.run_until(Duration::from_secs(1));
     assert!(sim.host.tick() >= 1);
 }
+
+#[test]
+fn a_paused_match_makes_no_ticks_and_resumes_a_full_period_later() {
+    let mut config = ServerConfig::new(shipped_map("fixed"));
+    config.mode = Mode::Realtime;
+    config.robots = 1;
+    config.game.ticks_per_second = 10;
+    let mut sim = Sim::new(config);
+    sim.join(1, "Ann");
+    sim.run_until(Duration::from_millis(250));
+    assert_eq!(sim.host.tick(), 2);
+    sim.host.set_paused(sim.now, true);
+    assert!(sim.host.status().paused);
+    assert_eq!(sim.host.poll_timeout(), None, "nothing falls due while paused");
+    sim.run_until(Duration::from_secs(60));
+    assert_eq!(sim.host.tick(), 2, "a minute of pause, no ticks");
+    sim.host.set_paused(sim.now, false);
+    assert_eq!(sim.host.poll_timeout(), Some(sim.start + Duration::from_millis(60_100)));
+    sim.run_until(Duration::from_millis(60_350));
+    assert_eq!(sim.host.tick(), 5, "ticks on the period again, with none made up");
+}

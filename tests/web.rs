@@ -352,10 +352,13 @@ async fn the_replay_viewer_serves_every_ticks_frame() {
     let mut recorder = bw4t_protocol::Recorder::new(
         Box::new(Shared(buffer.clone())),
         &blank,
-        "test",
-        vec!["Bot1".into()],
-        100,
-        Some(400),
+        bw4t_protocol::ReplayMeta {
+            program: "test".into(),
+            robots: vec!["Bot1".into()],
+            digest_every: 100,
+            max_ticks: Some(400),
+            ..Default::default()
+        },
     );
     let seats = vec![bw4t_runner::Seat {
         name: "Bot1".into(),

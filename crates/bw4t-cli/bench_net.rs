@@ -73,7 +73,7 @@ async fn lockstep_player(addr: SocketAddr, index: usize, seed: u64) -> Result<Ve
         }
         last = Some(now);
         id += 1;
-        let say = Say { id: None, to: "all".into(), text: format!("tick {}", p.tick) };
+        let say = Say { id: None, to: "all".into(), text: Some(format!("tick {}", p.tick)), said: None };
         let mut out = encode(&ClientMessage::Say(say));
         if rng.below(20) == 0 {
             let place = places[rng.index(places.len())];

@@ -6,10 +6,12 @@ use bw4t_map::Colour;
 use bw4t_sim::{Action, MoveState, Percept, Receiver};
 use serde_json::{Value, json};
 
+use crate::language::Said;
 use crate::messages::{Act, ActId, ClientMessage, Fact};
 use crate::vocabulary::AckCode;
 
-/// A percept as a fact array, e.g. `["color",12,"Red"]`.
+/// A percept as a fact array, e.g. `["color",12,"Red"]`. A message of the language is
+/// `["message", sender, sentence, said]`; free text is `["message", sender, text]`.
 pub fn percept_to_fact(p: &Percept) -> Fact {
     let name = Value::from(p.name());
     let args: Vec<Value> = match p {
@@ -20,7 +22,12 @@ pub fn percept_to_fact(p: &Percept) -> Fact {
         Percept::Sequence(colours) => vec![Value::from(colours.iter().map(|c| c.name()).collect::<Vec<_>>())],
         Percept::State(s) => vec![json!(s.name())],
         Percept::Color(b, c) => vec![json!(b), json!(c.name())],
-        Percept::Message { from, text } => vec![json!(&**from), json!(&**text)],
+        Percept::Message { from, text } => match Said::from_text(text) {
+            Some(said) => {
+                vec![json!(&**from), json!(said.sentence().unwrap_or_default()), json!(said)]
+            }
+            None => vec![json!(&**from), json!(&**text)],
+        },
     };
     std::iter::once(name).chain(args).collect()
 }
@@ -39,7 +46,9 @@ pub fn fact_to_percept(fact: &[Value]) -> Result<Percept, FactError> {
     let colour = |v: &Value| v.as_str().and_then(|s| s.parse::<Colour>().ok()).ok_or_else(bad);
     let name = fact.first().and_then(Value::as_str).ok_or_else(bad)?;
     let arity = match name {
-        "color" | "message" => 3,
+        "color" => 3,
+        "message" if fact.len() == 4 => 4,
+        "message" => 3,
         _ => 2,
     };
     if fact.len() != arity {
@@ -68,6 +77,11 @@ pub fn fact_to_percept(fact: &[Value]) -> Result<Percept, FactError> {
         "color" => Percept::Color(number(1)?, colour(&fact[2])?),
         "holding" => Percept::Holding(number(1)?),
         "block" => Percept::Block(number(1)?),
+        "message" if arity == 4 => {
+            let said: Said = serde_json::from_value(fact[3].clone()).map_err(|_| bad())?;
+            said.check().map_err(|_| bad())?;
+            Percept::Message { from: text(1)?, text: said.to_text().into() }
+        }
         "message" => Percept::Message { from: text(1)?, text: text(2)? },
         _ => return Err(bad()),
     })
@@ -103,13 +117,38 @@ pub fn action_from_act(action: &str, args: &[Value]) -> Result<Action, ActError>
         ("putDown", []) => Ok(Action::PutDown),
         ("putDown", _) => Err(usage("no arguments")),
         ("sendMessage", [Value::String(to), Value::String(text)]) => {
-            Ok(Action::SendMessage { to: receiver(to), text: text.clone() })
+            Ok(Action::SendMessage { to: receiver(to), text: message_text(Some(text), None)? })
         }
-        ("sendMessage", _) => Err(usage("[receiver, text]")),
+        ("sendMessage", [Value::String(to), said @ Value::Object(_)]) => {
+            let said: Said = serde_json::from_value(said.clone()).map_err(|e| ActError {
+                code: AckCode::BadArgs,
+                message: format!("not a message of the language: {e}"),
+            })?;
+            Ok(Action::SendMessage { to: receiver(to), text: message_text(None, Some(&said))? })
+        }
+        ("sendMessage", _) => Err(usage("[receiver, text or said]")),
         _ => Err(ActError {
             code: AckCode::UnknownAction,
             message: format!("unknown action '{action}' (goTo, goToBlock, pickUp, putDown, sendMessage)"),
         }),
+    }
+}
+
+/// The text a match carries for a message given as free `text` or as a `said` (exactly
+/// one). Text that is the text form of a message of the language is that
+/// message, in its canonical form, so a message has one form whichever way it was sent.
+pub fn message_text(text: Option<&str>, said: Option<&Said>) -> Result<String, ActError> {
+    let bad = |message: String| ActError { code: AckCode::BadArgs, message };
+    match (text, said) {
+        (Some(text), None) => {
+            Ok(Said::from_text(text).map_or_else(|| text.to_string(), |said| said.to_text()))
+        }
+        (None, Some(said)) => {
+            said.check().map_err(|e| bad(e.to_string()))?;
+            Ok(said.to_text())
+        }
+        (Some(_), Some(_)) => Err(bad("a message has text or said, not both".into())),
+        (None, None) => Err(bad("a message needs text or said".into())),
     }
 }
 
@@ -125,7 +164,11 @@ pub fn action_to_act(action: &Action) -> (&'static str, Vec<Value>) {
                 Receiver::All => "all".to_string(),
                 Receiver::Player(name) => name.clone(),
             };
-            vec![json!(to), json!(text)]
+            let message = match Said::from_text(text) {
+                Some(said) => json!(said),
+                None => json!(text),
+            };
+            vec![json!(to), message]
         }
     };
     (action.name(), args)
@@ -204,5 +247,36 @@ mod tests {
             let (name, args) = action_to_act(&action);
             assert_eq!(action_from_act(name, &args), Ok(action));
         }
+    }
+
+    #[test]
+    fn messages_of_the_language_travel_as_sentence_and_structure() {
+        let said = json!({"kind": "contains", "room": "RoomB2", "colour": "Red"});
+        let action = action_from_act("sendMessage", &[json!("all"), said.clone()]).expect("a message");
+        let Action::SendMessage { text, .. } = action.clone() else { panic!("{action:?}") };
+        assert_eq!(text, r#"{"kind":"contains","room":"RoomB2","colour":"Red"}"#);
+        assert_eq!(action_to_act(&action).1, vec![json!("all"), said.clone()]);
+        // The same message sent as its text form is the same message.
+        let as_text = action_from_act(
+            "sendMessage",
+            &[json!("all"), json!(r#"{"colour":"Red","kind":"contains","room":"RoomB2"}"#)],
+        );
+        assert_eq!(as_text, Ok(action));
+
+        let percept = Percept::Message { from: Arc::from("Ann"), text: Arc::from(text.as_str()) };
+        let fact = percept_to_fact(&percept);
+        assert_eq!(fact, vec![json!("message"), json!("Ann"), json!("RoomB2 contains Red."), said]);
+        assert_eq!(fact_to_percept(&fact), Ok(percept));
+
+        let error = action_from_act("sendMessage", &[json!("all"), json!({"kind": "will_get"})])
+            .expect_err("no colour");
+        assert_eq!((error.code, error.message.as_str()), (AckCode::BadArgs, "'will_get' needs a colour"));
+        let error = action_from_act("sendMessage", &[json!("all"), json!({"kind": "yes", "mood": 1})])
+            .expect_err("extra");
+        assert!(error.message.contains("mood"), "{}", error.message);
+        assert!(
+            fact_to_percept(&[json!("message"), json!("Ann"), json!("Hi."), json!({"kind": "dance"})])
+                .is_err()
+        );
     }
 }

@@ -16,12 +16,12 @@ mod vocabulary;
 
 pub use codec::{DecodeError, LineBuffer, MAX_LINE, decode_client, decode_server, encode};
 pub use convert::{
-    ActError, FactError, act_message, action_from_act, action_to_act, fact_to_percept, percept_to_fact,
-    receiver,
+    ActError, FactError, act_message, action_from_act, action_to_act, fact_to_percept, message_text,
+    percept_to_fact, receiver,
 };
 pub use language::{Group, KINDS, KindRow, MessagePolicy, Said, SaidError, Slot, kind_row, language_json};
 pub use messages::*;
-pub use replay::{REPLAY_FORMAT, Recorder, ReplayEvent, ReplayHeader, ReplayLine};
+pub use replay::{REPLAY_FORMAT, Recorder, ReplayEvent, ReplayHeader, ReplayLine, ReplayMeta};
 pub use result::{MatchResult, RobotExtra, RobotResult};
 pub use schema::schemas;
 pub use table::{

@@ -121,7 +121,9 @@ pub struct Act {
     pub args: Vec<Value>,
 }
 
-/// `say`: a message, delivered to the receiver as `["message", sender, text]`.
+/// `say`: a message in the shared language (`said`), delivered to the receiver as
+/// `["message", sender, sentence, said]`, or free text (`text`), delivered as
+/// `["message", sender, text]`. Exactly one of the two.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct Say {
     /// Optional id, echoed in the `ack`.
@@ -129,8 +131,12 @@ pub struct Say {
     pub id: Option<ActId>,
     /// A player's name, or `all` for every other player.
     pub to: String,
-    /// The text.
-    pub text: String,
+    /// Free text.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub text: Option<String>,
+    /// A message of the language.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub said: Option<crate::Said>,
 }
 
 /// `ready`: the client has sent everything it wants applied after `tick`.
@@ -250,6 +256,10 @@ pub struct MatchInfo {
     /// The last tick, if the match has a limit.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_ticks: Option<u64>,
+    /// The messages players may send: the kinds of the language allowed, and whether
+    /// free text is.
+    #[serde(default)]
+    pub language: crate::MessagePolicy,
     /// Whether this client gets `percepts` every tick.
     pub every_tick: bool,
 }
@@ -426,8 +436,21 @@ pub struct FrameMessage {
     pub from: String,
     /// Receiver's name, or `all`.
     pub to: String,
-    /// The text.
+    /// The text: the sentence of a message of the language.
     pub text: String,
+    /// The message of the language, if it is one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub said: Option<crate::Said>,
+}
+
+impl FrameMessage {
+    /// The frame's form of a message a match carried as `text`: a message of the language
+    /// shows its sentence and carries its structured form.
+    pub fn new(from: String, to: String, text: &str) -> FrameMessage {
+        let said = crate::Said::from_text(text);
+        let text = said.as_ref().and_then(|s| s.sentence().ok()).unwrap_or_else(|| text.to_string());
+        FrameMessage { from, to, text, said }
+    }
 }
 
 fn is_false(b: &bool) -> bool {

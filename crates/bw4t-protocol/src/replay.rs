@@ -9,7 +9,9 @@
 //! a file without `end` is incomplete (its writer was stopped). The recorder flushes after
 //! the header and every digest, so a killed writer leaves a usable prefix.
 
+use std::collections::BTreeMap;
 use std::io::Write;
+use std::time::{SystemTime, UNIX_EPOCH};
 
 use bw4t_sim::{Action, Applied, Journal, Match, MatchConfig, RobotId};
 use schemars::JsonSchema;
@@ -34,6 +36,9 @@ pub enum ReplayLine {
         tick: u64,
         /// In the order applied.
         events: Vec<ReplayEvent>,
+        /// When they were written, in milliseconds since the Unix epoch (served matches).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        wall_ms: Option<u64>,
     },
     /// The state digest after tick `tick`.
     Digest {
@@ -79,6 +84,12 @@ pub struct ReplayHeader {
     /// The tick at which the match was to end at the latest (none: no limit was set).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_ticks: Option<u64>,
+    /// Free-form labels of the match (a study's condition, its participants...).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub labels: BTreeMap<String, String>,
+    /// When the replay was started, in milliseconds since the Unix epoch (served matches).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub started_ms: Option<u64>,
 }
 
 /// Something applied to the match at a tick boundary.
@@ -162,40 +173,60 @@ pub struct Recorder {
     pending: Vec<ReplayEvent>,
     pending_tick: u64,
     error: Option<std::io::Error>,
+    /// Stamp tick lines with the wall clock (a served match's replay).
+    wall_clock: bool,
+}
+
+/// Milliseconds since the Unix epoch now.
+fn wall_ms() -> u64 {
+    SystemTime::now().duration_since(UNIX_EPOCH).map_or(0, |d| d.as_millis() as u64)
+}
+
+/// What a replay's header says besides the match itself.
+#[derive(Clone, Debug, Default)]
+pub struct ReplayMeta {
+    /// The program that writes it.
+    pub program: String,
+    /// The robots' names, as far as known.
+    pub robots: Vec<String>,
+    /// How often a digest line is written.
+    pub digest_every: u64,
+    /// The match's tick limit, if any.
+    pub max_ticks: Option<u64>,
+    /// Labels of the match.
+    pub labels: BTreeMap<String, String>,
+    /// Stamp the header and tick lines with the wall clock: replays of served matches,
+    /// whose timing is part of what happened (a headless replay stays the same bytes).
+    pub wall_clock: bool,
 }
 
 impl Recorder {
-    /// Starts a replay of `game` (before any robot joins) on `out`; `max_ticks` is the
-    /// match's tick limit, if it has one.
-    pub fn new(
-        mut out: Box<dyn Write + Send>,
-        game: &Match,
-        program: &str,
-        robots: Vec<String>,
-        digest_every: u64,
-        max_ticks: Option<u64>,
-    ) -> Self {
+    /// Starts a replay of `game` (before any robot joins) on `out`.
+    pub fn new(mut out: Box<dyn Write + Send>, game: &Match, meta: ReplayMeta) -> Self {
         let config: &MatchConfig = game.config();
         let header = ReplayLine::Header(ReplayHeader {
             format: REPLAY_FORMAT,
-            program: program.to_string(),
+            program: meta.program,
             map: game.map().name().to_string(),
             map_native: game.map().to_native(),
             seed: game.seed(),
             ticks_per_second: config.ticks_per_second,
             speed: config.speed,
             robot_collisions: config.robot_collisions,
-            robots,
-            digest_every: digest_every.max(1),
-            max_ticks,
+            robots: meta.robots,
+            digest_every: meta.digest_every.max(1),
+            max_ticks: meta.max_ticks,
+            labels: meta.labels,
+            started_ms: meta.wall_clock.then(wall_ms),
         });
         let error = write_line(&mut out, &header).and_then(|()| out.flush()).err();
         Recorder {
             out,
-            digest_every: digest_every.max(1),
+            digest_every: meta.digest_every.max(1),
             pending: Vec::new(),
             pending_tick: game.tick(),
             error,
+            wall_clock: meta.wall_clock,
         }
     }
 
@@ -225,8 +256,11 @@ impl Recorder {
 
     fn flush_events(&mut self) {
         if !self.pending.is_empty() {
-            let line =
-                ReplayLine::Tick { tick: self.pending_tick, events: std::mem::take(&mut self.pending) };
+            let line = ReplayLine::Tick {
+                tick: self.pending_tick,
+                events: std::mem::take(&mut self.pending),
+                wall_ms: self.wall_clock.then(wall_ms),
+            };
             self.write(&line);
         }
     }
@@ -260,4 +294,59 @@ fn write_line(out: &mut Box<dyn Write + Send>, line: &ReplayLine) -> std::io::Re
     let text = serde_json::to_string(line).map_err(std::io::Error::other)?;
     out.write_all(text.as_bytes())?;
     out.write_all(b"\n")
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::{Arc, Mutex};
+
+    use bw4t_sim::{Action, MatchConfig};
+
+    use super::*;
+
+    /// A writer whose bytes the test reads afterwards.
+    #[derive(Clone, Default)]
+    struct Shared(Arc<Mutex<Vec<u8>>>);
+
+    impl Write for Shared {
+        fn write(&mut self, bytes: &[u8]) -> std::io::Result<usize> {
+            self.0.lock().expect("lock").extend_from_slice(bytes);
+            Ok(bytes.len())
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    fn lines(meta: ReplayMeta) -> Vec<ReplayLine> {
+        let map = bw4t_map::generate(2, 1, 1, 5).expect("a map");
+        let mut game = Match::new(&map, &MatchConfig::default(), 5).expect("a match");
+        let out = Shared::default();
+        let mut recorder = Recorder::new(Box::new(out.clone()), &game, meta);
+        let robot = game.join("Ann").expect("joins");
+        recorder.applied(0, Applied::Join { name: "Ann", robot });
+        let hello = Action::SendMessage { to: bw4t_sim::Receiver::All, text: "hi".into() };
+        recorder.applied(0, Applied::Act { robot, action: &hello, ok: true });
+        game.step();
+        recorder.stepped(&game);
+        recorder.finish(&game, EndReason::Completed).expect("written");
+        let text = String::from_utf8(out.0.lock().expect("lock").clone()).expect("utf-8");
+        text.lines().map(|l| serde_json::from_str(l).expect("a replay line")).collect()
+    }
+
+    #[test]
+    fn served_replays_carry_labels_and_wall_clock_times_and_headless_ones_do_not() {
+        let labels = BTreeMap::from([("condition".to_string(), "talking".to_string())]);
+        let served = lines(ReplayMeta { labels: labels.clone(), wall_clock: true, ..ReplayMeta::default() });
+        let ReplayLine::Header(header) = &served[0] else { panic!("{:?}", served[0]) };
+        assert_eq!(header.labels, labels);
+        assert!(header.started_ms.is_some_and(|ms| ms > 1_600_000_000_000), "{:?}", header.started_ms);
+        let ReplayLine::Tick { wall_ms, .. } = &served[1] else { panic!("{:?}", served[1]) };
+        assert!(wall_ms.is_some_and(|ms| ms >= header.started_ms.unwrap_or(0)));
+        let headless = lines(ReplayMeta::default());
+        let ReplayLine::Header(header) = &headless[0] else { panic!("{:?}", headless[0]) };
+        assert!(header.labels.is_empty() && header.started_ms.is_none());
+        let ReplayLine::Tick { wall_ms, .. } = &headless[1] else { panic!("{:?}", headless[1]) };
+        assert_eq!(*wall_ms, None);
+    }
 }

@@ -121,6 +121,8 @@ words! {
         BadArgs = "bad_args",
         /// More actions and messages since the last boundary than allowed.
         RateLimited = "rate_limited",
+        /// The match does not allow this message (its kind, or free text).
+        NotAllowed = "not_allowed",
         /// The robot is not in the match.
         UnknownRobot = "unknown_robot",
         /// Not a place of the map.

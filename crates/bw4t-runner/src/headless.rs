@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use bw4t_agents::{Agent, Driver, Team};
 use bw4t_map::Map;
-use bw4t_protocol::{EndReason, MatchResult, Recorder, RobotExtra};
+use bw4t_protocol::{EndReason, MatchResult, Recorder, ReplayMeta, RobotExtra};
 use bw4t_sim::{JoinError, Match, MatchConfig, MatchError};
 
 use crate::external::{AgentReport, SeatSpec};
@@ -50,7 +50,14 @@ pub fn play_builtin(
             // The recorder describes the match before anyone joins; a fresh one is that.
             let blank = Match::new(map, &config, seed)?;
             let names = seats.iter().map(|s| s.name().to_string()).collect();
-            Some(Recorder::new(out, &blank, &crate::program(), names, 100, Some(max_ticks)))
+            let meta = ReplayMeta {
+                program: crate::program(),
+                robots: names,
+                digest_every: 100,
+                max_ticks: Some(max_ticks),
+                ..ReplayMeta::default()
+            };
+            Some(Recorder::new(out, &blank, meta))
         }
         None => None,
     };

@@ -314,7 +314,7 @@ impl ReplayFrames {
         let mut messages = Vec::new();
         let mut names: BTreeMap<u32, String> = BTreeMap::new();
         for (_, line) in &lines {
-            let ReplayLine::Tick { tick, events: applied } = line else { continue };
+            let ReplayLine::Tick { tick, events: applied, .. } = line else { continue };
             for event in applied {
                 match event {
                     ReplayEvent::Join { name, robot } => {
@@ -329,7 +329,7 @@ impl ReplayFrames {
                             let from = names.get(robot).cloned().unwrap_or_default();
                             messages.push(ReplayMessage {
                                 tick: *tick,
-                                message: FrameMessage { from, to, text },
+                                message: FrameMessage::new(from, to, &text),
                             });
                         }
                     }

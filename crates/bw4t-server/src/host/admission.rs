@@ -187,6 +187,10 @@ impl MatchHost {
                 players_needed: self.config.robots,
                 max_ticks: self.config.max_ticks,
                 every_tick,
+                language: bw4t_protocol::MessagePolicy {
+                    kinds: Some(self.config.language.allowed_kinds()),
+                    free_text: self.config.language.free_text,
+                },
             },
         };
         self.send(conn, &ServerMessage::Welcome(welcome));

@@ -196,7 +196,7 @@ impl Seats for HostSeats<'_> {
                 Receiver::All => "all".into(),
                 Receiver::Player(name) => name.clone(),
             };
-            self.frame_messages.push(FrameMessage { from: player.name.clone(), to, text: text.clone() });
+            self.frame_messages.push(FrameMessage::new(player.name.clone(), to, text));
         }
         let act_id = match tag {
             Tag::Local(n) => {
@@ -363,7 +363,15 @@ impl MatchHost {
         let game = Match::new(&config.map, &config.game, config.seed)?;
         let names = seats.iter().map(|s| s.name().to_string()).collect();
         let recorder = replay.map(|(out, program)| {
-            Recorder::new(out, &game, &program, names, crate::REPLAY_DIGEST_EVERY, config.max_ticks)
+            let meta = bw4t_protocol::ReplayMeta {
+                program,
+                robots: names,
+                digest_every: crate::REPLAY_DIGEST_EVERY,
+                max_ticks: config.max_ticks,
+                labels: config.labels.clone(),
+                wall_clock: true,
+            };
+            Recorder::new(out, &game, meta)
         });
         let start_by = config.start_timeout.map(|t| now + t);
         let mut host = MatchHost {
@@ -895,12 +903,17 @@ impl MatchHost {
         };
         match message {
             ClientMessage::Act(act) => match action_from_act(&act.action, &act.args) {
-                Ok(action) => self.queue_action(conn, robot, Some(act.id), action),
+                Ok(action) => self.queue_allowed(conn, robot, Some(act.id), action),
                 Err(e) => self.reject(conn, Some(act.id), e.code, &e.message),
             },
             ClientMessage::Say(say) => {
-                let action = Action::SendMessage { to: bw4t_protocol::receiver(&say.to), text: say.text };
-                self.queue_action(conn, robot, say.id, action);
+                match bw4t_protocol::message_text(say.text.as_deref(), say.said.as_ref()) {
+                    Ok(text) => {
+                        let action = Action::SendMessage { to: bw4t_protocol::receiver(&say.to), text };
+                        self.queue_allowed(conn, robot, say.id, action);
+                    }
+                    Err(e) => self.reject(conn, say.id, e.code, &e.message),
+                }
             }
             ClientMessage::Ready(ready) => {
                 let now = self.game.tick();
@@ -926,6 +939,17 @@ impl MatchHost {
             }
             ClientMessage::Hello(_) | ClientMessage::Ping(_) => {}
         }
+    }
+
+    /// Queues an action of a remote player, unless it is a message the match's policy
+    /// refuses.
+    fn queue_allowed(&mut self, conn: ConnId, robot: RobotId, id: Option<ActId>, action: Action) {
+        if let Action::SendMessage { text, .. } = &action {
+            if let Some(why) = self.config.language.refuses(bw4t_protocol::Said::from_text(text).as_ref()) {
+                return self.reject(conn, id, AckCode::NotAllowed, &why);
+            }
+        }
+        self.queue_action(conn, robot, id, action);
     }
 
     fn queue_action(&mut self, conn: ConnId, robot: RobotId, id: Option<ActId>, action: Action) {
