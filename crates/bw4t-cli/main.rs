@@ -16,6 +16,7 @@ mod run;
 mod serve;
 mod signals;
 mod status;
+mod study;
 mod tournament;
 
 use std::process::ExitCode;
@@ -45,6 +46,9 @@ enum Command {
     /// Serve matches over TCP (JSON lines; see protocol/PROTOCOL.md) until stopped: one
     /// restarted as it ends, or the templates of a --config file; --once: one match.
     Serve(serve::ServeArgs),
+    /// Serve a study (consent, instructions, trials in counterbalanced conditions,
+    /// questionnaires) to participants in the browser, recording everything; or export its data.
+    Study(study::StudyArgs),
     /// Measure performance; prints one JSON object per line per case.
     Bench(bench::BenchArgs),
 }
@@ -70,6 +74,7 @@ fn main() -> ExitCode {
         Command::Replay(args) => replay::run(&args),
         Command::Serve(args) => done(serve::run(&args)),
         Command::Tournament(args) => tournament::run(&args),
+        Command::Study(args) => done(study::run(&args)),
         Command::Bench(args) => done(bench::run(&args)),
     };
     match result {

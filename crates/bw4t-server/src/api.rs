@@ -1,6 +1,7 @@
 //! The HTTP API of a live server (JSON): the lobby's listing for anyone; making,
-//! stopping and inspecting matches, results and replays for the operator (`Authorization:
-//! Bearer TOKEN`, or `?token=` on a GET). Also the live `/map.json` and `/info.json`.
+//! stopping, pausing and inspecting matches, results and replays for the operator
+//! (`Authorization: Bearer TOKEN`, or `?token=` on a GET). Also the live `/map.json` and
+//! `/info.json`, and a study's `/api/study/...` ([`crate::study::api`]) when one is served.
 
 use serde_json::json;
 use tokio::io::AsyncReadExt;
@@ -29,7 +30,7 @@ fn ok(status: StatusCode, body: &serde_json::Value) -> Reply {
 
 /// Answers one request of the API.
 pub(crate) async fn respond(head: Head, stream: &mut TcpStream, arena: &Arena) -> Reply {
-    let Head { request, rest } = head;
+    let Head { request, rest: rest_body } = head;
     let path = request.uri().path().trim_end_matches('/').to_string();
     let query = request.uri().query().unwrap_or("");
     let operator = is_operator(&request, query, arena);
@@ -48,9 +49,27 @@ pub(crate) async fn respond(head: Head, stream: &mut TcpStream, arena: &Arena) -
             Some(summary) => ok(StatusCode::OK, &summary),
             None => error(StatusCode::NOT_FOUND, format!("no match named '{name}'")),
         },
+        (_, ["api", "study", rest @ ..]) => {
+            let Some(study) = crate::study::StudyServer::of(arena) else {
+                return error(StatusCode::NOT_FOUND, "this server runs no study (bw4t study STUDY.toml)");
+            };
+            // Participants' pages post with any content type (`sendBeacon` sends text/plain).
+            let body = if method == Method::POST {
+                match read_body(&request, rest_body, stream).await {
+                    Ok(body) => body,
+                    Err(reply) => return reply,
+                }
+            } else {
+                Vec::new()
+            };
+            match crate::study::api::respond(&study, &method, rest, &body, operator).await {
+                crate::study::api::Answer::Json(status, body) => ok(status, &body),
+                crate::study::api::Answer::Unauthorized => unauthorized(arena),
+            }
+        }
         (_, ["api", ..]) if !operator && method != Method::GET => unauthorized(arena),
         (&Method::POST, ["api", "matches"]) => {
-            let body = match read_body(&request, rest, stream).await {
+            let body = match read_body(&request, rest_body, stream).await {
                 Ok(body) => body,
                 Err(reply) => return reply,
             };
@@ -74,6 +93,15 @@ pub(crate) async fn respond(head: Head, stream: &mut TcpStream, arena: &Arena) -
             },
             Err(e) => arena_error(&e),
         },
+        (&Method::POST, ["api", "matches", name, action @ ("pause" | "resume")]) => {
+            match arena.pause(name, *action == "pause").await {
+                Ok(()) => match arena.summary(name, true).await {
+                    Some(summary) => ok(StatusCode::OK, &summary),
+                    None => error(StatusCode::NOT_FOUND, format!("no live match named '{name}'")),
+                },
+                Err(e) => arena_error(&e),
+            }
+        }
         (&Method::GET, ["api", "results", ..]) if !operator => unauthorized(arena),
         (&Method::GET, ["api", "results"]) => {
             let rows = arena.results().rows();

@@ -12,6 +12,7 @@ mod connection;
 mod host;
 mod http;
 mod lateness;
+pub mod study;
 mod websocket;
 
 pub use arena::{

@@ -1,0 +1,214 @@
+//! `bw4t study STUDY.toml`: serves a study (its pages' API and its conditions' matches) on
+//! the many-match server until stopped, recording into a data directory; `bw4t study
+//! export DIR`: that directory as tidy CSV (docs/STUDIES.md).
+
+use std::net::SocketAddr;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use anyhow::{Context, Result, bail};
+use bw4t_server::study::{Study, StudyServer};
+use bw4t_server::{ArenaConfig, ResultsStore};
+use clap::{Args, Subcommand};
+
+/// Options of `bw4t study`.
+#[derive(Args)]
+#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
+pub(crate) struct StudyArgs {
+    #[command(subcommand)]
+    command: Option<StudyCommand>,
+    /// The study file (every key: docs/STUDIES.md, examples/study/study.toml).
+    #[arg(value_name = "STUDY.toml", required = true)]
+    file: Option<PathBuf>,
+    /// Where the study's data goes: a copy of the study file, each participant's log,
+    /// the matches' results and replays. A restarted server continues from it.
+    #[arg(long, value_name = "DIR", default_value = "study-data")]
+    data: PathBuf,
+    /// Run with a study file that differs from the one the data directory was started
+    /// with (the old copy is kept as study-MS.toml). Pages and conditions must still mean
+    /// what they meant for the participants so far.
+    #[arg(long)]
+    changed_study: bool,
+    /// Address to listen on.
+    #[arg(long, default_value = "127.0.0.1")]
+    bind: std::net::IpAddr,
+    /// The protocol's TCP port (agents, tests); 0 picks a free one.
+    #[arg(long, default_value_t = 12300)]
+    port: u16,
+    /// The web port: participants' page, the dashboard, the API; 0 picks a free one.
+    #[arg(long, default_value_t = 8080)]
+    http: u16,
+    /// The operator's token (dashboard, live view); one is made and printed when omitted.
+    #[arg(long)]
+    operator_token: Option<String>,
+    /// Let pages from this origin open WebSockets on the web port (repeatable; `*`: any).
+    #[arg(long, value_name = "URL", value_parser = bw4t_server::parse_origin)]
+    allow_origin: Vec<String>,
+    /// Connections accepted at once.
+    #[arg(long, value_name = "N", default_value_t = 256)]
+    max_connections: usize,
+    /// More log lines (-v: each connection's events, -vv: everything).
+    #[arg(short, long, action = clap::ArgAction::Count, conflicts_with = "quiet")]
+    verbose: u8,
+    /// Only warnings and errors in the log.
+    #[arg(short, long)]
+    quiet: bool,
+    /// Log lines as JSON objects (one per line) instead of text.
+    #[arg(long)]
+    log_json: bool,
+}
+
+#[derive(Subcommand)]
+enum StudyCommand {
+    /// Write a study's data as CSV (events, trials, answers, participants), metadata.json
+    /// and the trials' replays.
+    Export(ExportArgs),
+}
+
+#[derive(Args)]
+struct ExportArgs {
+    /// The study's data directory (`bw4t study --data DIR`).
+    dir: PathBuf,
+    /// Where to write (default: DIR/export).
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+}
+
+/// Runs `bw4t study ...`.
+pub(crate) fn run(args: &StudyArgs) -> Result<()> {
+    match (&args.command, &args.file) {
+        (Some(StudyCommand::Export(export)), _) => run_export(export),
+        (None, Some(file)) => serve(args, file),
+        (None, None) => bail!("give a study file: bw4t study STUDY.toml"),
+    }
+}
+
+fn run_export(args: &ExportArgs) -> Result<()> {
+    let out = args.out.clone().unwrap_or_else(|| args.dir.join("export"));
+    let summary = bw4t_server::study::export(&args.dir, &out).map_err(anyhow::Error::msg)?;
+    outln!(
+        "exported {} into {}: {}, {} ({} without an end), {}, {}, {}",
+        args.dir.display(),
+        out.display(),
+        bw4t_runner::plural(summary.participants, "participant"),
+        bw4t_runner::plural(summary.trials, "trial"),
+        summary.incomplete,
+        bw4t_runner::plural(summary.answers, "answer"),
+        bw4t_runner::plural(summary.events, "event"),
+        bw4t_runner::plural(summary.replays, "replay"),
+    );
+    Ok(())
+}
+
+fn serve(args: &StudyArgs, file: &Path) -> Result<()> {
+    init_logs(args);
+    let study =
+        bw4t_server::study::load(file, &|spec: &str| crate::maps::load(spec).map_err(|e| format!("{e:#}")))
+            .map_err(anyhow::Error::msg)?;
+    keep_study_file(&args.data, &study, args.changed_study)?;
+    let token = args.operator_token.clone().unwrap_or_else(make_token);
+    let mut settings = ArenaConfig::new(study.templates());
+    settings.default = None;
+    settings.operator_token = Some(token.clone());
+    settings.allowed_origins = args.allow_origin.clone();
+    settings.max_connections = args.max_connections;
+    settings.hello_timeout = Duration::from_secs(10);
+    let matches = args.data.join("matches");
+    settings.results = ResultsStore::in_dir(&matches)
+        .with_context(|| format!("cannot write results into {}", matches.display()))?;
+    for c in &study.conditions {
+        eprintln!(
+            "bw4t: condition '{}': map '{}', {} and {} ({}), {} mode at {} ticks/s, {} s",
+            c.name,
+            c.map.name(),
+            bw4t_runner::plural(c.humans, "person"),
+            bw4t_runner::plural(c.teammates, "teammate"),
+            c.strategy.name(),
+            c.mode.name(),
+            c.tick_hz,
+            c.time_limit_s
+        );
+    }
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .context("cannot start the runtime")?;
+    runtime.block_on(async {
+        let stop = crate::serve::stop_signal();
+        let (listener, local) = crate::serve::listen(SocketAddr::new(args.bind, args.port))?;
+        let (http, web) = crate::serve::listen(SocketAddr::new(args.bind, args.http))?;
+        outln!("listening on {local}");
+        outln!("http on {web}");
+        let arena = bw4t_server::Arena::start(settings).context("cannot start the study's matches")?;
+        let server = StudyServer::open(study, &args.data, arena.clone())
+            .with_context(|| format!("cannot open the study's data in {}", args.data.display()))?;
+        let host = if web.ip().is_unspecified() { "THIS-HOST".to_string() } else { web.ip().to_string() };
+        let base = format!("http://{host}:{}", web.port());
+        outln!(
+            "study '{}': {} so far",
+            server.study().name,
+            bw4t_runner::plural(server.participants(), "participant")
+        );
+        outln!("participant link: {base}/study?participant=ID (or ?PROLIFIC_PID=..., none: an id is made)");
+        outln!("dashboard: {base}/study/admin?token={token}");
+        if args.operator_token.is_none() {
+            outln!("operator token: {token}");
+        }
+        bw4t_server::serve_arena(&arena, listener, Some(http), stop).await;
+        drop(server);
+        anyhow::Ok(())
+    })?;
+    eprintln!("bw4t: stopped; the data is in {} (bw4t study export {0})", args.data.display());
+    Ok(())
+}
+
+/// Copies the study file into the data directory, or checks it is the one already there.
+fn keep_study_file(data: &Path, study: &Study, changed: bool) -> Result<()> {
+    std::fs::create_dir_all(data).with_context(|| format!("cannot make {}", data.display()))?;
+    let copy = data.join("study.toml");
+    if let Ok(old) = std::fs::read_to_string(&copy) {
+        if old == study.text {
+            return Ok(());
+        }
+        if !changed {
+            bail!(
+                "{} was started with another study file ({}); give a new --data directory, or \
+                 --changed-study if the change keeps the meaning of every page and condition",
+                data.display(),
+                copy.display()
+            );
+        }
+        let kept = data.join(format!("study-{}.toml", bw4t_server::study::now_ms()));
+        std::fs::rename(&copy, &kept).with_context(|| format!("cannot keep {}", kept.display()))?;
+    }
+    std::fs::write(&copy, &study.text).with_context(|| format!("cannot write {}", copy.display()))
+}
+
+/// A secret for the operator: 128 bits from the process's hash keys and the clock.
+fn make_token() -> String {
+    use std::hash::{BuildHasher, Hasher};
+    let half = |salt: u64| {
+        let mut h = std::collections::hash_map::RandomState::new().build_hasher();
+        h.write_u64(salt);
+        h.write_u128(
+            std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos()),
+        );
+        h.finish()
+    };
+    format!("{:016x}{:016x}", half(1), half(2))
+}
+
+/// Sends log lines to standard error, as `bw4t serve` does.
+fn init_logs(args: &StudyArgs) {
+    use tracing_subscriber::fmt;
+    let level = match (args.quiet, args.verbose) {
+        (true, _) => tracing::Level::WARN,
+        (false, 0) => tracing::Level::INFO,
+        (false, 1) => tracing::Level::DEBUG,
+        (false, _) => tracing::Level::TRACE,
+    };
+    let colour = std::io::IsTerminal::is_terminal(&std::io::stderr());
+    let builder =
+        fmt().with_writer(std::io::stderr).with_max_level(level).with_target(false).with_ansi(colour);
+    let _ = if args.log_json { builder.json().try_init() } else { builder.try_init() };
+}

@@ -1,0 +1,427 @@
+//! The study's HTTP API (`/api/study/...`, JSON): the study's name and conditions; a
+//! participant's arrival, state, answers, trial starts and events; the operator's list
+//! of participants. Every refusal is a 4xx whose `error` names the problem.
+
+use serde_json::{Value, json};
+use tokio_tungstenite::tungstenite::http::{Method, StatusCode};
+
+use super::flow::{Participant, Record, order_for, valid_id};
+use super::{Ended, Slot, StudyServer, TrialRefusal, append, lock, now_ms};
+
+/// What a study request is answered with.
+pub(crate) enum Answer {
+    /// A JSON body with a status.
+    Json(StatusCode, Value),
+    /// The operator's token is needed.
+    Unauthorized,
+}
+
+fn error(status: StatusCode, message: impl Into<String>) -> Answer {
+    Answer::Json(status, json!({ "error": message.into() }))
+}
+
+/// The parameters of a link that may carry the participant's id, in the order looked at.
+const ID_PARAMS: &[&str] = &["PROLIFIC_PID", "participant", "pid", "workerId", "PARTICIPANT_ID"];
+
+/// The kinds of event the page sends.
+const EVENT_KINDS: &[&str] = &[
+    "page_shown",
+    "key",
+    "click",
+    "act",
+    "ack",
+    "done",
+    "message_sent",
+    "message_received",
+    "percepts",
+    "focus",
+    "blur",
+    "visibility",
+    "lobby",
+    "welcome",
+    "match_over",
+];
+
+/// The most events one request may carry.
+const MAX_EVENTS: usize = 1000;
+
+/// Answers `method` on `/api/study/REST...`; `body` is the request's (empty for a GET).
+pub(crate) async fn respond(
+    study: &StudyServer,
+    method: &Method,
+    rest: &[&str],
+    body: &[u8],
+    operator: bool,
+) -> Answer {
+    match (method, rest) {
+        (&Method::GET, []) => {
+            let s = study.study();
+            let conditions: Vec<&str> = s.conditions.iter().map(|c| c.name.as_str()).collect();
+            Answer::Json(StatusCode::OK, json!({"name": s.name, "title": s.title, "conditions": conditions}))
+        }
+        (&Method::GET, ["participants"]) if !operator => Answer::Unauthorized,
+        (&Method::GET, ["participants"]) => Answer::Json(StatusCode::OK, study.list().await),
+        (&Method::POST, ["participants"]) => match parse(body) {
+            Ok(body) => study.arrive(&body),
+            Err(answer) => answer,
+        },
+        (&Method::GET, ["participants", id]) => {
+            with_participant(study, id, |slot| Answer::Json(StatusCode::OK, slot.state.state(study.study())))
+        }
+        (&Method::POST, ["participants", id, what @ ("answer" | "trial" | "events")]) => {
+            let body = match parse(body) {
+                Ok(body) => body,
+                Err(answer) => return answer,
+            };
+            match *what {
+                "answer" => study.answer(id, &body).await,
+                "trial" => study.trial_started(id, &body),
+                _ => study.events(id, &body),
+            }
+        }
+        (&Method::GET | &Method::POST, _) => {
+            error(StatusCode::NOT_FOUND, format!("no such route: {method} /api/study/{}", rest.join("/")))
+        }
+        _ => error(StatusCode::METHOD_NOT_ALLOWED, "only GET and POST"),
+    }
+}
+
+fn parse(body: &[u8]) -> Result<Value, Answer> {
+    match serde_json::from_slice::<Value>(body) {
+        Ok(value @ Value::Object(_)) => Ok(value),
+        Ok(_) => Err(error(StatusCode::BAD_REQUEST, "the body must be a JSON object")),
+        Err(e) => Err(error(StatusCode::BAD_REQUEST, format!("the body is not JSON: {e}"))),
+    }
+}
+
+fn bad_id(id: &str) -> Answer {
+    let shown: String = id.chars().take(80).collect();
+    error(
+        StatusCode::BAD_REQUEST,
+        format!("participant: '{shown}' is not a participant id (1 to 64 letters, digits, '-' or '_')"),
+    )
+}
+
+fn with_participant(study: &StudyServer, id: &str, f: impl FnOnce(&mut Slot) -> Answer) -> Answer {
+    if !valid_id(id) {
+        return bad_id(id);
+    }
+    match study.slot(id) {
+        Some(slot) => f(&mut lock(&slot)),
+        None => error(StatusCode::NOT_FOUND, format!("no participant '{id}'")),
+    }
+}
+
+fn write_failed(e: &std::io::Error) -> Answer {
+    tracing::error!(target: "bw4t::study", error = %e, "cannot append to a participant's log");
+    error(StatusCode::INTERNAL_SERVER_ERROR, "the server could not record this; please try again")
+}
+
+/// The `step` of a body, which must be the participant's current one.
+fn check_step(study: &StudyServer, p: &Participant, body: &Value) -> Result<(), Answer> {
+    let Some(step) = body.get("step").and_then(Value::as_u64) else {
+        return Err(error(StatusCode::BAD_REQUEST, "step: expected the step's number"));
+    };
+    if p.declined || step != p.step as u64 {
+        let why = if p.declined {
+            "the participant declined consent; the study has ended for them".to_string()
+        } else {
+            format!("step {step} is not the participant's current step ({})", p.step)
+        };
+        return Err(Answer::Json(
+            StatusCode::CONFLICT,
+            json!({"error": why, "state": p.state(study.study())}),
+        ));
+    }
+    Ok(())
+}
+
+impl StudyServer {
+    /// `POST /api/study/participants`: a new participant, or one coming back.
+    fn arrive(&self, body: &Value) -> Answer {
+        let params = body.get("params").cloned().unwrap_or_else(|| json!({}));
+        let Some(map) = params.as_object() else {
+            return error(StatusCode::BAD_REQUEST, "params: expected an object (the link's query)");
+        };
+        let given = ID_PARAMS.iter().find_map(|k| map.get(*k).and_then(Value::as_str).map(|v| (*k, v)));
+        if let Some((key, id)) = given {
+            if !valid_id(id) {
+                let shown: String = id.chars().take(80).collect();
+                return error(
+                    StatusCode::BAD_REQUEST,
+                    format!("{key}: '{shown}' is not a participant id (1 to 64 letters, digits, '-' or '_')"),
+                );
+            }
+        }
+        let mut all = lock(&self.inner.participants);
+        let id = match given {
+            Some((_, id)) => id.to_string(),
+            None => loop {
+                let id = generated_id();
+                if !all.contains_key(&id) {
+                    break id;
+                }
+            },
+        };
+        if let Some(slot) = all.get(&id).cloned() {
+            drop(all);
+            let mut slot = lock(&slot);
+            return match append(&mut slot, &[Record::Resumed { params }]) {
+                Ok(()) => Answer::Json(StatusCode::OK, slot.state.state(self.study())),
+                Err(e) => write_failed(&e),
+            };
+        }
+        let number = all.values().map(|s| lock(s).state.number + 1).max().unwrap_or(0);
+        let order = order_for(self.study(), number, &id);
+        let path = self.inner.dir.join("participants").join(format!("{id}.jsonl"));
+        let file = match std::fs::OpenOptions::new().create_new(true).append(true).open(&path) {
+            Ok(file) => file,
+            Err(e) => return write_failed(&e),
+        };
+        let names = order.iter().map(|c| self.study().conditions[*c].name.clone()).collect();
+        let mut slot = Slot { state: Participant::new(&id, number, order, now_ms()), file };
+        let created = Record::Created { participant: id.clone(), number, order: names, params };
+        if let Err(e) = append(&mut slot, &[created]) {
+            let _ = std::fs::remove_file(&path);
+            return write_failed(&e);
+        }
+        let state = slot.state.state(self.study());
+        all.insert(id, std::sync::Arc::new(std::sync::Mutex::new(slot)));
+        Answer::Json(StatusCode::CREATED, state)
+    }
+
+    /// `POST .../ID/answer`.
+    async fn answer(&self, id: &str, body: &Value) -> Answer {
+        if !valid_id(id) {
+            return bad_id(id);
+        }
+        let Some(slot) = self.slot(id) else {
+            return error(StatusCode::NOT_FOUND, format!("no participant '{id}'"));
+        };
+        let answers = body.get("answers").cloned().unwrap_or_else(|| json!({}));
+        // A trial's match is asked about before the participant is locked (it may wait).
+        let page = {
+            let slot = lock(&slot);
+            if let Err(answer) = check_step(self, &slot.state, body) {
+                return answer;
+            }
+            self.study().pages[slot.state.step].clone()
+        };
+        let running = match (&page, answers.get("match_id").and_then(Value::as_str)) {
+            (super::Page::Trial { .. }, Some(match_id)) => self.is_running(match_id).await,
+            _ => false,
+        };
+        let mut slot = lock(&slot);
+        if let Err(answer) = check_step(self, &slot.state, body) {
+            return answer;
+        }
+        let step = slot.state.step;
+        let records = match &page {
+            super::Page::Consent { .. } => match answers.get("consent") {
+                Some(Value::Bool(consent)) => {
+                    vec![Record::Answer {
+                        step,
+                        page: "consent".into(),
+                        questionnaire: None,
+                        answers: json!({"consent": consent}),
+                    }]
+                }
+                _ => return error(StatusCode::BAD_REQUEST, "consent: expected true or false"),
+            },
+            super::Page::Instructions { .. } => {
+                vec![Record::Answer {
+                    step,
+                    page: "instructions".into(),
+                    questionnaire: None,
+                    answers: json!({}),
+                }]
+            }
+            super::Page::Questionnaire { id: questionnaire, items, .. } => {
+                match super::answers::check(items, &answers) {
+                    Ok(checked) => vec![Record::Answer {
+                        step,
+                        page: "questionnaire".into(),
+                        questionnaire: Some(questionnaire.clone()),
+                        answers: checked,
+                    }],
+                    Err(why) => return error(StatusCode::BAD_REQUEST, why),
+                }
+            }
+            super::Page::Trial { .. } => {
+                let Some(match_id) = answers.get("match_id").and_then(Value::as_str) else {
+                    return error(
+                        StatusCode::BAD_REQUEST,
+                        "match_id: expected the match's id (welcome.match.id)",
+                    );
+                };
+                if running {
+                    return error(StatusCode::CONFLICT, "the trial's match is still running");
+                }
+                match self.ended_trial(&slot.state, match_id) {
+                    Ok(Ended { failed: None, result }) => {
+                        self.trial_end_records(&slot.state, step, match_id, result)
+                    }
+                    Ok(Ended { failed: Some(why), .. }) => {
+                        // The trial is given again.
+                        vec![self.incomplete(
+                            &slot.state,
+                            step,
+                            match_id,
+                            &format!("the match failed: {why}"),
+                        )]
+                    }
+                    Err(TrialRefusal::Unknown) => {
+                        return error(
+                            StatusCode::NOT_FOUND,
+                            format!("match_id: no match '{match_id}' has ended on this server"),
+                        );
+                    }
+                    Err(TrialRefusal::Bad(why)) => return error(StatusCode::BAD_REQUEST, why),
+                }
+            }
+            super::Page::Final { .. } => {
+                return Answer::Json(
+                    StatusCode::CONFLICT,
+                    json!({"error": "the final page takes no answer", "state": slot.state.state(self.study())}),
+                );
+            }
+        };
+        match append(&mut slot, &records) {
+            Ok(()) => Answer::Json(StatusCode::OK, slot.state.state(self.study())),
+            Err(e) => write_failed(&e),
+        }
+    }
+
+    /// Whether the live match of `match_id`'s name is that very match.
+    async fn is_running(&self, match_id: &str) -> bool {
+        let Some((name, _)) = match_id.rsplit_once('.') else { return false };
+        let summary = self.inner.arena.summary(name, true).await;
+        summary.is_some_and(|s| s["id"] == match_id && s["state"] != "finished")
+    }
+
+    /// `POST .../ID/trial`: the page's word that the trial's match started.
+    fn trial_started(&self, id: &str, body: &Value) -> Answer {
+        with_participant(self, id, |slot| {
+            if let Err(answer) = check_step(self, &slot.state, body) {
+                return answer;
+            }
+            let step = slot.state.step;
+            let Some((trial, c)) = slot.state.trial_at(self.study(), step) else {
+                return Answer::Json(
+                    StatusCode::CONFLICT,
+                    json!({"error": format!("step {step} is not a trial"), "state": slot.state.state(self.study())}),
+                );
+            };
+            let (Some(name), Some(match_id)) =
+                (body.get("match").and_then(Value::as_str), body.get("match_id").and_then(Value::as_str))
+            else {
+                return error(
+                    StatusCode::BAD_REQUEST,
+                    "match, match_id: expected the match's name and id (welcome.match)",
+                );
+            };
+            if match_id.rsplit_once('.').map(|(n, _)| n) != Some(name)
+                || crate::check_match_name(name).is_err()
+            {
+                return error(
+                    StatusCode::BAD_REQUEST,
+                    format!("match_id: '{match_id}' is not an id of match '{name}'"),
+                );
+            }
+            let condition = self.study().conditions[c].name.clone();
+            let record = Record::TrialStarted {
+                step,
+                trial,
+                condition,
+                r#match: name.to_string(),
+                match_id: match_id.to_string(),
+            };
+            match append(slot, &[record]) {
+                Ok(()) => Answer::Json(StatusCode::OK, slot.state.state(self.study())),
+                Err(e) => write_failed(&e),
+            }
+        })
+    }
+
+    /// `POST .../ID/events`: events the page saw, appended with the server's time.
+    fn events(&self, id: &str, body: &Value) -> Answer {
+        let Some(events) = body.get("events").and_then(Value::as_array) else {
+            return error(StatusCode::BAD_REQUEST, "events: expected a list of events");
+        };
+        if events.len() > MAX_EVENTS {
+            return error(StatusCode::BAD_REQUEST, format!("events: at most {MAX_EVENTS} in one request"));
+        }
+        for (i, event) in events.iter().enumerate() {
+            let kind = event.get("kind").and_then(Value::as_str);
+            match kind {
+                _ if !event.is_object() => {
+                    return error(StatusCode::BAD_REQUEST, format!("events[{i}]: expected an object"));
+                }
+                Some(kind) if EVENT_KINDS.contains(&kind) => {}
+                Some(kind) => {
+                    return error(
+                        StatusCode::BAD_REQUEST,
+                        format!("events[{i}]: kind '{kind}' is not one of {}", EVENT_KINDS.join(", ")),
+                    );
+                }
+                None => return error(StatusCode::BAD_REQUEST, format!("events[{i}]: kind: expected a word")),
+            }
+        }
+        with_participant(self, id, |slot| {
+            let records: Vec<Record> = events.iter().map(|e| Record::Event { event: e.clone() }).collect();
+            match append(slot, &records) {
+                Ok(()) => Answer::Json(StatusCode::OK, json!({"recorded": records.len()})),
+                Err(e) => write_failed(&e),
+            }
+        })
+    }
+
+    /// `GET /api/study/participants` (operator): everyone, by id.
+    async fn list(&self) -> Value {
+        let slots: Vec<_> = lock(&self.inner.participants).values().cloned().collect();
+        let mut out = Vec::with_capacity(slots.len());
+        for slot in slots {
+            let mut row = {
+                let slot = lock(&slot);
+                let p = &slot.state;
+                let study = self.study();
+                let page = study.pages.get(p.step);
+                let mut row = json!({
+                    "participant": p.id,
+                    "number": p.number,
+                    "step": p.step,
+                    "steps": study.pages.len(),
+                    "page_kind": if p.declined { "declined" } else { page.map_or("", |p| p.kind()) },
+                    "completed": p.completed(study),
+                    "started_ms": p.started_ms,
+                    "last_ms": p.last_ms,
+                });
+                if let Some((_, c)) = p.trial_at(study, p.step) {
+                    row["condition"] = study.conditions[c].name.clone().into();
+                }
+                if let Some((name, id)) = &p.playing {
+                    row["match"] = name.clone().into();
+                    row["match_id"] = id.clone().into();
+                }
+                row
+            };
+            // A match that has ended is no longer live.
+            if let (Some(name), Some(id)) = (row["match"].as_str(), row["match_id"].as_str()) {
+                let live = self.inner.arena.summary(name, true).await;
+                if !live.is_some_and(|s| s["id"] == id && s["state"] != "finished") {
+                    row.as_object_mut().map(|r| r.remove("match"));
+                }
+            }
+            out.push(row);
+        }
+        json!({ "participants": out })
+    }
+}
+
+/// A participant id for a link that carries none: `anon-` and 12 hex digits.
+fn generated_id() -> String {
+    use std::hash::{BuildHasher, Hasher};
+    let mut h = std::collections::hash_map::RandomState::new().build_hasher();
+    h.write_u64(now_ms());
+    format!("anon-{:012x}", h.finish() & 0xffff_ffff_ffff)
+}

@@ -1,0 +1,634 @@
+//! The study file (TOML): the study, its conditions (each an arena template of matches
+//! made on demand) and its pages in order, read and checked. Every problem names the
+//! file, the condition or page (1-based, as a person counts them) and the key.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use bw4t_agents::Strategy;
+use bw4t_map::Map;
+use bw4t_protocol::{MessagePolicy, Mode};
+use serde::Deserialize;
+
+use super::markdown::to_html;
+use crate::{OnEnd, SeatPlan, ServerConfig, Template};
+
+/// The file, as written.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct StudyFile {
+    study: StudySection,
+    #[serde(default, rename = "condition")]
+    conditions: Vec<ConditionFile>,
+    #[serde(default, rename = "page")]
+    pages: Vec<PageFile>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct StudySection {
+    name: String,
+    title: Option<String>,
+    seed: Option<u64>,
+    order: Option<String>,
+    mode: Option<String>,
+    tick_hz: Option<u32>,
+    time_limit_s: Option<u64>,
+    max_running: Option<usize>,
+    partner_timeout_s: Option<u64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ConditionFile {
+    name: String,
+    title: Option<String>,
+    map: Option<String>,
+    humans: Option<usize>,
+    teammates: Option<usize>,
+    strategy: Option<String>,
+    time_limit_s: Option<u64>,
+    tick_hz: Option<u32>,
+    mode: Option<String>,
+    kinds: Option<Vec<String>>,
+    free_text: Option<bool>,
+    view: Option<String>,
+    briefing: Option<String>,
+    briefing_file: Option<PathBuf>,
+    partner_timeout_s: Option<u64>,
+    seed: Option<u64>,
+    max_running: Option<usize>,
+}
+
+/// One `[[page]]`; `kind` says which keys it takes.
+#[derive(Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+enum PageFile {
+    Consent {
+        title: Option<String>,
+        text: Option<String>,
+        file: Option<PathBuf>,
+        agree: Option<String>,
+        decline: Option<String>,
+        declined_title: Option<String>,
+        declined_text: Option<String>,
+    },
+    Instructions {
+        title: Option<String>,
+        text: Option<String>,
+        file: Option<PathBuf>,
+    },
+    Trial {
+        title: Option<String>,
+        text: Option<String>,
+        file: Option<PathBuf>,
+    },
+    Questionnaire {
+        id: Option<String>,
+        title: Option<String>,
+        text: Option<String>,
+        file: Option<PathBuf>,
+        #[serde(default, rename = "item")]
+        items: Vec<ItemFile>,
+    },
+    Final {
+        title: Option<String>,
+        text: Option<String>,
+        file: Option<PathBuf>,
+        completion_code: Option<String>,
+        redirect: Option<String>,
+    },
+}
+
+#[derive(Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+enum ItemFile {
+    Likert {
+        id: String,
+        text: String,
+        scale: Option<u32>,
+        labels: Option<Vec<String>>,
+        required: Option<bool>,
+    },
+    Choice {
+        id: String,
+        text: String,
+        options: Vec<String>,
+        required: Option<bool>,
+    },
+    Text {
+        id: String,
+        text: String,
+        multiline: Option<bool>,
+        required: Option<bool>,
+    },
+}
+
+/// How participants' orders of the conditions are chosen.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Order {
+    /// Every participant plays the conditions in the file's order.
+    Fixed,
+    /// The n-th participant to arrive (from 0) plays the rotation of the conditions that
+    /// starts at condition n mod k: the rows of a Latin square, in turn.
+    Counterbalanced,
+    /// A shuffle seeded by the study's seed and the participant's id.
+    Random,
+}
+
+impl Order {
+    /// The order's word in the file.
+    pub fn name(self) -> &'static str {
+        match self {
+            Order::Fixed => "fixed",
+            Order::Counterbalanced => "counterbalanced",
+            Order::Random => "random",
+        }
+    }
+}
+
+/// A checked study.
+#[derive(Clone, Debug)]
+pub struct Study {
+    /// Its name (labels, data).
+    pub name: String,
+    /// What participants see as its title.
+    pub title: String,
+    /// The first match's seed of every condition.
+    pub seed: u64,
+    /// How orders of the conditions are chosen.
+    pub order: Order,
+    /// The conditions, in the file's order.
+    pub conditions: Vec<Condition>,
+    /// The pages, in order: a participant's steps.
+    pub pages: Vec<Page>,
+    /// The file's text, as it was read.
+    pub text: String,
+}
+
+/// One condition: the matches of its trials.
+#[derive(Clone, Debug)]
+pub struct Condition {
+    /// Its name, also its template's.
+    pub name: String,
+    /// What the trial page shows as its title.
+    pub title: Option<String>,
+    /// The map.
+    pub map: Map,
+    /// People per match (1 or 2).
+    pub humans: usize,
+    /// Built-in teammates per match.
+    pub teammates: usize,
+    /// The teammates' strategy.
+    pub strategy: Strategy,
+    /// Realtime or lockstep.
+    pub mode: Mode,
+    /// Ticks per second.
+    pub tick_hz: u32,
+    /// The trial's length in seconds.
+    pub time_limit_s: u64,
+    /// Which messages players may send.
+    pub language: MessagePolicy,
+    /// `own` (what the robot perceives) or `overview`.
+    pub view: String,
+    /// The briefing, as HTML.
+    pub briefing_html: Option<String>,
+    /// How long a person waits for a partner before a built-in agent takes the seat.
+    pub partner_timeout_s: u64,
+    /// Its first match's seed.
+    pub seed: u64,
+    /// At most this many of its matches at once.
+    pub max_running: usize,
+}
+
+/// A questionnaire item.
+#[derive(Clone, Debug)]
+pub struct Item {
+    /// Its id (a column of the answers).
+    pub id: String,
+    /// The question.
+    pub text: String,
+    /// Whether it must be answered.
+    pub required: bool,
+    /// What it asks for.
+    pub kind: ItemKind,
+}
+
+/// What an item asks for.
+#[derive(Clone, Debug)]
+pub enum ItemKind {
+    /// An integer 1..=scale, the ends labelled.
+    Likert {
+        /// Points on the scale.
+        scale: u32,
+        /// The left and right ends' labels.
+        labels: [String; 2],
+    },
+    /// One of the options.
+    Choice {
+        /// The options.
+        options: Vec<String>,
+    },
+    /// A text.
+    Text {
+        /// Several lines.
+        multiline: bool,
+    },
+}
+
+/// One page of the flow.
+#[derive(Clone, Debug)]
+pub enum Page {
+    /// Asks for consent; declining ends the study for the participant.
+    Consent {
+        /// Title.
+        title: String,
+        /// Text, as HTML.
+        html: String,
+        /// The agree button.
+        agree: String,
+        /// The decline button.
+        decline: String,
+        /// The title after declining.
+        declined_title: String,
+        /// The text after declining, as HTML.
+        declined_html: String,
+    },
+    /// Text to read.
+    Instructions {
+        /// Title.
+        title: String,
+        /// Text, as HTML.
+        html: String,
+    },
+    /// The next condition of the participant's order.
+    Trial {
+        /// Title (default: `Task K of N`).
+        title: Option<String>,
+        /// Text shown before the condition's briefing, as HTML.
+        html: Option<String>,
+    },
+    /// Questions.
+    Questionnaire {
+        /// Its id (the answers' `questionnaire`).
+        id: String,
+        /// Title.
+        title: String,
+        /// Text above the items, as HTML.
+        html: Option<String>,
+        /// The items.
+        items: Vec<Item>,
+    },
+    /// The end: a completion code and/or a redirect.
+    Final {
+        /// Title.
+        title: String,
+        /// Text, as HTML, with `{participant}` and `{code}` to fill.
+        html: String,
+        /// The completion code.
+        completion_code: Option<String>,
+        /// Where to send the participant, with `{participant}` and `{code}` to fill.
+        redirect: Option<String>,
+    },
+}
+
+impl Page {
+    /// The page's kind word.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Page::Consent { .. } => "consent",
+            Page::Instructions { .. } => "instructions",
+            Page::Trial { .. } => "trial",
+            Page::Questionnaire { .. } => "questionnaire",
+            Page::Final { .. } => "final",
+        }
+    }
+}
+
+/// Finds a map by a shipped map's name or a path (already made relative to the study file).
+pub type MapLoader<'a> = &'a dyn Fn(&str) -> Result<Map, String>;
+
+/// Reads and checks the study file at `path`; `maps` loads a map (a path in the file is
+/// relative to the file).
+pub fn load(path: &Path, maps: MapLoader<'_>) -> Result<Study, String> {
+    let shown = path.display();
+    let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read {shown}: {e}"))?;
+    parse(&text, path, maps).map_err(|e| format!("{shown}: {e}"))
+}
+
+/// Checks a study file's `text`; `path` is where it was read (files it names are relative
+/// to it).
+pub fn parse(text: &str, path: &Path, maps: MapLoader<'_>) -> Result<Study, String> {
+    let file: StudyFile = toml::from_str(text).map_err(|e| format!("not a study file: {e}"))?;
+    let base = path.parent().unwrap_or(Path::new("."));
+    let s = file.study;
+    check_word("study: name", &s.name)?;
+    let order = match s.order.as_deref() {
+        None | Some("counterbalanced") => Order::Counterbalanced,
+        Some("fixed") => Order::Fixed,
+        Some("random") => Order::Random,
+        Some(other) => {
+            return Err(format!(
+                "study: order = '{other}': expected \"fixed\", \"counterbalanced\" or \"random\""
+            ));
+        }
+    };
+    let defaults = Defaults {
+        seed: s.seed.unwrap_or(1),
+        mode: parse_mode(s.mode.as_deref()).map_err(|e| format!("study: {e}"))?,
+        tick_hz: s.tick_hz.unwrap_or(10),
+        time_limit_s: s.time_limit_s.unwrap_or(600),
+        max_running: s.max_running.unwrap_or(50),
+        partner_timeout_s: s.partner_timeout_s.unwrap_or(120),
+    };
+    if file.conditions.is_empty() {
+        return Err("no [[condition]]: a study needs at least one".into());
+    }
+    let mut conditions: Vec<Condition> = Vec::new();
+    for (i, c) in file.conditions.into_iter().enumerate() {
+        let at = format!("condition {} '{}'", i + 1, c.name);
+        let condition = condition(c, base, &defaults, maps).map_err(|e| format!("{at}: {e}"))?;
+        if conditions.iter().any(|other| other.name == condition.name) {
+            return Err(format!("{at}: two conditions are named '{}'", condition.name));
+        }
+        conditions.push(condition);
+    }
+    let mut pages = Vec::new();
+    let count = file.pages.len();
+    for (i, p) in file.pages.into_iter().enumerate() {
+        let page = page(p, base, i).map_err(|e| format!("page {}: {e}", i + 1))?;
+        let at = format!("page {} ({})", i + 1, page.kind());
+        match &page {
+            Page::Consent { .. } if i != 0 => return Err(format!("{at}: consent must be the first page")),
+            Page::Final { .. } if i + 1 != count => return Err(format!("{at}: final must be the last page")),
+            _ => {}
+        }
+        pages.push(page);
+    }
+    if !matches!(pages.last(), Some(Page::Final { .. })) {
+        return Err("the last [[page]] must be kind = \"final\" (the completion code or redirect)".into());
+    }
+    let trials = pages.iter().filter(|p| matches!(p, Page::Trial { .. })).count();
+    if trials == 0 || trials % conditions.len() != 0 {
+        return Err(format!(
+            "{} and {}: give one trial page per condition (or two, three, ... each: the order \
+             then repeats)",
+            plural(trials, "trial page"),
+            plural(conditions.len(), "condition")
+        ));
+    }
+    Ok(Study {
+        name: s.name,
+        title: s.title.unwrap_or_else(|| "Study".into()),
+        seed: defaults.seed,
+        order,
+        conditions,
+        pages,
+        text: text.to_string(),
+    })
+}
+
+struct Defaults {
+    seed: u64,
+    mode: Mode,
+    tick_hz: u32,
+    time_limit_s: u64,
+    max_running: usize,
+    partner_timeout_s: u64,
+}
+
+fn plural(n: usize, what: &str) -> String {
+    if n == 1 { format!("1 {what}") } else { format!("{n} {what}s") }
+}
+
+fn parse_mode(mode: Option<&str>) -> Result<Mode, String> {
+    match mode {
+        None | Some("realtime") => Ok(Mode::Realtime),
+        Some("lockstep") => Ok(Mode::Lockstep),
+        Some(other) => Err(format!("mode = '{other}': expected \"realtime\" or \"lockstep\"")),
+    }
+}
+
+/// Names that go into URLs, file names and CSV cells unchanged.
+fn check_word(what: &str, word: &str) -> Result<(), String> {
+    let ok = !word.is_empty()
+        && word.len() <= 64
+        && word.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_');
+    if ok { Ok(()) } else { Err(format!("{what} = '{word}': use 1 to 64 letters, digits, '-' or '_'")) }
+}
+
+fn condition(c: ConditionFile, base: &Path, d: &Defaults, maps: MapLoader<'_>) -> Result<Condition, String> {
+    check_word("name", &c.name)?;
+    let spec = c.map.unwrap_or_else(|| "default".into());
+    // A path is relative to the study file; a shipped name stays a name.
+    let path = base.join(&spec);
+    let resolved = if path.exists() { path.to_string_lossy().into_owned() } else { spec.clone() };
+    let map = maps(&resolved).map_err(|e| format!("map = '{spec}': {e}"))?;
+    let humans = c.humans.unwrap_or(1);
+    if !(1..=2).contains(&humans) {
+        return Err(format!("humans = {humans}: expected 1 or 2"));
+    }
+    let teammates = c.teammates.unwrap_or(2);
+    if humans + teammates > map.spawns().len() {
+        return Err(format!(
+            "humans + teammates = {} but map '{}' has {} spawn points",
+            humans + teammates,
+            map.name(),
+            map.spawns().len()
+        ));
+    }
+    let strategy = match c.strategy.as_deref() {
+        None => Strategy::Cooperative,
+        Some(name) => Strategy::named(name).ok_or_else(|| {
+            let known: Vec<&str> = Strategy::ALL.iter().map(|s| s.name()).collect();
+            format!("strategy = '{name}': expected one of {}", known.join(", "))
+        })?,
+    };
+    let tick_hz = c.tick_hz.unwrap_or(d.tick_hz);
+    let game = bw4t_sim::MatchConfig { ticks_per_second: tick_hz, ..bw4t_sim::MatchConfig::default() };
+    game.validate().map_err(|e| format!("tick_hz = {tick_hz}: {e}"))?;
+    let time_limit_s = c.time_limit_s.unwrap_or(d.time_limit_s);
+    if time_limit_s == 0 {
+        return Err("time_limit_s = 0: a trial needs a time limit".into());
+    }
+    let language = MessagePolicy { kinds: c.kinds, free_text: c.free_text.unwrap_or(true) };
+    language.check().map_err(|e| format!("kinds: {e}"))?;
+    let view = c.view.unwrap_or_else(|| "own".into());
+    if view != "own" && view != "overview" {
+        return Err(format!("view = '{view}': expected \"own\" or \"overview\""));
+    }
+    let briefing = markdown(c.briefing, c.briefing_file, base, "briefing")?;
+    let max_running = c.max_running.unwrap_or(d.max_running);
+    if max_running == 0 {
+        return Err("max_running = 0: at least one match must be able to run".into());
+    }
+    Ok(Condition {
+        name: c.name,
+        title: c.title,
+        map,
+        humans,
+        teammates,
+        strategy,
+        mode: parse_mode(c.mode.as_deref()).map(|m| if c.mode.is_some() { m } else { d.mode })?,
+        tick_hz,
+        time_limit_s,
+        language,
+        view,
+        briefing_html: briefing,
+        partner_timeout_s: c.partner_timeout_s.unwrap_or(d.partner_timeout_s),
+        seed: c.seed.unwrap_or(d.seed),
+        max_running,
+    })
+}
+
+/// Markdown given inline (`key`) or in a file (`key_file`/`file`), as HTML.
+fn markdown(
+    inline: Option<String>,
+    file: Option<PathBuf>,
+    base: &Path,
+    key: &str,
+) -> Result<Option<String>, String> {
+    match (inline, file) {
+        (Some(_), Some(_)) => Err(format!("give {key} text or a file, not both")),
+        (Some(text), None) => Ok(Some(to_html(&text))),
+        (None, Some(file)) => {
+            let path = base.join(&file);
+            let text = std::fs::read_to_string(&path)
+                .map_err(|e| format!("file = '{}': cannot read {}: {e}", file.display(), path.display()))?;
+            Ok(Some(to_html(&text)))
+        }
+        (None, None) => Ok(None),
+    }
+}
+
+fn page(p: PageFile, base: &Path, index: usize) -> Result<Page, String> {
+    let text =
+        |text, file, kind: &str| markdown(text, file, base, kind).map_err(|e| format!("({kind}): {e}"));
+    Ok(match p {
+        PageFile::Consent { title, text: t, file, agree, decline, declined_title, declined_text } => {
+            Page::Consent {
+                title: title.unwrap_or_else(|| "Consent".into()),
+                html: text(t, file, "consent")?.ok_or("(consent): give the consent form as text or file")?,
+                agree: agree.unwrap_or_else(|| "I agree".into()),
+                decline: decline.unwrap_or_else(|| "I do not agree".into()),
+                declined_title: declined_title.unwrap_or_else(|| "Thank you".into()),
+                declined_html: to_html(
+                    declined_text
+                        .as_deref()
+                        .unwrap_or("You did not consent, so the study ends here. You may close this page."),
+                ),
+            }
+        }
+        PageFile::Instructions { title, text: t, file } => Page::Instructions {
+            title: title.unwrap_or_else(|| "Instructions".into()),
+            html: text(t, file, "instructions")?.ok_or("(instructions): give the text as text or file")?,
+        },
+        PageFile::Trial { title, text: t, file } => Page::Trial { title, html: text(t, file, "trial")? },
+        PageFile::Questionnaire { id, title, text: t, file, items } => {
+            let id = id.unwrap_or_else(|| format!("page{}", index + 1));
+            check_word("(questionnaire): id", &id)?;
+            if items.is_empty() {
+                return Err(format!("(questionnaire '{id}'): no [[page.item]]"));
+            }
+            let mut checked: Vec<Item> = Vec::new();
+            for item in items {
+                let item = self::item(item).map_err(|e| format!("(questionnaire '{id}'): {e}"))?;
+                if checked.iter().any(|other| other.id == item.id) {
+                    return Err(format!("(questionnaire '{id}'): two items are named '{}'", item.id));
+                }
+                checked.push(item);
+            }
+            Page::Questionnaire {
+                title: title.unwrap_or_else(|| "Questions".into()),
+                html: text(t, file, "questionnaire")?,
+                id,
+                items: checked,
+            }
+        }
+        PageFile::Final { title, text: t, file, completion_code, redirect } => {
+            if let Some(url) = &redirect {
+                if !(url.starts_with("https://") || url.starts_with("http://")) {
+                    return Err(format!("(final): redirect = '{url}': expected an http(s) URL"));
+                }
+            }
+            Page::Final {
+                title: title.unwrap_or_else(|| "Thank you".into()),
+                html: text(t, file, "final")?.unwrap_or_else(|| to_html("Thank you for taking part.")),
+                completion_code,
+                redirect,
+            }
+        }
+    })
+}
+
+fn item(item: ItemFile) -> Result<Item, String> {
+    let (id, text, required, kind) = match item {
+        ItemFile::Likert { id, text, scale, labels, required } => {
+            let scale = scale.unwrap_or(7);
+            if !(2..=11).contains(&scale) {
+                return Err(format!("item '{id}': scale = {scale}: expected 2 to 11 points"));
+            }
+            let labels = match labels {
+                None => [String::new(), String::new()],
+                Some(labels) => <[String; 2]>::try_from(labels)
+                    .map_err(|l| format!("item '{id}': labels: give 2 (left and right), not {}", l.len()))?,
+            };
+            (id, text, required, ItemKind::Likert { scale, labels })
+        }
+        ItemFile::Choice { id, text, options, required } => {
+            if options.len() < 2 {
+                return Err(format!("item '{id}': options: give at least 2"));
+            }
+            (id, text, required, ItemKind::Choice { options })
+        }
+        ItemFile::Text { id, text, multiline, required } => {
+            (id, text, required, ItemKind::Text { multiline: multiline.unwrap_or(false) })
+        }
+    };
+    check_word("item id", &id)?;
+    Ok(Item { id, text, required: required.unwrap_or(true), kind })
+}
+
+impl Study {
+    /// The arena's templates: one per condition, named as it, its matches made as
+    /// participants ask (`hello.template`), labelled with the study and the condition,
+    /// replays kept.
+    pub fn templates(&self) -> Vec<Template> {
+        self.conditions.iter().map(|c| self.template(c)).collect()
+    }
+
+    fn template(&self, c: &Condition) -> Template {
+        let mut config = ServerConfig::new(c.map.clone());
+        config.name = c.name.clone();
+        config.seed = c.seed;
+        config.game.ticks_per_second = c.tick_hz;
+        config.mode = c.mode;
+        config.robots = c.humans + c.teammates;
+        config.max_ticks = Some(c.time_limit_s * u64::from(c.tick_hz));
+        config.language = c.language.clone();
+        config.labels =
+            BTreeMap::from([("study".into(), self.name.clone()), ("condition".into(), c.name.clone())]);
+        if c.humans > 1 {
+            // A person whose partner does not come plays with a built-in agent instead.
+            config.start_timeout = Some(Duration::from_secs(c.partner_timeout_s));
+            config.fill = Some(c.strategy);
+        }
+        let seats = (1..=c.teammates).map(|i| SeatPlan::builtin(format!("Bot{i}"), c.strategy)).collect();
+        Template {
+            name: c.name.clone(),
+            maps: vec![c.map.clone()],
+            config,
+            seats,
+            names: Vec::new(),
+            max_running: c.max_running,
+            on_end: OnEnd::Stay,
+            replays: true,
+        }
+    }
+
+    /// How many trial pages there are.
+    pub fn trials(&self) -> usize {
+        self.pages.iter().filter(|p| matches!(p, Page::Trial { .. })).count()
+    }
+}

@@ -1,0 +1,409 @@
+//! `bw4t study export`: a study's data directory as tidy CSV (one row per event, per trial
+//! and per answer, one per participant), `metadata.json`, and each trial's replay with
+//! the participant, condition and trial in its header's labels. Rows are ordered by
+//! participant id, then by their log's `seq`, so two exports of the same data are equal.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use serde_json::{Value, json};
+
+use super::flow::{Participant, Record};
+
+/// What an export wrote.
+#[derive(Clone, Debug, Default)]
+pub struct ExportSummary {
+    /// Where it went.
+    pub out: PathBuf,
+    /// Participants exported.
+    pub participants: usize,
+    /// Trials (attempts) exported, complete or not.
+    pub trials: usize,
+    /// Of those, the trials without an end.
+    pub incomplete: usize,
+    /// Answers exported (one per item).
+    pub answers: usize,
+    /// Events exported.
+    pub events: usize,
+    /// Replays copied.
+    pub replays: usize,
+}
+
+/// A log line read back.
+struct Line {
+    seq: u64,
+    server_ms: u64,
+    record: Record,
+}
+
+/// One trial attempt.
+#[derive(Default)]
+struct Trial {
+    step: usize,
+    trial: usize,
+    condition: String,
+    r#match: String,
+    match_id: String,
+    started_ms: Option<u64>,
+    ended_ms: Option<u64>,
+    result: Option<Value>,
+    incomplete: Option<String>,
+}
+
+const EVENT_COLUMNS: &[&str] =
+    &["participant", "seq", "server_ms", "wall_ms", "step", "tick", "kind", "data"];
+const TRIAL_COLUMNS: &[&str] = &[
+    "participant",
+    "step",
+    "trial",
+    "condition",
+    "match",
+    "match_id",
+    "started_ms",
+    "ended_ms",
+    "complete",
+    "incomplete_reason",
+    "end_reason",
+    "completed",
+    "ticks",
+    "completed_tick",
+    "wall_ms",
+    "sequence_index",
+    "sequence_length",
+    "good_drops",
+    "wrong_drops",
+    "messages",
+    "seed",
+    "map",
+    "players",
+    "replay",
+];
+const ANSWER_COLUMNS: &[&str] =
+    &["participant", "step", "page", "questionnaire", "after_condition", "item", "value", "server_ms"];
+const PARTICIPANT_COLUMNS: &[&str] = &[
+    "participant",
+    "number",
+    "order",
+    "created_ms",
+    "last_ms",
+    "step",
+    "declined",
+    "completed",
+    "trials_complete",
+    "trials_incomplete",
+    "params",
+];
+
+/// Exports the study data in `dir` into `out` (made if missing).
+pub fn export(dir: &Path, out: &Path) -> Result<ExportSummary, String> {
+    let study_text = std::fs::read_to_string(dir.join("study.toml"))
+        .map_err(|e| format!("{}: not a study's data directory: {e}", dir.display()))?;
+    let study: toml::Table =
+        toml::from_str(&study_text).map_err(|e| format!("{}/study.toml: {e}", dir.display()))?;
+    let pages = study.get("page").and_then(toml::Value::as_array).map_or(0, Vec::len);
+    let conditions: Vec<String> = study
+        .get("condition")
+        .and_then(toml::Value::as_array)
+        .into_iter()
+        .flatten()
+        .filter_map(|c| c.get("name").and_then(toml::Value::as_str).map(str::to_string))
+        .collect();
+    let study_name =
+        study.get("study").and_then(|s| s.get("name")).and_then(toml::Value::as_str).unwrap_or("");
+    let logs = read_logs(&dir.join("participants"))?;
+    std::fs::create_dir_all(out.join("replays"))
+        .map_err(|e| format!("cannot write {}: {e}", out.display()))?;
+
+    let mut summary =
+        ExportSummary { out: out.to_path_buf(), participants: logs.len(), ..Default::default() };
+    let (mut events, mut trials_csv, mut answers, mut people) =
+        (header(EVENT_COLUMNS), header(TRIAL_COLUMNS), header(ANSWER_COLUMNS), header(PARTICIPANT_COLUMNS));
+    let mut incomplete = Vec::new();
+    for (id, lines) in &logs {
+        let mut state: Option<Participant> = None;
+        let mut created = (0u64, Vec::new(), Value::Null);
+        let mut trials: Vec<Trial> = Vec::new();
+        // The condition of the latest trial, for the answers after it.
+        let mut last_condition = String::new();
+        for line in lines {
+            match &line.record {
+                Record::Created { number, order, params, .. } => {
+                    created = (*number, order.clone(), params.clone());
+                    state = Some(Participant::new(id, *number, Vec::new(), line.server_ms));
+                }
+                Record::Event { event } => {
+                    summary.events += 1;
+                    let mut data = event.as_object().cloned().unwrap_or_default();
+                    let mut take = |key: &str| cell(&data.remove(key).unwrap_or(Value::Null));
+                    let (wall, step, tick, kind) =
+                        (take("wall_ms"), take("step"), take("tick"), take("kind"));
+                    row(
+                        &mut events,
+                        &[
+                            id.clone(),
+                            line.seq.to_string(),
+                            line.server_ms.to_string(),
+                            wall,
+                            step,
+                            tick,
+                            kind,
+                            Value::Object(data).to_string(),
+                        ],
+                    );
+                }
+                Record::TrialStarted { step, trial, condition, r#match, match_id } => {
+                    last_condition.clone_from(condition);
+                    trials.push(Trial {
+                        step: *step,
+                        trial: *trial,
+                        condition: condition.clone(),
+                        r#match: r#match.clone(),
+                        match_id: match_id.clone(),
+                        started_ms: Some(line.server_ms),
+                        ..Trial::default()
+                    });
+                }
+                Record::TrialEnded { step, trial, condition, match_id, result } => {
+                    last_condition.clone_from(condition);
+                    let t = attempt(&mut trials, *step, *trial, condition, match_id);
+                    t.ended_ms = Some(line.server_ms);
+                    t.result = Some(result.clone());
+                }
+                Record::TrialIncomplete { step, trial, condition, match_id, reason } => {
+                    attempt(&mut trials, *step, *trial, condition, match_id).incomplete =
+                        Some(reason.clone());
+                }
+                Record::Answer { step, page, questionnaire, answers: given } if page != "trial" => {
+                    if let Some(fields) = given.as_object() {
+                        for (item, value) in fields {
+                            summary.answers += 1;
+                            row(
+                                &mut answers,
+                                &[
+                                    id.clone(),
+                                    step.to_string(),
+                                    page.clone(),
+                                    questionnaire.clone().unwrap_or_default(),
+                                    last_condition.clone(),
+                                    item.clone(),
+                                    cell(value),
+                                    line.server_ms.to_string(),
+                                ],
+                            );
+                        }
+                    }
+                }
+                Record::Answer { .. } | Record::Resumed { .. } => {}
+            }
+            if let Some(state) = state.as_mut() {
+                state.apply(&line.record, line.server_ms);
+            }
+        }
+        let Some(state) = state else { continue };
+        let mut complete = 0;
+        for t in &mut trials {
+            if t.result.is_none() && t.incomplete.is_none() {
+                t.incomplete = Some("no end recorded (the server was killed or the participant left)".into());
+            }
+            let replay = match t.result.is_some() || t.incomplete.is_some() {
+                true => copy_replay(dir, out, id, t)?,
+                false => None,
+            };
+            if replay.is_some() {
+                summary.replays += 1;
+            }
+            let r = t.result.clone().unwrap_or(Value::Null);
+            let done = t.result.is_some();
+            complete += usize::from(done);
+            if let Some(reason) = t.incomplete.as_ref().filter(|_| !done) {
+                incomplete.push(json!({
+                    "participant": id, "step": t.step, "trial": t.trial, "condition": t.condition,
+                    "match_id": t.match_id, "reason": reason,
+                }));
+            }
+            let field = |key: &str| cell(r.get(key).unwrap_or(&Value::Null));
+            row(
+                &mut trials_csv,
+                &[
+                    id.clone(),
+                    t.step.to_string(),
+                    t.trial.to_string(),
+                    t.condition.clone(),
+                    t.r#match.clone(),
+                    t.match_id.clone(),
+                    t.started_ms.map(|m| m.to_string()).unwrap_or_default(),
+                    t.ended_ms.map(|m| m.to_string()).unwrap_or_default(),
+                    done.to_string(),
+                    if done { String::new() } else { t.incomplete.clone().unwrap_or_default() },
+                    field("end_reason"),
+                    field("completed"),
+                    field("ticks"),
+                    field("completed_tick"),
+                    field("wall_ms"),
+                    field("sequence_index"),
+                    field("sequence_length"),
+                    field("good_drops"),
+                    field("wrong_drops"),
+                    field("messages"),
+                    field("seed"),
+                    field("map"),
+                    r.get("players").and_then(Value::as_array).map_or(String::new(), |p| {
+                        p.iter().filter_map(Value::as_str).collect::<Vec<_>>().join(";")
+                    }),
+                    replay.unwrap_or_default(),
+                ],
+            );
+        }
+        summary.trials += trials.len();
+        summary.incomplete += trials.len() - complete;
+        let finished = pages > 0 && state.step + 1 == pages && !state.declined;
+        row(
+            &mut people,
+            &[
+                id.clone(),
+                created.0.to_string(),
+                created.1.join(";"),
+                state.started_ms.to_string(),
+                state.last_ms.to_string(),
+                state.step.to_string(),
+                state.declined.to_string(),
+                finished.to_string(),
+                complete.to_string(),
+                (trials.len() - complete).to_string(),
+                created.2.to_string(),
+            ],
+        );
+    }
+    let write = |name: &str, text: &str| {
+        std::fs::write(out.join(name), text)
+            .map_err(|e| format!("cannot write {}: {e}", out.join(name).display()))
+    };
+    write("events.csv", &events)?;
+    write("trials.csv", &trials_csv)?;
+    write("answers.csv", &answers)?;
+    write("participants.csv", &people)?;
+    let metadata = json!({
+        "study": study_name,
+        "bw4t": crate::program(),
+        "conditions": conditions,
+        "pages": pages,
+        "participants": summary.participants,
+        "trials": summary.trials,
+        "incomplete_trials": incomplete,
+        "files": {
+            "events.csv": EVENT_COLUMNS,
+            "trials.csv": TRIAL_COLUMNS,
+            "answers.csv": ANSWER_COLUMNS,
+            "participants.csv": PARTICIPANT_COLUMNS,
+        },
+        "study_file": study_text,
+    });
+    let text = serde_json::to_string_pretty(&metadata).unwrap_or_default() + "\n";
+    write("metadata.json", &text)?;
+    Ok(summary)
+}
+
+/// The attempt of `match_id` at `step`, made if the page never said it started.
+fn attempt<'a>(
+    trials: &'a mut Vec<Trial>,
+    step: usize,
+    trial: usize,
+    condition: &str,
+    match_id: &str,
+) -> &'a mut Trial {
+    let at = trials.iter().rposition(|t| t.step == step && t.match_id == match_id);
+    let at = at.unwrap_or_else(|| {
+        let r#match = match_id.rsplit_once('.').map_or(match_id, |(n, _)| n).to_string();
+        trials.push(Trial {
+            step,
+            trial,
+            condition: condition.into(),
+            r#match,
+            match_id: match_id.into(),
+            ..Trial::default()
+        });
+        trials.len() - 1
+    });
+    &mut trials[at]
+}
+
+/// Every participant's log lines, by id, in `seq` order; lines that are not records (a
+/// line torn by a kill) are left out.
+fn read_logs(dir: &Path) -> Result<BTreeMap<String, Vec<Line>>, String> {
+    let mut out = BTreeMap::new();
+    let entries = std::fs::read_dir(dir).map_err(|e| format!("cannot read {}: {e}", dir.display()))?;
+    for entry in entries.filter_map(Result::ok) {
+        let path = entry.path();
+        let Some(id) = path
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .filter(|_| path.extension().is_some_and(|x| x == "jsonl"))
+        else {
+            continue;
+        };
+        let text =
+            std::fs::read_to_string(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+        let mut lines: Vec<Line> = text
+            .lines()
+            .filter_map(|l| {
+                let v: Value = serde_json::from_str(l).ok()?;
+                let seq = v.get("seq")?.as_u64()?;
+                let server_ms = v.get("server_ms")?.as_u64()?;
+                Some(Line { seq, server_ms, record: serde_json::from_value(v).ok()? })
+            })
+            .collect();
+        lines.sort_by_key(|l| l.seq);
+        out.insert(id.to_string(), lines);
+    }
+    Ok(out)
+}
+
+/// Copies a trial's replay with the participant, condition and trial added to its
+/// header's labels; returns its path relative to `out`.
+fn copy_replay(dir: &Path, out: &Path, participant: &str, t: &Trial) -> Result<Option<String>, String> {
+    let from = dir.join("matches").join("replays").join(format!("{}.jsonl", t.match_id));
+    let Ok(text) = std::fs::read_to_string(&from) else { return Ok(None) };
+    let (first, rest) = text.split_once('\n').unwrap_or((&text, ""));
+    let header = match serde_json::from_str::<bw4t_protocol::ReplayLine>(first) {
+        Ok(bw4t_protocol::ReplayLine::Header(mut header)) => {
+            header.labels.insert("participant".into(), participant.into());
+            header.labels.insert("condition".into(), t.condition.clone());
+            header.labels.insert("trial".into(), t.trial.to_string());
+            serde_json::to_string(&bw4t_protocol::ReplayLine::Header(header))
+                .unwrap_or_else(|_| first.to_string())
+        }
+        _ => first.to_string(),
+    };
+    let name = format!("replays/{participant}-trial{}-{}.jsonl", t.trial, t.match_id);
+    std::fs::write(out.join(&name), format!("{header}\n{rest}"))
+        .map_err(|e| format!("cannot write {}: {e}", out.join(&name).display()))?;
+    Ok(Some(name))
+}
+
+fn header(columns: &[&str]) -> String {
+    columns.join(",") + "\n"
+}
+
+fn row(csv: &mut String, cells: &[String]) {
+    for (i, c) in cells.iter().enumerate() {
+        if i > 0 {
+            csv.push(',');
+        }
+        if c.contains([',', '"', '\n', '\r']) {
+            let _ = write!(csv, "\"{}\"", c.replace('"', "\"\""));
+        } else {
+            csv.push_str(c);
+        }
+    }
+    csv.push('\n');
+}
+
+/// A JSON value as a CSV cell: strings bare, `null` empty, the rest as JSON.
+fn cell(value: &Value) -> String {
+    match value {
+        Value::Null => String::new(),
+        Value::String(s) => s.clone(),
+        other => other.to_string(),
+    }
+}

@@ -1,0 +1,232 @@
+//! One participant's way through the study: the records of their log, the state those
+//! records make (replayed in order, so a restarted server continues where they were),
+//! their order of the conditions, and the page each step shows.
+
+use serde::{Deserialize, Serialize};
+use serde_json::{Value, json};
+
+use super::config::{Order, Page, Study};
+
+/// One line of a participant's log (besides `seq` and `server_ms`, which every line has).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub(crate) enum Record {
+    /// The participant arrived: their number in arrival order (from 0), their order of
+    /// the conditions and the link's parameters.
+    Created { participant: String, number: u64, order: Vec<String>, params: Value },
+    /// They came back with the link (a reload or a new browser).
+    Resumed { params: Value },
+    /// A step answered: the step's page kind (and questionnaire id) and the answers.
+    Answer {
+        step: usize,
+        page: String,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        questionnaire: Option<String>,
+        answers: Value,
+    },
+    /// A trial's match started (the page's word, right after `welcome`).
+    TrialStarted { step: usize, trial: usize, condition: String, r#match: String, match_id: String },
+    /// A trial's match ended: its result (as recorded when the trial was answered).
+    TrialEnded { step: usize, trial: usize, condition: String, match_id: String, result: Value },
+    /// A trial's match was lost (the server stopped under it); the trial is given again.
+    TrialIncomplete { step: usize, trial: usize, condition: String, match_id: String, reason: String },
+    /// Events the page sent.
+    Event { event: Value },
+}
+
+/// A participant's state, made by their records.
+#[derive(Clone, Debug)]
+pub(crate) struct Participant {
+    pub id: String,
+    pub number: u64,
+    /// Condition indices, one per condition.
+    pub order: Vec<usize>,
+    pub step: usize,
+    pub declined: bool,
+    /// The trial match started at the current step and not yet answered: (name, id).
+    pub playing: Option<(String, String)>,
+    /// Match ids already answered for a trial.
+    pub used_matches: Vec<String>,
+    pub started_ms: u64,
+    pub last_ms: u64,
+    /// The last `seq` written.
+    pub seq: u64,
+}
+
+impl Participant {
+    /// A participant from their `created` record.
+    pub(crate) fn new(id: &str, number: u64, order: Vec<usize>, now: u64) -> Participant {
+        Participant {
+            id: id.to_string(),
+            number,
+            order,
+            step: 0,
+            declined: false,
+            playing: None,
+            used_matches: Vec::new(),
+            started_ms: now,
+            last_ms: now,
+            seq: 0,
+        }
+    }
+
+    /// Applies a record written at `server_ms`.
+    pub(crate) fn apply(&mut self, record: &Record, server_ms: u64) {
+        self.last_ms = self.last_ms.max(server_ms);
+        match record {
+            Record::Created { .. } | Record::Resumed { .. } | Record::Event { .. } => {}
+            Record::Answer { step, page, answers, .. } if *step == self.step => {
+                if page == "consent" && answers.get("consent") == Some(&Value::Bool(false)) {
+                    self.declined = true;
+                } else {
+                    self.step += 1;
+                }
+                self.playing = None;
+            }
+            Record::Answer { .. } => {}
+            Record::TrialStarted { step, r#match, match_id, .. } if *step == self.step => {
+                self.playing = Some((r#match.clone(), match_id.clone()));
+            }
+            Record::TrialEnded { match_id, .. } => self.used_matches.push(match_id.clone()),
+            Record::TrialIncomplete { match_id, .. } => {
+                if self.playing.as_ref().is_some_and(|(_, id)| id == match_id) {
+                    self.playing = None;
+                }
+            }
+            Record::TrialStarted { .. } => {}
+        }
+    }
+
+    /// The name the participant plays under: `P` and their arrival number from 1.
+    pub(crate) fn player_name(&self) -> String {
+        format!("P{}", self.number + 1)
+    }
+
+    /// Whether they reached the final page.
+    pub(crate) fn completed(&self, study: &Study) -> bool {
+        !self.declined && matches!(study.pages.get(self.step), Some(Page::Final { .. }))
+    }
+
+    /// The trial at `step` (1-based) and its condition's index, if `step` is a trial page.
+    pub(crate) fn trial_at(&self, study: &Study, step: usize) -> Option<(usize, usize)> {
+        if !matches!(study.pages.get(step), Some(Page::Trial { .. })) {
+            return None;
+        }
+        let trial = study.pages[..=step].iter().filter(|p| matches!(p, Page::Trial { .. })).count();
+        Some((trial, self.order[(trial - 1) % self.order.len()]))
+    }
+
+    /// The state the API answers: the step and its page.
+    pub(crate) fn state(&self, study: &Study) -> Value {
+        json!({
+            "participant": self.id,
+            "step": self.step,
+            "steps": study.pages.len(),
+            "page": self.page(study),
+        })
+    }
+
+    fn page(&self, study: &Study) -> Value {
+        let Some(page) = study.pages.get(self.step) else { return Value::Null };
+        match page {
+            Page::Consent { declined_title, declined_html, .. } if self.declined => {
+                json!({"kind": "declined", "title": declined_title, "html": declined_html})
+            }
+            Page::Consent { title, html, agree, decline, .. } => {
+                json!({"kind": "consent", "title": title, "html": html, "agree": agree, "decline": decline})
+            }
+            Page::Instructions { title, html } => {
+                json!({"kind": "instructions", "title": title, "html": html})
+            }
+            Page::Questionnaire { id, title, html, items } => {
+                let items: Vec<Value> = items.iter().map(super::answers::item_json).collect();
+                let mut page = json!({"kind": "questionnaire", "id": id, "title": title, "items": items});
+                if let Some(html) = html {
+                    page["html"] = html.clone().into();
+                }
+                page
+            }
+            Page::Trial { title, html } => {
+                let Some((trial, c)) = self.trial_at(study, self.step) else { return Value::Null };
+                let condition = &study.conditions[c];
+                let trials = study.trials();
+                let title = title
+                    .clone()
+                    .or_else(|| condition.title.clone())
+                    .unwrap_or_else(|| format!("Task {trial} of {trials}"));
+                let html: Vec<&str> =
+                    html.iter().chain(condition.briefing_html.iter()).map(String::as_str).collect();
+                json!({
+                    "kind": "trial",
+                    "trial": trial,
+                    "trials": trials,
+                    "condition": condition.name,
+                    "title": title,
+                    "html": if html.is_empty() { Value::Null } else { html.concat().into() },
+                    "hello": {"template": condition.name, "name": self.player_name()},
+                    "view": condition.view,
+                    "language": {
+                        "kinds": condition.language.allowed_kinds(),
+                        "free_text": condition.language.free_text,
+                    },
+                    "time_limit_s": condition.time_limit_s,
+                    "humans": condition.humans,
+                })
+            }
+            Page::Final { title, html, completion_code, redirect } => {
+                let code = completion_code.clone().unwrap_or_default();
+                let fill = |text: &str| text.replace("{participant}", &self.id).replace("{code}", &code);
+                json!({
+                    "kind": "final",
+                    "title": title,
+                    "html": fill(html),
+                    "completion_code": completion_code,
+                    "redirect": redirect.as_deref().map(|url| {
+                        url.replace("{participant}", &url_encode(&self.id)).replace("{code}", &url_encode(&code))
+                    }),
+                })
+            }
+        }
+    }
+}
+
+/// Percent-encodes what is not unreserved in a URL.
+fn url_encode(text: &str) -> String {
+    text.bytes()
+        .map(|b| match b {
+            b'A'..=b'Z' | b'a'..=b'z' | b'0'..=b'9' | b'-' | b'_' | b'.' | b'~' => (b as char).to_string(),
+            _ => format!("%{b:02X}"),
+        })
+        .collect()
+}
+
+/// The conditions' order (indices) for the `number`-th participant (from 0) with `id`.
+pub(crate) fn order_for(study: &Study, number: u64, id: &str) -> Vec<usize> {
+    let k = study.conditions.len();
+    let mut order: Vec<usize> = (0..k).collect();
+    match study.order {
+        Order::Fixed => {}
+        Order::Counterbalanced => order.rotate_left((number % k as u64) as usize),
+        Order::Random => {
+            // FNV-1a of the seed and the id, then splitmix64 draws for a Fisher-Yates shuffle.
+            let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+            for b in study.seed.to_le_bytes().iter().chain(id.as_bytes()) {
+                h = (h ^ u64::from(*b)).wrapping_mul(0x0000_0100_0000_01b3);
+            }
+            for i in (1..k).rev() {
+                h = h.wrapping_add(0x9e37_79b9_7f4a_7c15);
+                let mut z = h;
+                z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+                z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+                z ^= z >> 31;
+                order.swap(i, (z % (i as u64 + 1)) as usize);
+            }
+        }
+    }
+    order
+}
+
+/// Whether `id` is a participant id: 1 to 64 letters, digits, `-` or `_`.
+pub(crate) fn valid_id(id: &str) -> bool {
+    !id.is_empty() && id.len() <= 64 && id.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
+}

@@ -1,0 +1,322 @@
+//! Studies of people teaming with agents: a study file ([`config`]) of conditions, each
+//! an arena template, and pages every participant goes through in order (consent,
+//! instructions, trials in a counterbalanced order, questionnaires, a final page).
+//!
+//! Each participant's every step and event is a line appended to
+//! `DIR/participants/ID.jsonl`, written with one `write_all` per request, so a killed
+//! server loses nothing already answered; at start the state is rebuilt from those logs
+//! ([`flow`]). The HTTP side is [`api`]; [`export`] makes tidy CSV of a data directory.
+
+mod answers;
+pub(crate) mod api;
+mod config;
+mod export;
+mod flow;
+mod markdown;
+
+use std::collections::BTreeMap;
+use std::fs::{File, OpenOptions};
+use std::io::{BufRead, Write};
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, MutexGuard, Weak};
+
+use serde_json::{Value, json};
+
+pub use config::{Condition, Item, ItemKind, MapLoader, Order, Page, Study, load, parse};
+pub use export::{ExportSummary, export};
+
+use crate::Arena;
+use flow::{Participant, Record};
+
+/// A study being served: its participants, their logs, the arena its trials play in.
+#[derive(Clone)]
+pub struct StudyServer {
+    inner: Arc<Shared>,
+}
+
+struct Shared {
+    study: Study,
+    dir: PathBuf,
+    arena: Arena,
+    participants: Mutex<BTreeMap<String, Arc<Mutex<Slot>>>>,
+}
+
+/// A participant and their log file.
+struct Slot {
+    state: Participant,
+    file: File,
+}
+
+/// Studies served, by the address of their arena's settings (unique while the arena
+/// lives, and a study keeps its arena alive), so the HTTP API finds an arena's study.
+static SERVED: Mutex<Vec<(usize, Weak<Shared>)>> = Mutex::new(Vec::new());
+
+fn arena_key(arena: &Arena) -> usize {
+    std::ptr::from_ref(arena.config()) as usize
+}
+
+/// The milliseconds since the Unix epoch (the logs' `server_ms`).
+pub fn now_ms() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| u64::try_from(d.as_millis()).unwrap_or(u64::MAX))
+}
+
+fn lock<T>(mutex: &Mutex<T>) -> MutexGuard<'_, T> {
+    mutex.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+impl StudyServer {
+    /// Serves `study` on `arena` (made from [`Study::templates`]), its data in `dir`
+    /// (`participants/` made if missing). Every participant's state is rebuilt from their
+    /// log; a trial whose match did not end before the server stopped is marked
+    /// incomplete and given again. The study answers on the arena's HTTP API for as
+    /// long as this value (or a clone) lives.
+    pub fn open(study: Study, dir: &Path, arena: Arena) -> std::io::Result<StudyServer> {
+        let logs = dir.join("participants");
+        std::fs::create_dir_all(&logs)?;
+        let server = StudyServer {
+            inner: Arc::new(Shared {
+                study,
+                dir: dir.to_path_buf(),
+                arena,
+                participants: Mutex::new(BTreeMap::new()),
+            }),
+        };
+        let mut files: Vec<PathBuf> = std::fs::read_dir(&logs)?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|x| x == "jsonl"))
+            .collect();
+        files.sort();
+        for path in files {
+            match server.reload(&path) {
+                Ok(Some(slot)) => {
+                    let id = slot.state.id.clone();
+                    lock(&server.inner.participants).insert(id, Arc::new(Mutex::new(slot)));
+                }
+                Ok(None) => {}
+                Err(e) => {
+                    tracing::error!(target: "bw4t::study", path = %path.display(), error = %e, "cannot read a participant's log");
+                }
+            }
+        }
+        let key = arena_key(&server.inner.arena);
+        let mut served = lock(&SERVED);
+        served.retain(|(_, study)| study.strong_count() > 0);
+        served.push((key, Arc::downgrade(&server.inner)));
+        Ok(server)
+    }
+
+    /// The study served on `arena`, if any.
+    pub(crate) fn of(arena: &Arena) -> Option<StudyServer> {
+        let key = arena_key(arena);
+        let served = lock(&SERVED);
+        served
+            .iter()
+            .rev()
+            .find(|(k, _)| *k == key)
+            .and_then(|(_, s)| s.upgrade())
+            .map(|inner| StudyServer { inner })
+    }
+
+    /// The study.
+    pub fn study(&self) -> &Study {
+        &self.inner.study
+    }
+
+    /// How many participants have a log.
+    pub fn participants(&self) -> usize {
+        lock(&self.inner.participants).len()
+    }
+
+    /// A participant's state rebuilt from their log; a trial left running is settled.
+    fn reload(&self, path: &Path) -> std::io::Result<Option<Slot>> {
+        let reader = std::io::BufReader::new(File::open(path)?);
+        let mut state: Option<Participant> = None;
+        for (n, line) in reader.lines().enumerate() {
+            let line = line?;
+            let parsed = serde_json::from_str::<Value>(&line).ok().and_then(|v| {
+                let seq = v.get("seq")?.as_u64()?;
+                let ms = v.get("server_ms")?.as_u64()?;
+                Some((seq, ms, serde_json::from_value::<Record>(v).ok()?))
+            });
+            let Some((seq, ms, record)) = parsed else {
+                // Only a line cut by a kill while it was written can be torn: the last.
+                tracing::warn!(target: "bw4t::study", path = %path.display(), line = n + 1, "a log line that is not a record is skipped");
+                continue;
+            };
+            if let Record::Created { participant, number, order, .. } = &record {
+                let order = order
+                    .iter()
+                    .filter_map(|c| self.inner.study.conditions.iter().position(|k| &k.name == c))
+                    .collect::<Vec<_>>();
+                if order.len() != self.inner.study.conditions.len() {
+                    return Err(std::io::Error::other("its conditions are not this study's"));
+                }
+                state = Some(Participant::new(participant, *number, order, ms));
+            }
+            if let Some(state) = state.as_mut() {
+                state.apply(&record, ms);
+                state.seq = state.seq.max(seq);
+            }
+        }
+        let Some(state) = state else { return Ok(None) };
+        let file = OpenOptions::new().append(true).open(path)?;
+        let mut slot = Slot { state, file };
+        if let Some((_, match_id)) = slot.state.playing.clone() {
+            // The server stopped during this trial. Its match either ended (the page had
+            // not answered yet) or was interrupted by the stop.
+            let step = slot.state.step;
+            let records = match self.ended_trial(&slot.state, &match_id) {
+                Ok(Ended { result, .. }) if result.get("end_reason") != Some(&json!("interrupted")) => {
+                    self.trial_end_records(&slot.state, step, &match_id, result)
+                }
+                _ => {
+                    vec![self.incomplete(&slot.state, step, &match_id, "the server stopped during the trial")]
+                }
+            };
+            append(&mut slot, &records)?;
+        }
+        Ok(Some(slot))
+    }
+
+    fn incomplete(&self, p: &Participant, step: usize, match_id: &str, reason: &str) -> Record {
+        let (trial, c) = p.trial_at(&self.inner.study, step).unwrap_or((0, 0));
+        Record::TrialIncomplete {
+            step,
+            trial,
+            condition: self.inner.study.conditions[c].name.clone(),
+            match_id: match_id.to_string(),
+            reason: reason.to_string(),
+        }
+    }
+
+    /// The records of a trial answered with its ended match.
+    fn trial_end_records(&self, p: &Participant, step: usize, match_id: &str, result: Value) -> Vec<Record> {
+        let (trial, c) = p.trial_at(&self.inner.study, step).unwrap_or((0, 0));
+        let condition = self.inner.study.conditions[c].name.clone();
+        vec![
+            Record::TrialEnded { step, trial, condition, match_id: match_id.to_string(), result },
+            Record::Answer {
+                step,
+                page: "trial".into(),
+                questionnaire: None,
+                answers: json!({"match_id": match_id}),
+            },
+        ]
+    }
+
+    /// The finished match `match_id` of the participant's current trial, checked: of
+    /// the trial's condition, with the participant among its players.
+    fn ended_trial(&self, p: &Participant, match_id: &str) -> Result<Ended, TrialRefusal> {
+        let study = &self.inner.study;
+        let Some((_, c)) = p.trial_at(study, p.step) else {
+            return Err(TrialRefusal::Bad("this step is not a trial".into()));
+        };
+        let condition = &study.conditions[c].name;
+        let results = self.inner.arena.results();
+        let Some(row) = results.rows().into_iter().find(|r| r.key == match_id) else {
+            return Err(TrialRefusal::Unknown);
+        };
+        if &row.team != condition {
+            return Err(TrialRefusal::Bad(format!(
+                "match_id: match '{match_id}' is of '{}', not of this trial's condition '{condition}'",
+                row.team
+            )));
+        }
+        let Some(result) = results.result(match_id).and_then(|r| serde_json::from_str::<Value>(&r).ok())
+        else {
+            return Ok(Ended { result: Value::Null, failed: row.error.clone() });
+        };
+        let name = p.player_name();
+        let played = result["per_robot"]
+            .as_array()
+            .is_some_and(|robots| robots.iter().any(|r| r["name"].as_str() == Some(name.as_str())));
+        if !played {
+            return Err(TrialRefusal::Bad(format!(
+                "match_id: '{name}' (this participant) did not play in match '{match_id}'"
+            )));
+        }
+        if p.used_matches.iter().any(|m| m == match_id) {
+            return Err(TrialRefusal::Bad(format!("match_id: match '{match_id}' answered an earlier trial")));
+        }
+        Ok(Ended { result: trial_result(&result), failed: None })
+    }
+
+    fn slot(&self, id: &str) -> Option<Arc<Mutex<Slot>>> {
+        lock(&self.inner.participants).get(id).cloned()
+    }
+}
+
+/// A trial's match, ended.
+struct Ended {
+    /// What the trial keeps of its result (`null` when the match failed).
+    result: Value,
+    /// Why the match failed in the server, if it did.
+    failed: Option<String>,
+}
+
+/// Why a trial's match cannot answer it.
+enum TrialRefusal {
+    /// No match of that id has ended.
+    Unknown,
+    /// It is not this trial's (the message says why).
+    Bad(String),
+}
+
+/// What a trial keeps of its match's result.
+fn trial_result(result: &Value) -> Value {
+    let mut kept = serde_json::Map::new();
+    for key in [
+        "end_reason",
+        "completed",
+        "ticks",
+        "completed_tick",
+        "wall_ms",
+        "sequence_index",
+        "good_drops",
+        "wrong_drops",
+        "messages",
+        "robots",
+        "seed",
+        "map",
+        "digest",
+    ] {
+        if let Some(v) = result.get(key) {
+            kept.insert(key.into(), v.clone());
+        }
+    }
+    if let Some(sequence) = result.get("sequence").and_then(Value::as_array) {
+        kept.insert("sequence_length".into(), sequence.len().into());
+    }
+    if let Some(robots) = result.get("per_robot").and_then(Value::as_array) {
+        let names: Vec<Value> = robots.iter().map(|r| r["name"].clone()).collect();
+        kept.insert("players".into(), names.into());
+    }
+    Value::Object(kept)
+}
+
+/// Appends `records` to the participant's log in one write, then applies them.
+fn append(slot: &mut Slot, records: &[Record]) -> std::io::Result<()> {
+    let now = now_ms();
+    let mut text = String::new();
+    let mut seq = slot.state.seq;
+    for record in records {
+        seq += 1;
+        let mut line = serde_json::Map::new();
+        line.insert("seq".into(), seq.into());
+        line.insert("server_ms".into(), now.into());
+        if let Ok(Value::Object(fields)) = serde_json::to_value(record) {
+            line.extend(fields);
+        }
+        text.push_str(&Value::Object(line).to_string());
+        text.push('\n');
+    }
+    slot.file.write_all(text.as_bytes())?;
+    slot.file.flush()?;
+    slot.state.seq = seq;
+    for record in records {
+        slot.state.apply(record, now);
+    }
+    Ok(())
+}
