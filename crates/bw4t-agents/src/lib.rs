@@ -11,7 +11,7 @@ mod view;
 use bw4t_sim::{Action, OrderOutcome, PerceptDelta};
 
 pub use baseline::Baseline;
-pub use coop::Cooperative;
+pub use coop::{CLAIM_LAPSE_TICKS, Cooperative};
 pub use drive::{Driver, Team};
 pub use seat::SeatSpec;
 
@@ -66,20 +66,30 @@ pub trait Agent: Send {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Strategy {
     /// Explore without duplicating work, share what rooms hold, agree who fetches which
-    /// colour, deliver in order.
+    /// colour, deliver in order; speaks the message language, answers questions and
+    /// follows requests (see [`Cooperative`]).
     Cooperative,
+    /// The cooperative play without a word: sends no messages, still listens (and
+    /// follows requests).
+    Silent,
+    /// The cooperative play and messages, but hears only what the team says to
+    /// coordinate: no answers, no requests followed, no claims or knowledge of others.
+    Ignoring,
     /// Each robot alone, no messages: fetch the colour needed now, put back what is not.
     Baseline,
 }
 
 impl Strategy {
     /// Every strategy, the default first.
-    pub const ALL: [Strategy; 2] = [Strategy::Cooperative, Strategy::Baseline];
+    pub const ALL: [Strategy; 4] =
+        [Strategy::Cooperative, Strategy::Silent, Strategy::Ignoring, Strategy::Baseline];
 
     /// The name used on the command line (`builtin:NAME`).
     pub fn name(self) -> &'static str {
         match self {
             Strategy::Cooperative => "coop",
+            Strategy::Silent => "silent",
+            Strategy::Ignoring => "ignoring",
             Strategy::Baseline => "baseline",
         }
     }
@@ -93,6 +103,8 @@ impl Strategy {
     pub fn agent(self, name: &str) -> Box<dyn Agent> {
         match self {
             Strategy::Cooperative => Box::new(Cooperative::new(name)),
+            Strategy::Silent => Box::new(Cooperative::silent(name)),
+            Strategy::Ignoring => Box::new(Cooperative::ignoring(name)),
             Strategy::Baseline => Box::new(Baseline::new(name)),
         }
     }
