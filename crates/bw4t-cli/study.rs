@@ -121,7 +121,7 @@ fn serve(args: &StudyArgs, file: &Path) -> Result<()> {
             "bw4t: condition '{}': map '{}', {} and {} ({}), {} mode at {} ticks/s, {} s",
             c.name,
             c.map.name(),
-            bw4t_runner::plural(c.humans, "person"),
+            bw4t_runner::plural(c.humans, "human"),
             bw4t_runner::plural(c.teammates, "teammate"),
             c.strategy.name(),
             c.mode.name(),
