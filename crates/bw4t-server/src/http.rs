@@ -19,6 +19,7 @@ use crate::websocket::{self, Live};
 const HTML: &str = "text/html; charset=utf-8";
 const CSS: &str = "text/css; charset=utf-8";
 const JS: &str = "text/javascript; charset=utf-8";
+const JSON: &str = "application/json";
 
 /// The page's files, built into the binary: the path each is served at, its content
 /// type, its text. The page is ES modules the browser loads itself (`web/app.js` imports
@@ -39,6 +40,16 @@ const PAGE_FILES: &[(&str, &str, &str)] = &[
     ("/spectator.js", JS, include_str!("../web/spectator.js")),
     ("/player.js", JS, include_str!("../web/player.js")),
     ("/replay.js", JS, include_str!("../web/replay.js")),
+    ("/language.js", JS, include_str!("../web/language.js")),
+    ("/menu.js", JS, include_str!("../web/menu.js")),
+    ("/embed.js", JS, include_str!("../web/embed.js")),
+    ("/study.html", HTML, include_str!("../web/study.html")),
+    ("/study.js", JS, include_str!("../web/study.js")),
+    ("/study.css", CSS, include_str!("../web/study.css")),
+    ("/dashboard.html", HTML, include_str!("../web/dashboard.html")),
+    ("/dashboard.js", JS, include_str!("../web/dashboard.js")),
+    // The message language's table, one source for the menu and the sentences.
+    ("/language.json", JSON, include_str!("../../../protocol/schema/language.json")),
     ("/client/beliefs.js", JS, include_str!("../../../protocol/clients/js/src/beliefs.js")),
     ("/client/table.js", JS, include_str!("../../../protocol/clients/js/src/table.js")),
 ];
@@ -202,6 +213,8 @@ async fn respond(request: &http::Request<()>, site: &Site) -> Reply {
     let json = |body: &str| Reply::new(StatusCode::OK, "application/json", body.to_string());
     let path = match request.uri().path() {
         "/" => "/index.html",
+        "/study" | "/study/" => "/study.html",
+        "/study/admin" | "/study/admin/" => "/dashboard.html",
         path => path,
     };
     if let Some(&(_, kind, body)) = PAGE_FILES.iter().find(|(served_at, ..)| *served_at == path) {

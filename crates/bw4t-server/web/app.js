@@ -8,11 +8,15 @@
 //   player     a human drives one robot and sees only what its percepts say;
 //   replay     frames of a recorded match fetched from /replay/frame/T, with play and seek.
 //
+// Messages of the shared language are shown as sentences from /language.json; the study
+// page (study.html) embeds the player view in a frame (`?embed=study&hello=JSON`, embed.js).
+//
 // It speaks protocol/PROTOCOL.md over a WebSocket at /ws (one JSON message per text
 // frame) and reads /info.json, /map.json, /api/matches (the lobby) and, for replays,
 // /replay.json. This module starts the page and runs the drawing loop; the others are
 //   dom.js · page.js (the state shown) · geometry.js · renderer.js · panels.js ·
-//   connection.js · waiting.js · lobby.js · spectator.js · player.js · replay.js,
+//   connection.js · waiting.js · lobby.js · spectator.js · player.js · replay.js ·
+//   language.js · menu.js · embed.js,
 // and the JavaScript client's belief base, served from protocol/clients/js/src at
 // /client/beliefs.js and /client/table.js.
 
@@ -25,6 +29,8 @@ import { startLobby } from './lobby.js';
 import { spectatorScene, startSpectator } from './spectator.js';
 import { joinAsPlayer, playerScene, setupPlayerControls } from './player.js';
 import { replay } from './replay.js';
+import { loadLanguage } from './language.js';
+import { embeddedHello } from './embed.js';
 
 /** The one drawing loop: redraws when something changed, and lets the replay advance. */
 function animate(now) {
@@ -75,12 +81,16 @@ function setupHover(canvas) {
  * or a match (its map first, unless a template's seat decides the match). */
 async function start() {
   let info;
+  // The language's table first, so that the first messages show as sentences (without it
+  // they show as the server's sentences).
+  const language = loadLanguage().catch((err) => console.warn('bw4t: no /language.json', err));
   try {
     info = await fetchJSON('/info.json');
   } catch (err) {
     setStatus('error', err.message);
     return;
   }
+  await language;
   // `?match=` and `?template=` mean something only to a server of many matches.
   page.lobby = info.lobby === true && info.mode !== 'replay';
   if (page.lobby) {
@@ -96,6 +106,16 @@ async function start() {
   setupHover(canvas);
   setupPlayerControls(canvas);
   requestAnimationFrame(animate);
+
+  // Embedded by the study page: play with the hello it gives (a template's next match).
+  const hello = embeddedHello();
+  if (hello) {
+    // A player's role is the protocol's default (`agent`); the page sets the rest itself.
+    const { name: embeddedName, template, type: _t, protocol: _p, versions: _v, role: _r, ...extra } = hello;
+    page.lobby = page.lobby || Boolean(template);
+    joinAsPlayer(embeddedName, template || null, extra);
+    return;
+  }
 
   const name = params.get('play');
   if (page.lobby && !page.matchName && !name) {

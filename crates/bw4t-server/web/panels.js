@@ -4,6 +4,7 @@
 import { $, el, setText } from './dom.js';
 import { page } from './page.js';
 import { colourCss } from './renderer.js';
+import { chatLine } from './language.js';
 
 /** The header's status (`data-status` for tests), with a detail in brackets. */
 export function setStatus(status, detail = '') {
@@ -53,20 +54,28 @@ export function appendLog(list, node) {
   if (stick) list.scrollTop = list.scrollHeight;
 }
 
-/** One line of the message list (`to`: null for a message to all). */
-export function addMessage(tick, from, to, text) {
+/** One line of the message list (`to`: null for a message to all): the sentence of a
+ * message of the language (`said`, or a text that is its text form), else the text. */
+export function addMessage(tick, from, to, text, said = null) {
+  const line = chatLine(text, said);
+  const dataset = { from, to: to ?? '' };
+  if (line.said) {
+    dataset.kind = line.said.kind;
+    dataset.said = JSON.stringify(line.said);
+  }
   appendLog(
     $('#messages'),
     el(
       'li',
-      { dataset: { from, to: to ?? '' } },
+      { dataset },
       el('span', { class: 'when' }, `${tick ?? ''}`),
       el('b', {}, from),
-      to ? el('span', { class: 'to' }, ` → ${to}`) : '',
+      to && to !== 'all' ? el('span', { class: 'to' }, ` → ${to}`) : '',
       ': ',
-      text,
+      el('span', { class: 'sentence' }, line.sentence),
     ),
   );
+  return line;
 }
 
 /** The player's event log: kind is 'sent', 'ok', 'reject', 'result', 'error' or 'info'.

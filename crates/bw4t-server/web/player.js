@@ -6,6 +6,11 @@
 // single-valued; `message` facts are events, shown once and never stored. The view shows
 // only these beliefs and the colours of blocks seen earlier, which the player was told
 // and may remember (Beliefs.colourOf).
+//
+// Messages are composed with the menu (menu.js) in the shared language, or typed when the
+// match allows free text. The time from a key or click to the `ack` of the action it made
+// is kept in `window.bw4tLatency` (samples in ms, and their percentiles), for tests and
+// benchmarks. Embedded in the study page, the view reports what happens (embed.js).
 
 import { Beliefs } from './client/beliefs.js';
 import { DURATIVE } from './client/table.js';
@@ -13,10 +18,31 @@ import { $, el, linkTo, setText } from './dom.js';
 import { loadMap, page, setView } from './page.js';
 import { zoneAt } from './geometry.js';
 import { colourCss } from './renderer.js';
+import { sentenceOf } from './language.js';
 import { addMessage, endMatch, log, setStatus, setTick, setWatchNote, showMatch, showSequence } from './panels.js';
 import { helloFor, openSocket } from './connection.js';
 import { spectator, startSpectator, stopSpectator } from './spectator.js';
 import { hideWaiting, showLobby, showRefusal } from './waiting.js';
+import { embedded, report, setReportTick } from './embed.js';
+import { setMenuOptions, setMessagePolicy, setupMenu } from './menu.js';
+
+/** Input-to-acknowledgement latency: ms from a key or click to the `ack` of its action. */
+const latency = {
+  samples: [],
+  /** The q-quantile of the samples (q in 0..1), or null without samples. */
+  quantile(q) {
+    if (this.samples.length === 0) return null;
+    const sorted = [...this.samples].sort((a, b) => a - b);
+    return sorted[Math.min(sorted.length - 1, Math.floor(q * sorted.length))];
+  },
+  p50() {
+    return this.quantile(0.5);
+  },
+  p99() {
+    return this.quantile(0.99);
+  },
+};
+window.bw4tLatency = latency;
 
 export const player = {
   socket: null,
@@ -24,8 +50,9 @@ export const player = {
   robot: null,
   beliefs: new Beliefs(),
   nextId: 1,
-  pending: new Map(), // request id -> {words, durative, say}: for the log until answered
+  pending: new Map(), // request id -> {words, durative, say, inputAt}: for the log until answered
   retriedWithName: false,
+  extra: {}, // more fields of the hello (the study page's)
   template: null, // the template joined by (`?template=`), until a match gives a seat
 };
 
@@ -39,7 +66,7 @@ const REFUSALS = ['invalid_name', 'name_taken', 'match_full', 'bad_token'];
  * server's default without one), or with `template`, the next match of that template
  * with a free seat. In a match it takes the robot back with the session this tab was
  * given, if any. */
-export function joinAsPlayer(name, template = null) {
+export function joinAsPlayer(name, template = null, extra = {}) {
   stopSpectator();
   spectator.frame = null;
   page.ended = false;
@@ -54,6 +81,7 @@ export function joinAsPlayer(name, template = null) {
   setWatchNote('');
   hideWaiting();
   player.template = template;
+  player.extra = extra;
   // After a reload, take the robot back with the session the server gave this tab.
   const session = template ? null : sessionStorage.getItem(sessionKey(name));
   connectPlayer(session ? { session } : { name });
@@ -61,9 +89,9 @@ export function joinAsPlayer(name, template = null) {
 
 /** Where a player's `hello` asks to play: the named match, a template, or neither. */
 function destination() {
-  if (page.matchName) return { match: page.matchName };
-  if (player.template) return { template: player.template };
-  return {};
+  if (page.matchName) return { ...player.extra, match: page.matchName };
+  if (player.template) return { ...player.extra, template: player.template };
+  return { ...player.extra };
 }
 
 /** Opens a player's WebSocket with fresh beliefs; `identity`: `{name}` or `{session}`. */
@@ -84,7 +112,9 @@ function onPlayerMessage(message) {
     case 'welcome':
       player.name = message.name;
       player.robot = message.robot;
-      if (page.lobby && message.match.name) {
+      report('welcome', { name: message.name, robot: message.robot, match: message.match });
+      setMessagePolicy(message.match.language);
+      if (page.lobby && message.match.name && !embedded) {
         // The match (maybe chosen by a template) is now this page's: a reload comes back to it.
         page.matchName = message.match.name;
         history.replaceState(null, '', linkTo({ match: page.matchName, play: message.name }));
@@ -101,6 +131,7 @@ function onPlayerMessage(message) {
       if (!page.map) loadMap(page.matchName, message.match.map).catch((err) => log('error', `no map: ${err.message}`));
       break;
     case 'lobby':
+      report('lobby', { lobby: message });
       showLobby(message); // queued for a seat, or the match waits for its players
       break;
     case 'percepts':
@@ -111,10 +142,12 @@ function onPlayerMessage(message) {
       break;
     case 'ack': {
       const request = player.pending.get(message.id) || { words: `#${message.id ?? '?'}` };
+      if (request.inputAt !== undefined) latency.samples.push(performance.now() - request.inputAt);
+      report('ack', { id: message.id, ok: message.ok, ...(message.ok ? {} : { code: message.code }) });
       if (message.ok) {
         log('ok', `${request.words}: accepted`, message.tick, { action: request.action });
         // Players are not sent their own messages: show an accepted one in the chat here.
-        if (request.say) addMessage(message.tick, player.name, request.say.to, request.say.text);
+        if (request.say) addMessage(message.tick, player.name, request.say.to, request.say.text, request.say.said);
         // A durative order stays pending until its result; anything else is done.
         if (!request.durative) player.pending.delete(message.id);
       } else {
@@ -129,6 +162,7 @@ function onPlayerMessage(message) {
     case 'result': {
       const request = player.pending.get(message.id) || { words: `#${message.id}` };
       player.pending.delete(message.id);
+      report('done', { id: message.id, outcome: message.outcome });
       log('result', `${request.words}: ${message.outcome}`, message.tick, {
         action: request.action,
         outcome: message.outcome,
@@ -142,11 +176,13 @@ function onPlayerMessage(message) {
       onPlayerError(message);
       break;
     case 'match_end':
+      report('match_over', { reason: message.reason, result: message.result });
       hideWaiting();
       endMatch(message, player.name);
       log('info', `match over: ${message.reason}`);
       break;
     case 'bye':
+      report('bye', { reason: message.reason });
       if (message.reason !== 'match_over') log('info', `server said bye: ${message.reason}`);
       break;
     default:
@@ -190,8 +226,22 @@ function onPlayerError(message) {
 
 /** A `percepts`: the beliefs, the messages in it, `ready`, the panels. */
 function onPercepts(percepts) {
-  const messages = player.beliefs.apply(percepts);
-  for (const { from, text } of messages) addMessage(percepts.tick, from, null, text);
+  setReportTick(percepts.tick);
+  if (percepts.full || percepts.add?.length || percepts.not?.length) {
+    report('percepts', { full: percepts.full === true, add: percepts.add || [], del: percepts.not || [] });
+  }
+  player.beliefs.apply(percepts);
+  // Messages are events in `add`: `["message", from, text]`, or for a message of the
+  // language `["message", from, sentence, said]` (read here, whatever the belief base keeps).
+  for (const fact of percepts.add || []) {
+    if (fact[0] !== 'message') continue;
+    const line = addMessage(percepts.tick, fact[1], null, fact[2], fact[3] || null);
+    report('message_received', {
+      from: fact[1],
+      ...(line.said ? { said: line.said } : { text: fact[2] }),
+      sentence: line.sentence,
+    });
+  }
   // In lockstep the match waits for this; in realtime it is accepted and ignored.
   player.socket.send({ type: 'ready', tick: percepts.tick });
   setTick(percepts.tick, page.match ? percepts.tick / page.match.tick_hz : undefined);
@@ -252,7 +302,7 @@ function showPlayerPanel() {
               title: `go to block ${x.id}`,
               dataset: { blockId: String(x.id), color: x.color },
               style: `--chip:${colourCss(x.color)}`,
-              onclick: () => act('goToBlock', [x.id]),
+              onclick: (event) => act('goToBlock', [x.id], clicked(event, `block ${x.id}`)),
             },
             `${x.color} ${x.id}`,
           ),
@@ -278,12 +328,13 @@ function showPlayerPanel() {
 
   // Places: from `place` facts (every place of the map the player may go to).
   const places = b.all('place').map(([p]) => p);
+  setMenuOptions({ places, players, sequence: seq });
   const nav = $('#places');
   if (nav.dataset.key !== places.join(' ')) {
     nav.dataset.key = places.join(' ');
     nav.replaceChildren(
       ...places.map((p) =>
-        el('button', { type: 'button', dataset: { place: p }, onclick: () => act('goTo', [p]) }, p),
+        el('button', { type: 'button', dataset: { place: p }, onclick: (event) => act('goTo', [p], clicked(event, `place ${p}`)) }, p),
       ),
     );
   }
@@ -306,37 +357,58 @@ export function playerScene() {
   };
 }
 
-/** Sends an action; the log line names it until its ack and result come back. */
-function act(action, args = []) {
+/** The input that made an action: a click (on `target`) at the event's time. */
+function clicked(event, target) {
+  return { kind: 'click', target, at: event.timeStamp };
+}
+
+/** Reports the key or click that became an action (`input`: {kind, key | target, at}). */
+function reportInput(input) {
+  if (!input) return;
+  if (input.kind === 'key') report('key', { key: input.key });
+  else report('click', { target: input.target });
+}
+
+/** Sends an action; the log line names it until its ack and result come back. `input`:
+ * the key or click that made it, timed from its event to the ack. */
+function act(action, args = [], input = null) {
   if (!player.socket || page.ended) return;
+  reportInput(input);
   const id = player.nextId++;
   let words = [action, ...args].join(' ');
   const colour = action === 'goToBlock' ? player.beliefs.colourOf(args[0]) : undefined;
   if (colour) words += ` (${colour})`;
-  player.pending.set(id, { words, action, durative: DURATIVE.has(action) });
+  player.pending.set(id, { words, action, durative: DURATIVE.has(action), inputAt: input?.at });
   player.socket.send({ type: 'act', id, action, args });
+  report('act', { id, action, args });
   log('sent', words, undefined, { action });
 }
 
-/** Sends a message (`to`: a player's name or `all`); shown in the chat once accepted. */
-function say(to, text) {
+/** Sends a message (`to`: a player's name or `all`): `said`, a message of the language,
+ * or free `text`. Shown in the chat once accepted. */
+function say(to, { said = null, text = null }, input = null) {
   if (!player.socket || page.ended) return;
+  reportInput(input);
   const id = player.nextId++;
-  const words = `say to ${to}: ${text}`;
-  player.pending.set(id, { words, action: 'say', say: { to, text } });
-  player.socket.send({ type: 'say', id, to, text });
+  const content = said ? { said } : { text };
+  const words = `say to ${to}: ${said ? sentenceOf(said) || JSON.stringify(said) : text}`;
+  player.pending.set(id, { words, action: 'say', say: { to, text: text ?? '', said }, inputAt: input?.at });
+  player.socket.send({ type: 'say', id, to, ...content });
+  report('act', { id, action: 'say', args: [to, said || text] });
+  report('message_sent', { to, ...content });
   log('sent', words, undefined, { action: 'say' });
 }
 
 /** The controls: buttons, keys, clicks on the map, the join and chat forms. */
 export function setupPlayerControls(canvas) {
-  $('#pickup').addEventListener('click', () => act('pickUp'));
-  $('#putdown').addEventListener('click', () => act('putDown'));
+  $('#pickup').addEventListener('click', (event) => act('pickUp', [], clicked(event, 'pickup')));
+  $('#putdown').addEventListener('click', (event) => act('putDown', [], clicked(event, 'putdown')));
+  setupMenu((to, said, input) => say(to, { said }, input));
   $('#chat-form').addEventListener('submit', (event) => {
     event.preventDefault();
     const text = $('#chat-text').value.trim();
     if (!text) return;
-    say($('#chat-to').value, text);
+    say($('#chat-to').value, { text }, { kind: 'key', key: 'Enter', at: event.timeStamp });
     $('#chat-text').value = '';
   });
   // P and D, unless the player is typing.
@@ -344,8 +416,9 @@ export function setupPlayerControls(canvas) {
     if (page.view !== 'player' || event.ctrlKey || event.metaKey || event.altKey) return;
     if (event.target.closest?.('input, textarea, select')) return;
     const key = event.key.toLowerCase();
-    if (key === 'p') act('pickUp');
-    else if (key === 'd') act('putDown');
+    const input = { kind: 'key', key: event.key, at: event.timeStamp };
+    if (key === 'p') act('pickUp', [], input);
+    else if (key === 'd') act('putDown', [], input);
     else return;
     event.preventDefault();
   });
@@ -354,9 +427,9 @@ export function setupPlayerControls(canvas) {
     if (page.view !== 'player' || !page.renderer) return;
     const p = page.renderer.eventToMap(event);
     const chip = page.renderer.chipAt(p.x, p.y);
-    if (chip) return act('goToBlock', [chip.id]);
+    if (chip) return act('goToBlock', [chip.id], clicked(event, `map block ${chip.id}`));
     const zone = zoneAt(page.map, p.x, p.y);
-    if (zone) act('goTo', [zone.name]);
+    if (zone) act('goTo', [zone.name], clicked(event, `map ${zone.name}`));
   });
   $('#join-form').addEventListener('submit', (event) => {
     event.preventDefault();

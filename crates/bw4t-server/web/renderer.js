@@ -19,6 +19,8 @@ const COLOURS = {
   Pink: '#ffa3d2',
 };
 export const colourCss = (name) => COLOURS[name] || '#8a8a8a';
+/** The colours' names (the message menu offers them). */
+export const COLOUR_NAMES = Object.keys(COLOURS);
 
 const ROBOT = 2; // robots are 2 x 2 map units
 const BLOCK = 1; // blocks 1 x 1

@@ -160,7 +160,7 @@ export const replay = {
       list.replaceChildren();
       from = Math.max(0, upTo - LOG_LIMIT);
     }
-    for (const m of this.messages.slice(from, upTo)) addMessage(m.tick, m.from, m.to, m.text);
+    for (const m of this.messages.slice(from, upTo)) addMessage(m.tick, m.from, m.to, m.text, m.said);
     this.listed = upTo;
   },
 

@@ -81,7 +81,7 @@ export function showFrame(frame) {
   showSequence(frame.sequence || [], frame.sequence_index ?? 0);
   showRobotList(frame);
   // A replay lists messages from its own index (frames skipped or sought past carry some).
-  if (page.view !== 'replay') for (const m of frame.messages || []) addMessage(frame.tick, m.from, m.to, m.text);
+  if (page.view !== 'replay') for (const m of frame.messages || []) addMessage(frame.tick, m.from, m.to, m.text, m.said);
   page.dirty = true;
 }
 

@@ -1,0 +1,164 @@
+// The study dashboard (/study/admin): for the operator (the token typed here, kept for this
+// tab), the participants and how far each is (GET /api/study/participants, every POLL_MS),
+// and for each live trial its match: watch it (the page's overview as the operator, in a
+// new tab), pause, resume or abort it (POST /api/matches/NAME/pause|resume|stop).
+
+import { $, el, setText } from './dom.js';
+import { OPERATOR_TOKEN_KEY } from './connection.js';
+
+const POLL_MS = 2000;
+
+const dash = {
+  timer: null,
+  polls: 0,
+  rows: new Map(), // participant -> <tr>
+};
+
+const token = () => sessionStorage.getItem(OPERATOR_TOKEN_KEY) || '';
+
+function showError(text) {
+  const node = $('#study-error');
+  node.hidden = !text;
+  setText(node, text || '');
+}
+
+/** A request with the operator token; the JSON answer, or throws with the API's error. */
+async function api(method, path) {
+  const response = await fetch(path, { method, cache: 'no-store', headers: { Authorization: `Bearer ${token()}` } });
+  let answer = null;
+  try {
+    answer = await response.json();
+  } catch {
+    // not JSON
+  }
+  if (!response.ok) throw new Error(answer?.error || `HTTP ${response.status}`);
+  return answer;
+}
+
+/** A time (ms since the epoch) as the time of day. */
+const clock = (ms) => (ms ? new Date(ms).toLocaleTimeString() : '');
+
+/** Pauses, resumes or stops a match, then polls at once. */
+async function control(match, verb) {
+  if (verb === 'stop' && !window.confirm(`Abort match ${match}? The trial ends without a result.`)) return;
+  try {
+    await api('POST', `/api/matches/${encodeURIComponent(match)}/${verb}`);
+    showError('');
+  } catch (err) {
+    showError(`${verb} ${match}: ${err.message}`);
+  }
+  poll();
+}
+
+/** The cells of one participant's row. */
+function cells(p) {
+  const match = p.match || '';
+  const controls = match
+    ? [
+        el('a', { href: `/?match=${encodeURIComponent(match)}&operator_token=${encodeURIComponent(token())}`, target: '_blank', rel: 'noopener', class: 'watch' }, 'watch'),
+        ' ',
+        el('button', { type: 'button', class: 'pause', onclick: () => control(match, 'pause') }, 'pause'),
+        ' ',
+        el('button', { type: 'button', class: 'resume', onclick: () => control(match, 'resume') }, 'resume'),
+        ' ',
+        el('button', { type: 'button', class: 'abort secondary', onclick: () => control(match, 'stop') }, 'abort'),
+      ]
+    : [];
+  return [
+    p.participant,
+    `${Math.min(p.step + 1, p.steps)} / ${p.steps}`,
+    p.page_kind || '',
+    p.condition || '',
+    match,
+    p.completed ? 'yes' : '',
+    clock(p.started_ms),
+    clock(p.last_ms),
+    controls,
+  ];
+}
+
+/** The table from one answer; rows are kept, and remade only when they change. */
+function showParticipants(list) {
+  const body = $('#participants tbody');
+  const seen = new Set();
+  for (const p of list) {
+    seen.add(p.participant);
+    const key = JSON.stringify([p.step, p.steps, p.page_kind, p.condition, p.match, p.completed, p.started_ms, p.last_ms]);
+    let row = dash.rows.get(p.participant);
+    if (!row) {
+      row = el('tr', { dataset: { participant: p.participant } });
+      dash.rows.set(p.participant, row);
+    }
+    body.append(row); // in the server's order
+    if (row.dataset.key === key) continue;
+    row.dataset.key = key;
+    row.dataset.step = String(p.step);
+    row.dataset.page = p.page_kind || '';
+    row.dataset.match = p.match || '';
+    row.dataset.completed = String(Boolean(p.completed));
+    row.replaceChildren(...cells(p).map((content) => el('td', {}, ...(Array.isArray(content) ? content : [String(content)]))));
+  }
+  for (const [id, row] of dash.rows) {
+    if (!seen.has(id)) {
+      row.remove();
+      dash.rows.delete(id);
+    }
+  }
+  $('#participants-empty').hidden = list.length > 0;
+}
+
+/** Asks for the participants now, and again in POLL_MS. */
+async function poll() {
+  clearTimeout(dash.timer);
+  dash.timer = null;
+  if (!token()) return;
+  try {
+    const answer = await api('GET', '/api/study/participants');
+    showParticipants(answer.participants || []);
+    dash.polls += 1;
+    const status = $('#dash-status');
+    status.dataset.polls = String(dash.polls);
+    setText(status, `updated ${new Date().toLocaleTimeString()}`);
+    showError('');
+  } catch (err) {
+    showError(`participants: ${err.message}`);
+  }
+  clearTimeout(dash.timer);
+  dash.timer = setTimeout(poll, POLL_MS);
+}
+
+function showTokenForm() {
+  const has = Boolean(token());
+  $('#dash-token-forget').hidden = !has;
+  $('#dash-token').placeholder = has ? 'operator token (set)' : 'operator token';
+}
+
+function start() {
+  $('#dash-token-form').addEventListener('submit', (event) => {
+    event.preventDefault();
+    const value = $('#dash-token').value.trim();
+    if (!value) return;
+    sessionStorage.setItem(OPERATOR_TOKEN_KEY, value);
+    $('#dash-token').value = '';
+    showTokenForm();
+    poll();
+  });
+  $('#dash-token-forget').addEventListener('click', () => {
+    sessionStorage.removeItem(OPERATOR_TOKEN_KEY);
+    showTokenForm();
+    clearTimeout(dash.timer);
+    showParticipants([]);
+  });
+  fetch('/api/study', { cache: 'no-store' })
+    .then((r) => (r.ok ? r.json() : null))
+    .then((s) => {
+      if (!s) return;
+      setText($('#study-title'), `${s.title || s.name} · dashboard`);
+      setText($('#dash-conditions'), `conditions: ${(s.conditions || []).join(', ')}`);
+    })
+    .catch(() => {});
+  showTokenForm();
+  poll();
+}
+
+start();

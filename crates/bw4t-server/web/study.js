@@ -1,0 +1,429 @@
+// The study page (/study): one participant goes through the study's pages as the server's
+// state says (consent, instructions, trials, questionnaires, the end), and everything the
+// participant does is logged to the server.
+//
+// The participant's id comes from the address (PROLIFIC_PID, participant, pid, workerId or
+// PARTICIPANT_ID, the first present; the server makes one up without), is kept in the
+// address as `?participant=ID` and in localStorage, so a reload continues where it was.
+// A trial embeds the player view (`/?embed=study&hello=JSON`, embed.js), which reports its
+// events here; at the match's end the trial is answered with the match's id (again while
+// the server says the match is still running). Events are sent in batches every second,
+// and with sendBeacon when the page goes away. The API: the study contract, served by
+// `bw4t study`.
+
+import { $, el, setText } from './dom.js';
+
+const ID_PARAMS = ['PROLIFIC_PID', 'participant', 'pid', 'workerId', 'PARTICIPANT_ID'];
+const STORE_KEY = 'bw4t-study-participant';
+const FLUSH_MS = 1000;
+/** A batch's most bytes (the server takes at most 64 KB). */
+const BATCH_BYTES = 60 * 1024;
+/** How long a finished trial's answer is retried while the server says its match is still
+ * running (it is told of the match's end a moment after the player is). */
+const TRIAL_ANSWER_MS = 60_000;
+const RETRY_MS = 500;
+/** What the embedded view reports that the log keeps (the contract's event kinds). */
+const VIEW_EVENTS = new Set(['key', 'click', 'act', 'ack', 'done', 'message_sent', 'message_received', 'percepts', 'lobby', 'welcome', 'match_over']);
+
+const study = {
+  id: null,
+  state: null,
+  tick: null, // the latest tick the trial's view reported
+  queue: [], // events not sent yet
+  sending: false,
+  focused: null, // whether the participant's window has focus, as last logged
+  trial: null, // {step, frame, matchId, matchName, finishing}
+};
+
+const encoder = new TextEncoder();
+
+/** A request to the study API: {status, ok, body} (body: the JSON answer or null). */
+async function api(method, path, body) {
+  const response = await fetch(path, {
+    method,
+    cache: 'no-store',
+    headers: body === undefined ? {} : { 'Content-Type': 'application/json' },
+    body: body === undefined ? undefined : JSON.stringify(body),
+  });
+  let answer = null;
+  try {
+    answer = await response.json();
+  } catch {
+    // not JSON: the status says enough
+  }
+  return { status: response.status, ok: response.ok, body: answer };
+}
+
+function showError(text) {
+  const node = $('#study-error');
+  node.hidden = !text;
+  setText(node, text || '');
+}
+
+const participantPath = (suffix = '') => `/api/study/participants/${encodeURIComponent(study.id)}${suffix}`;
+
+// ---- the event log ----
+
+/** Logs one event of this page (the step shown and the latest tick are added). */
+function logEvent(kind, fields = {}) {
+  study.queue.push({ wall_ms: Date.now(), tick: study.tick, step: study.state?.step ?? null, kind, ...fields });
+}
+
+/** The queued events as batches of at most BATCH_BYTES, taken off the queue. */
+function takeBatches() {
+  const batches = [];
+  let events = [];
+  let bytes = 16;
+  for (let event of study.queue) {
+    let size = encoder.encode(JSON.stringify(event)).length + 1;
+    if (size > BATCH_BYTES - 16) {
+      // Only a huge percepts snapshot gets here: its facts are dropped, the fact that it came is kept.
+      event = { ...event, add: [], del: [], truncated: true };
+      size = encoder.encode(JSON.stringify(event)).length + 1;
+    }
+    if (bytes + size > BATCH_BYTES && events.length) {
+      batches.push(events);
+      events = [];
+      bytes = 16;
+    }
+    events.push(event);
+    bytes += size;
+  }
+  if (events.length) batches.push(events);
+  study.queue = [];
+  return batches;
+}
+
+/** Sends the queued events; those not taken are queued again, in order. */
+async function flush() {
+  checkFocus();
+  if (!study.id || study.sending || study.queue.length === 0) return;
+  study.sending = true;
+  const batches = takeBatches();
+  try {
+    while (batches.length) {
+      const { ok, status } = await api('POST', participantPath('/events'), { events: batches[0] });
+      if (!ok && status >= 500) throw new Error(`HTTP ${status}`);
+      batches.shift(); // sent (or refused for good: sending again would not help)
+    }
+  } catch {
+    study.queue = batches.flat().concat(study.queue);
+  } finally {
+    study.sending = false;
+  }
+}
+
+/** The page goes away: what is left goes with sendBeacon (text/plain; the server takes it). */
+function flushOnLeave() {
+  if (!study.id) return;
+  for (const events of takeBatches()) navigator.sendBeacon(participantPath('/events'), JSON.stringify({ events }));
+}
+
+/** Logs focus and blur of the participant's window (this page or the trial's frame). */
+function checkFocus() {
+  const focused = document.hasFocus();
+  if (focused === study.focused) return;
+  const first = study.focused === null;
+  study.focused = focused;
+  if (!first) logEvent(focused ? 'focus' : 'blur');
+}
+
+// ---- the pages ----
+
+/** Answers the current step; shows the next state (or the current one on a wrong step).
+ * Returns the API's answer. */
+async function answer(answers) {
+  const step = study.state.step;
+  const result = await api('POST', participantPath('/answer'), { step, answers });
+  if (result.ok) {
+    showError('');
+    render(result.body);
+  } else if (result.status === 409 && result.body?.state && result.body.state.step !== step) {
+    render(result.body.state); // answered elsewhere (another tab): go on from there
+  } else {
+    showError(result.body?.error || `could not send the answer (HTTP ${result.status})`);
+  }
+  return result;
+}
+
+/** A block of the study's own HTML (written by the study's authors). */
+function html(text) {
+  const node = el('div', { class: 'html' });
+  node.innerHTML = text || '';
+  return node;
+}
+
+/** A button that logs its click before doing what it does. */
+function button(id, label, onClick, extra = {}) {
+  return el(
+    'button',
+    {
+      type: 'button',
+      id,
+      ...extra,
+      onclick: (event) => {
+        logEvent('click', { target: id });
+        onClick(event);
+      },
+    },
+    label,
+  );
+}
+
+function renderConsent(p) {
+  return [
+    el('h2', {}, p.title || 'Consent'),
+    html(p.html),
+    el(
+      'div',
+      { class: 'actions' },
+      button('consent-agree', p.agree || 'I agree', () => answer({ consent: true })),
+      button('consent-decline', p.decline || 'I do not agree', () => answer({ consent: false }), { class: 'secondary' }),
+    ),
+  ];
+}
+
+function renderInstructions(p) {
+  return [el('h2', {}, p.title || 'Instructions'), html(p.html), el('div', { class: 'actions' }, button('continue', 'Continue', () => answer({})))];
+}
+
+/** One questionnaire item as a fieldset; its value is read back by `itemValue`. */
+function renderItem(item) {
+  const name = `item-${item.id}`;
+  const legend = el('legend', {}, item.text, item.required ? el('span', { class: 'required', title: 'required' }, ' *') : '');
+  const box = el('fieldset', { class: `item ${item.kind}`, dataset: { item: item.id, kind: item.kind } }, legend);
+  if (item.kind === 'likert') {
+    const scale = item.scale || 7;
+    const [left, right] = item.labels || ['', ''];
+    const row = el('div', { class: 'likert', role: 'radiogroup' }, el('span', { class: 'end' }, left));
+    for (let v = 1; v <= scale; v++) {
+      row.append(el('label', {}, el('input', { type: 'radio', name, value: String(v), 'aria-label': `${v} of ${scale}` }), String(v)));
+    }
+    row.append(el('span', { class: 'end' }, right));
+    box.append(row);
+  } else if (item.kind === 'choice') {
+    const list = el('div', { class: 'choice' });
+    for (const option of item.options || []) list.append(el('label', {}, el('input', { type: 'radio', name, value: option }), ` ${option}`));
+    box.append(list);
+  } else {
+    const input = item.multiline ? el('textarea', { name, rows: '4' }) : el('input', { type: 'text', name });
+    input.setAttribute('aria-label', item.text);
+    box.append(input);
+  }
+  box.append(el('p', { class: 'missing', hidden: '' }, 'Please answer this.'));
+  return box;
+}
+
+/** An item's value in the form, or undefined when not answered. */
+function itemValue(form, item) {
+  const name = `item-${item.id}`;
+  if (item.kind === 'likert') {
+    const checked = form.querySelector(`input[name="${CSS.escape(name)}"]:checked`);
+    return checked ? Number(checked.value) : undefined;
+  }
+  if (item.kind === 'choice') {
+    const checked = form.querySelector(`input[name="${CSS.escape(name)}"]:checked`);
+    return checked ? checked.value : undefined;
+  }
+  const value = form.querySelector(`[name="${CSS.escape(name)}"]`).value.trim();
+  return value === '' ? undefined : value;
+}
+
+/** Marks an item as missing (or not). */
+function markMissing(form, itemId, missing) {
+  const box = form.querySelector(`fieldset[data-item="${CSS.escape(itemId)}"]`);
+  if (!box) return;
+  box.setAttribute('aria-invalid', String(missing));
+  box.querySelector('.missing').hidden = !missing;
+}
+
+function renderQuestionnaire(p) {
+  const items = p.items || [];
+  const form = el('form', { id: 'questionnaire', novalidate: '' }, ...items.map(renderItem));
+  form.append(el('div', { class: 'actions' }, el('button', { type: 'submit', id: 'questionnaire-submit' }, 'Continue')));
+  form.addEventListener('submit', async (event) => {
+    event.preventDefault();
+    logEvent('click', { target: 'questionnaire-submit' });
+    const answers = {};
+    let firstMissing = null;
+    for (const item of items) {
+      const value = itemValue(form, item);
+      const missing = item.required !== false && value === undefined;
+      markMissing(form, item.id, missing);
+      if (missing && !firstMissing) firstMissing = item;
+      if (value !== undefined) answers[item.id] = value;
+    }
+    if (firstMissing) {
+      showError('Please answer every question marked *.');
+      form.querySelector(`fieldset[data-item="${CSS.escape(firstMissing.id)}"] input, fieldset[data-item="${CSS.escape(firstMissing.id)}"] textarea`)?.focus();
+      return;
+    }
+    const result = await answer(answers);
+    // The server names an item it refused: mark it.
+    if (result.status === 400) {
+      for (const item of items) if (result.body?.error?.includes(item.id)) markMissing(form, item.id, true);
+    }
+  });
+  return [el('h2', {}, p.title || 'Questionnaire'), p.html ? html(p.html) : '', form];
+}
+
+/** A trial: the briefing, and the player view of the condition in a frame, joined with
+ * the hello the state gives. */
+function renderTrial(p) {
+  const hello = { ...(p.hello || {}) };
+  const src = `/?embed=study&hello=${encodeURIComponent(JSON.stringify(hello))}`;
+  const frame = el('iframe', { id: 'trial-frame', src, title: 'the task', allow: 'fullscreen' });
+  study.trial = { step: study.state.step, frame, matchId: null, matchName: null, finishing: false };
+  frame.addEventListener('load', () => frame.focus());
+  const head = el(
+    'div',
+    { id: 'trial-head' },
+    el('h2', {}, p.title || `Task ${p.trial} of ${p.trials}`),
+    p.html ? html(p.html) : '',
+    el('span', { class: 'note' }, `Task ${p.trial} of ${p.trials}`),
+  );
+  const over = el('div', { id: 'trial-over', hidden: '' });
+  return [head, frame, over];
+}
+
+/** The trial's match has ended: answer the trial with its match (again while the server
+ * has not seen the end yet), then offer to go on. */
+async function finishTrial() {
+  const trial = study.trial;
+  if (!trial || trial.finishing || trial.step !== study.state?.step) return;
+  trial.finishing = true;
+  const over = $('#trial-over');
+  over.hidden = false;
+  over.replaceChildren(el('p', {}, 'The task is over. Saving…'));
+  await flush();
+  if (!trial.matchId) {
+    over.replaceChildren(el('p', {}, 'The task ended before it started. Please reload the page.'));
+    return;
+  }
+  const deadline = performance.now() + TRIAL_ANSWER_MS;
+  for (;;) {
+    const result = await api('POST', participantPath('/answer'), { step: trial.step, answers: { match_id: trial.matchId } });
+    if (result.ok) {
+      const next = result.body;
+      over.replaceChildren(
+        el('p', {}, 'The task is over.'),
+        button('trial-continue', 'Continue', () => render(next)),
+      );
+      $('#trial-continue').focus();
+      return;
+    }
+    const stillRunning = result.status === 409 && (!result.body?.state || result.body.state.step === trial.step);
+    if (!stillRunning || performance.now() > deadline) {
+      if (result.status === 409 && result.body?.state) return render(result.body.state);
+      over.replaceChildren(el('p', {}, `Could not save the task: ${result.body?.error || `HTTP ${result.status}`}.`));
+      return;
+    }
+    await new Promise((resolve) => setTimeout(resolve, RETRY_MS));
+  }
+}
+
+/** An event from the trial's view: logged; the match's start and end handled. */
+async function onViewEvent(event) {
+  const trial = study.trial;
+  if (!trial || trial.step !== study.state?.step) return;
+  if (event.tick !== null && event.tick !== undefined) study.tick = event.tick;
+  if (VIEW_EVENTS.has(event.kind)) study.queue.push({ ...event, step: trial.step });
+  if (event.kind === 'welcome') {
+    trial.matchId = event.match?.id ?? null;
+    trial.matchName = event.match?.name ?? null;
+    const result = await api('POST', participantPath('/trial'), { step: trial.step, match: trial.matchName, match_id: trial.matchId });
+    if (!result.ok) console.warn('bw4t study: trial start not recorded', result.status, result.body);
+  } else if (event.kind === 'match_over' || (event.kind === 'bye' && trial.matchId)) {
+    finishTrial();
+  }
+}
+
+function renderFinal(p) {
+  const parts = [el('h2', {}, p.title || 'Thank you'), html(p.html)];
+  if (p.completion_code) {
+    parts.push(el('p', {}, 'Your completion code:'), el('p', {}, el('span', { class: 'code', id: 'completion-code' }, p.completion_code)));
+  }
+  if (p.redirect) {
+    parts.push(el('p', { class: 'note' }, 'You will be taken back in a few seconds, or ', el('a', { href: p.redirect, id: 'redirect' }, 'go now'), '.'));
+    setTimeout(() => {
+      flushOnLeave();
+      location.assign(p.redirect);
+    }, 5000);
+  }
+  return parts;
+}
+
+function renderDeclined(p) {
+  return [el('h2', {}, p.title || 'Thank you'), html(p.html)];
+}
+
+const RENDERERS = {
+  consent: renderConsent,
+  instructions: renderInstructions,
+  questionnaire: renderQuestionnaire,
+  trial: renderTrial,
+  final: renderFinal,
+  declined: renderDeclined,
+};
+
+/** Shows the participant's state: its page, and the progress. */
+function render(state) {
+  study.state = state;
+  study.trial = null;
+  study.tick = null;
+  const p = state.page || {};
+  document.body.dataset.kind = p.kind || 'unknown';
+  document.body.dataset.step = String(state.step);
+  const progress = $('#study-progress');
+  progress.dataset.step = String(state.step);
+  progress.dataset.steps = String(state.steps);
+  setText(progress, `step ${Math.min(state.step + 1, state.steps)} of ${state.steps}`);
+  const make = RENDERERS[p.kind] || ((x) => [el('p', {}, `Unknown page: ${x.kind}`)]);
+  $('#study-page').replaceChildren(...make(p));
+  window.scrollTo(0, 0);
+  logEvent('page_shown', { page: p.kind, ...(p.id ? { id: p.id } : {}), ...(p.trial ? { trial: p.trial, condition: p.condition } : {}) });
+  $('#study-page').querySelector('button, input, textarea')?.focus({ preventScroll: true });
+}
+
+// ---- start ----
+
+async function start() {
+  const query = new URLSearchParams(location.search);
+  const params = Object.fromEntries(query);
+  if (!ID_PARAMS.some((key) => query.get(key))) {
+    // A reload without the id in the address (or a new tab): the one this browser has.
+    const stored = localStorage.getItem(STORE_KEY);
+    if (stored) params.participant = stored;
+  }
+  api('GET', '/api/study').then(({ ok, body }) => {
+    if (!ok || !body) return;
+    setText($('#study-title'), body.title || body.name || 'Study');
+    document.title = body.title || body.name || 'Study';
+  });
+  let result;
+  try {
+    result = await api('POST', '/api/study/participants', { params });
+  } catch (err) {
+    return showError(`The study server cannot be reached (${err.message}). Please reload the page.`);
+  }
+  if (!result.ok) return showError(result.body?.error || `The study could not start (HTTP ${result.status}).`);
+  study.id = result.body.participant;
+  localStorage.setItem(STORE_KEY, study.id);
+  history.replaceState(null, '', `/study?participant=${encodeURIComponent(study.id)}`);
+  document.body.dataset.participant = study.id;
+
+  window.addEventListener('message', (message) => {
+    if (message.origin !== location.origin || !message.data?.bw4t) return;
+    if (message.source !== study.trial?.frame.contentWindow) return;
+    if (message.data.bw4t === 'event') onViewEvent(message.data.event);
+    else if (message.data.bw4t === 'focus') setTimeout(checkFocus, 0);
+  });
+  for (const type of ['focus', 'blur']) window.addEventListener(type, () => setTimeout(checkFocus, 0));
+  document.addEventListener('visibilitychange', () => logEvent('visibility', { state: document.visibilityState }));
+  window.addEventListener('pagehide', flushOnLeave);
+  setInterval(flush, FLUSH_MS);
+  checkFocus();
+  render(result.body);
+}
+
+start();
