@@ -14,7 +14,9 @@ import { EVENTS, SINGLE_VALUED } from './table.js';
  * A `message` event taken out of a `percepts`' `add`.
  * @typedef {object} ChatMessage
  * @property {string} from the sender's name
- * @property {string} text the text
+ * @property {string} text the text; for a message of the shared language, its sentence
+ * @property {object} [said] a message of the shared language: `{kind, room?, colour?,
+ *   player?, count?, position?}` (see `protocol/schema/language.json`)
  */
 
 /** @param {Fact} fact */
@@ -76,7 +78,7 @@ export class Beliefs {
     for (const fact of percepts.add ?? []) {
       const name = fact[0];
       if (EVENTS.has(name)) {
-        messages.push({ from: fact[1], text: fact[2] });
+        messages.push(fact.length > 3 ? { from: fact[1], text: fact[2], said: fact[3] } : { from: fact[1], text: fact[2] });
         continue;
       }
       if (name === 'color') this.#colours.set(fact[1], fact[2]);

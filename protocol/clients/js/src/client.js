@@ -538,7 +538,9 @@ export class Client extends EventEmitter {
    * Send a text to another player or to `all` others (a `say`, with an id so that its
    * ack can be matched). The receivers get it in their next update's `messages`.
    * @param {string} to a player's name or `all`
-   * @param {string} text
+   * @param {string|object} text free text, or a message of the shared language
+   *   (`{kind: 'will_get', colour: 'Blue'}`); a match may allow only some kinds, or no
+   *   free text (the ack then says `not_allowed`)
    * @returns {ActionHandle}
    */
   say(to, text) {
@@ -551,7 +553,7 @@ export class Client extends EventEmitter {
     }
     this.#handles.set(id, handle);
     try {
-      this.#send({ type: 'say', id, to, text });
+      this.#send(typeof text === 'object' ? { type: 'say', id, to, said: text } : { type: 'say', id, to, text });
     } catch (err) {
       this.#handles.delete(id);
       throw err;

@@ -46,6 +46,9 @@ test('other facts are sets; message facts are events, not stored', () => {
     full: true,
   });
   assert.deepEqual(messages, [{ from: 'Bob', text: 'hi' }, { from: 'Cy', text: 'yo' }]);
+  const said = { kind: 'contains', room: 'RoomB2', colour: 'Red' };
+  const heard = b.apply({ tick: 2, add: [['message', 'Ann', 'RoomB2 contains Red.', said]], not: [] });
+  assert.deepEqual(heard, [{ from: 'Ann', text: 'RoomB2 contains Red.', said }]);
   assert.deepEqual(b.all('color'), [[11, 'Yellow'], [12, 'Blue']]);
   assert.ok(!b.holds('message'));
   b.apply({ tick: 1, add: [], not: [['color', 11, 'Yellow']] });

@@ -25,7 +25,9 @@ test('two clients exchange messages', { timeout: 30000 }, async () => {
       greeting ??= ann.say('Bob', 'hello Bob');
       const reply = update.messages.find((m) => m.from === 'Bob');
       if (reply) {
-        assert.equal(reply.text, 'hi all');
+        // A message of the shared language comes as its sentence and its structure.
+        assert.equal(reply.text, 'I am on my way.');
+        assert.deepEqual(reply.said, { kind: 'on_my_way' });
         assert.ok(update.beliefs.holds('player', 'Bob'));
         return { greeting, tick: update.tick };
       }
@@ -41,7 +43,8 @@ test('two clients exchange messages', { timeout: 30000 }, async () => {
       const greeting = update.messages.find((m) => m.from === 'Ann');
       if (greeting) {
         assert.equal(greeting.text, 'hello Bob');
-        answer = bob.say('all', 'hi all');
+        assert.equal(greeting.said, undefined, 'free text has no structure');
+        answer = bob.say('all', { kind: 'on_my_way' });
         return { answer, tick: update.tick };
       }
     }

@@ -237,9 +237,14 @@ class ClientBase(Generic[A]):
         """``putDown`` the held block (delivered in the ``DropZone``)."""
         return self.act("putDown")
 
-    def say(self, to: str, text: str) -> A:
-        """Send a message to a player's name or ``"all"`` (a ``say``); acked as an action."""
-        msg, record = self._core.say(to, text)
+    def say(self, to: str, text: Optional[str] = None, *, said: Optional[Dict[str, Any]] = None) -> A:
+        """Send a message to a player's name or ``"all"`` (a ``say``); acked as an action.
+
+        Either free ``text`` or ``said``, a message of the shared language, e.g.
+        ``client.say("all", said={"kind": "will_get", "colour": "Blue"})``; a match may
+        allow only some kinds, or no free text (then the ack says ``not_allowed``).
+        """
+        msg, record = self._core.say(to, text, said)
         self._send(msg)
         return self._action_handle(record)
 

@@ -94,7 +94,8 @@ class BeliefBase:
             if name in EVENTS:
                 sender = fact[1] if len(fact) > 1 else ""
                 text = fact[2] if len(fact) > 2 else ""
-                messages.append(Message(str(sender), str(text), tick))
+                said = raw[3] if len(raw) > 3 and isinstance(raw[3], dict) else None
+                messages.append(Message(str(sender), str(text), tick, said))
                 continue
             added.append(fact)
             if name in SINGLE_VALUED:

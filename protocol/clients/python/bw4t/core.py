@@ -275,11 +275,21 @@ class ProtocolCore:
         msg = {"type": "act", "id": record.id, "action": action, "args": list(args)}
         return msg, record
 
-    def say(self, to: str, text: str) -> Tuple[Dict[str, Any], ActionRecord]:
-        """A ``say`` message with a fresh id, and its record."""
-        record = ActionRecord(self._new_id(), "sendMessage", (to, text))
+    def say(
+        self, to: str, text: Optional[str] = None, said: Optional[Dict[str, Any]] = None
+    ) -> Tuple[Dict[str, Any], ActionRecord]:
+        """A ``say`` message with a fresh id, and its record: free ``text``, or ``said``, a
+        message of the shared language (``{"kind": ..., "room": ..., ...}``)."""
+        if (text is None) == (said is None):
+            raise ValueError("say takes text or said, exactly one")
+        record = ActionRecord(self._new_id(), "sendMessage", (to, text if said is None else said))
         self._actions[record.id] = record
-        return {"type": "say", "id": record.id, "to": to, "text": text}, record
+        msg: Dict[str, Any] = {"type": "say", "id": record.id, "to": to}
+        if said is None:
+            msg["text"] = text
+        else:
+            msg["said"] = said
+        return msg, record
 
     def ping(self) -> Tuple[Dict[str, Any], Any]:
         """A ``ping`` message with a fresh id, and that id."""

@@ -32,6 +32,10 @@ class MatchInfo:
     name: Optional[str] = None
     #: The template the match was made from, if any.
     template: Optional[str] = None
+    #: The message kinds of the shared language the match allows (``None``: every kind).
+    kinds: Optional[List[str]] = None
+    #: Whether the match allows free text besides the language.
+    free_text: bool = True
     raw: Dict[str, Any] = field(default_factory=dict, compare=False, repr=False)
 
     @property
@@ -53,6 +57,8 @@ class MatchInfo:
             max_ticks=obj.get("max_ticks"),
             name=obj.get("name") or None,
             template=obj.get("template") or None,
+            kinds=(obj.get("language") or {}).get("kinds"),
+            free_text=bool((obj.get("language") or {}).get("free_text", True)),
             raw=dict(obj),
         )
 
@@ -183,11 +189,15 @@ class Result:
 
 @dataclass(frozen=True)
 class Message:
-    """A message from another player (a ``["message", From, Text]`` fact) and its tick."""
+    """A message from another player and its tick: free text (a ``["message", From, Text]``
+    fact), or a message of the shared language (``["message", From, Sentence, Said]``),
+    whose ``text`` is its English sentence and ``said`` its structured form, e.g.
+    ``{"kind": "contains", "room": "RoomB2", "colour": "Red"}``."""
 
     sender: str
     text: str
     tick: int
+    said: Optional[Dict[str, Any]] = None
 
 
 @dataclass(frozen=True)

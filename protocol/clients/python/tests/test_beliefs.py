@@ -42,6 +42,10 @@ def test_full_clears_not_before_add_and_single_valued_replace() -> None:
     b.apply(4, [["at", "C"]], [], full=True)
     assert b.facts() == {("at", "C")}
     assert len(b.messages) == 1  # the message log survives a snapshot
+    said = {"kind": "contains", "room": "RoomB2", "colour": "Red"}
+    _, _, heard = b.apply(5, [["message", "Ann", "RoomB2 contains Red.", said]], [])
+    assert [(m.sender, m.text, m.said) for m in heard] == [("Ann", "RoomB2 contains Red.", said)]
+    assert b.messages[0].said is None  # free text has no structure
 
 
 def test_sequence_fact_and_views() -> None:

@@ -247,7 +247,12 @@ def test_messages_between_two_clients(serve: ServeFn) -> None:
         assert ann.send_message("all", "hello all").ack(WAIT).ok
         refused = ann.say("Carol", "anyone?").ack(WAIT)
         assert (refused.ok, refused.code) == (False, "unknown_receiver")
-        updates_until(ann, lambda: any(m.text == "hi Ann" for m in ann.beliefs.messages))
+        updates_until(ann, lambda: any(m.text == "OK." for m in ann.beliefs.messages))
+        # A message of the shared language comes as its sentence and its structure.
+        answer = next(m for m in ann.beliefs.messages if m.sender == "Bob")
+        assert (answer.text, answer.said) == ("OK.", {"kind": "ok"})
+        bad = ann.say("Bob", said={"kind": "will_get"}).ack(WAIT)
+        assert (bad.ok, bad.code) == (False, "bad_args") and "colour" in (bad.reason or "")
         for _ in ann.updates(WAIT):
             pass
 
@@ -257,12 +262,13 @@ def test_messages_between_two_clients(serve: ServeFn) -> None:
             if update.messages:
                 got.append(update)
             if any(m.text == "hello Bob" for m in update.messages):
-                bob.say("Ann", "hi Ann")
+                bob.say("Ann", said={"kind": "ok"})
         return got
 
     _, bob_updates = run_threads(play_ann, play_bob)
     texts = [(m.sender, m.text) for u in bob_updates for m in u.messages]  # type: ignore[union-attr]
     assert texts == [("Ann", "hello Bob"), ("Ann", "hello all")]
+    assert all(m.said is None for u in bob_updates for m in u.messages)  # type: ignore[union-attr]
     assert [(m.sender, m.text) for m in bob.beliefs.messages] == texts
     assert not bob.beliefs.all("message")  # events, not state
     assert ann.match_end is not None and bob.match_end is not None
