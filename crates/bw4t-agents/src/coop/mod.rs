@@ -344,8 +344,13 @@ impl Cooperative {
                 self.redirected = true;
             }
             Heard::Get { player, colour } if player == self.name => {
+                // The answer goes before what taking it on says (`giving_up`, a claim).
+                let at = self.outbox.len();
                 let reply = self.take_on(v, colour);
                 self.tell(asker, Said::new(reply));
+                if let Some(answer) = self.outbox.pop() {
+                    self.outbox.insert(at, answer);
+                }
             }
             _ => {}
         }
