@@ -131,3 +131,17 @@ fn every_json_example_in_protocol_parses() {
     }
     assert!(checked > 0, "no examples found in protocol/");
 }
+
+#[test]
+fn the_message_language_table_in_the_protocol_document_is_the_code_table() {
+    let doc = std::fs::read_to_string(protocol_dir().join("PROTOCOL.md")).expect("PROTOCOL.md");
+    let section = doc.split("## The message language").nth(1).expect("a message language section");
+    let section = section.split("\n## ").next().unwrap_or_default();
+    let rows: Vec<&str> = section.lines().filter(|l| l.starts_with("| `")).collect();
+    assert_eq!(rows.len(), bw4t_protocol::KINDS.len(), "one row per kind");
+    for (row, kind) in rows.iter().zip(bw4t_protocol::KINDS) {
+        let cells: Vec<&str> = row.split(" | ").collect();
+        assert_eq!(cells[0], format!("| `{}`", kind.word), "{row}");
+        assert_eq!(cells[2], kind.sentence, "{row}");
+    }
+}

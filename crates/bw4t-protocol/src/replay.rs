@@ -8,6 +8,10 @@
 //! bound how many ticks it can claim), none is past `max_ticks`, and nothing follows `end`;
 //! a file without `end` is incomplete (its writer was stopped). The recorder flushes after
 //! the header and every digest, so a killed writer leaves a usable prefix.
+//!
+//! A served match's replay also says when things happened: the header's `started_ms` and
+//! each tick line's `wall_ms` (milliseconds since the Unix epoch), and the match's `labels`
+//! (a study's condition, say). Re-simulating ignores them.
 
 use std::collections::BTreeMap;
 use std::io::Write;
