@@ -48,6 +48,9 @@ mod run;
 /// The web side: the page, the map layout, the protocol over WebSocket.
 mod web;
 
+/// Studies: the participant flow over the HTTP API, resuming, the export, bad study files.
+mod study;
+
 /// `bw4t tournament`: files, statistics, resume, shards, failing agents.
 mod tournament;
 

@@ -75,7 +75,17 @@ pub(crate) async fn respond(
             };
             match *what {
                 "answer" => study.answer(id, &body).await,
-                "trial" => study.trial_started(id, &body),
+                "trial" => {
+                let mut body = body;
+                if let (None, Some(name)) =
+                    (body.get("match_id"), body.get("match").and_then(Value::as_str).map(str::to_string))
+                {
+                    if let Some(id) = study.match_id_of(&name).await {
+                        body["match_id"] = id.into();
+                    }
+                }
+                study.trial_started(id, &body)
+            }
                 _ => study.events(id, &body),
             }
         }
@@ -198,7 +208,15 @@ impl StudyServer {
         let Some(slot) = self.slot(id) else {
             return error(StatusCode::NOT_FOUND, format!("no participant '{id}'"));
         };
-        let answers = body.get("answers").cloned().unwrap_or_else(|| json!({}));
+        let mut answers = body.get("answers").cloned().unwrap_or_else(|| json!({}));
+        // A page that knows only the match's name gets the id of its latest run.
+        if let (None, Some(name)) =
+            (answers.get("match_id"), answers.get("match").and_then(Value::as_str).map(str::to_string))
+        {
+            if let Some(id) = self.match_id_of(&name).await {
+                answers["match_id"] = id.into();
+            }
+        }
         // A trial's match is asked about before the participant is locked (it may wait).
         let page = {
             let slot = lock(&slot);
@@ -290,6 +308,12 @@ impl StudyServer {
             Ok(()) => Answer::Json(StatusCode::OK, slot.state.state(self.study())),
             Err(e) => write_failed(&e),
         }
+    }
+
+    /// The id of the live match named `name`, else of its latest finished run.
+    async fn match_id_of(&self, name: &str) -> Option<String> {
+        let summary = self.inner.arena.summary(name, true).await?;
+        summary["id"].as_str().map(str::to_string)
     }
 
     /// Whether the live match of `match_id`'s name is that very match.

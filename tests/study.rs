@@ -1,0 +1,686 @@
+//! Studies: a participant's whole way through the HTTP API with a scripted player over
+//! the protocol, counterbalancing, resuming (reload, restart, a killed server), the
+//! export's rows, and refusals of bad study files and bad requests.
+
+use std::net::SocketAddr;
+use std::path::{Path, PathBuf};
+
+use bw4t_protocol::ServerMessage;
+use bw4t_server::study::{self, StudyServer};
+use bw4t_server::{Arena, ArenaConfig, ResultsStore};
+use serde_json::{Value, json};
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::sync::oneshot;
+
+use crate::util::{AutoPlayer, Client, WAIT, shipped_map};
+
+const TOKEN: &str = "op-secret";
+
+/// Two conditions of lockstep matches of 20 ticks (one person, one built-in teammate), and
+/// every kind of page.
+const STUDY: &str = r##"
+[study]
+name = "pilot"
+title = "Pilot"
+seed = 7
+order = "counterbalanced"
+mode = "lockstep"
+tick_hz = 20
+time_limit_s = 1
+
+[[condition]]
+name = "alpha"
+teammates = 1
+strategy = "coop"
+free_text = false
+kinds = ["going_to", "have"]
+briefing = "Your teammate **talks**."
+
+[[condition]]
+name = "beta"
+teammates = 1
+strategy = "baseline"
+view = "overview"
+
+[[page]]
+kind = "consent"
+text = "Do you agree? <b>raw</b>"
+
+[[page]]
+kind = "instructions"
+text = "# Play"
+
+[[page]]
+kind = "trial"
+
+[[page]]
+kind = "questionnaire"
+id = "after"
+
+[[page.item]]
+id = "teamwork"
+kind = "likert"
+text = "We worked well together."
+scale = 7
+labels = ["no", "yes"]
+
+[[page.item]]
+id = "load"
+kind = "choice"
+text = "How hard?"
+options = ["easy", "hard"]
+
+[[page.item]]
+id = "note"
+kind = "text"
+text = "Anything else?"
+required = false
+
+[[page]]
+kind = "trial"
+
+[[page]]
+kind = "final"
+text = "Code {code} for {participant}."
+completion_code = "ABC123"
+redirect = "https://example.org/done?cc={code}&p={participant}"
+"##;
+
+fn temp_dir(what: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("bw4t-study-{what}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    dir
+}
+
+/// Shipped maps by name; anything else is not found.
+fn maps(spec: &str) -> Result<bw4t_map::Map, String> {
+    let known = Path::new(env!("CARGO_MANIFEST_DIR")).join("maps").join(format!("{spec}.toml")).is_file();
+    if known { Ok(shipped_map(spec)) } else { Err(format!("no shipped map named '{spec}'")) }
+}
+
+fn parse(text: &str) -> Result<study::Study, String> {
+    study::parse(text, Path::new("study.toml"), &maps)
+}
+
+/// A study served in-process on loopback ports, its data in `dir`.
+struct StudyRig {
+    arena: Arena,
+    addr: SocketAddr,
+    http: SocketAddr,
+    stop: Option<oneshot::Sender<()>>,
+    task: tokio::task::JoinHandle<()>,
+    _study: StudyServer,
+}
+
+impl StudyRig {
+    async fn start(dir: &Path, text: &str) -> StudyRig {
+        std::fs::write(dir.join("study.toml"), text).expect("study copy");
+        let study = parse(text).expect("the study file is good");
+        let mut config = ArenaConfig::new(study.templates());
+        config.default = None;
+        config.operator_token = Some(TOKEN.into());
+        config.results = ResultsStore::in_dir(&dir.join("matches")).expect("results dir");
+        let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.expect("bind");
+        let http = tokio::net::TcpListener::bind("127.0.0.1:0").await.expect("bind");
+        let (addr, http_addr) = (listener.local_addr().expect("addr"), http.local_addr().expect("addr"));
+        let arena = Arena::start(config).expect("the arena starts");
+        let served = StudyServer::open(study, dir, arena.clone()).expect("the study opens");
+        let (stop, stopped) = oneshot::channel::<()>();
+        let running = arena.clone();
+        let task = tokio::spawn(async move {
+            let shutdown = async {
+                let _ = stopped.await;
+            };
+            bw4t_server::serve_arena(&running, listener, Some(http), shutdown).await;
+        });
+        StudyRig { arena, addr, http: http_addr, stop: Some(stop), task, _study: served }
+    }
+
+    async fn shutdown(mut self) {
+        if let Some(stop) = self.stop.take() {
+            let _ = stop.send(());
+        }
+        tokio::time::timeout(WAIT, &mut self.task).await.expect("the server stops in time").expect("task");
+    }
+
+    async fn call(&self, method: &str, path: &str, body: Option<Value>) -> (u16, Value) {
+        let body = body.map(|b| b.to_string());
+        let (status, text) = http(self.http, method, path, None, body.as_deref()).await;
+        (status, serde_json::from_str(&text).unwrap_or_else(|e| panic!("not JSON ({e}): {text}")))
+    }
+
+    async fn operator(&self, method: &str, path: &str) -> (u16, Value) {
+        let (status, text) = http(self.http, method, path, Some(TOKEN), Some("")).await;
+        (status, serde_json::from_str(&text).unwrap_or_else(|e| panic!("not JSON ({e}): {text}")))
+    }
+
+    /// Answers step `step` of `id` and expects the state after it.
+    async fn answer(&self, id: &str, step: u64, answers: Value) -> Value {
+        let (status, state) = self
+            .call(
+                "POST",
+                &format!("/api/study/participants/{id}/answer"),
+                Some(json!({"step": step, "answers": answers})),
+            )
+            .await;
+        assert_eq!(status, 200, "{state}");
+        assert_eq!(state["step"], step + 1, "{state}");
+        state
+    }
+
+    /// Plays the trial the state shows to its end with a player answering every tick, and
+    /// answers it; returns the state after.
+    async fn play_trial(&self, id: &str, state: &Value) -> Value {
+        let page = &state["page"];
+        assert_eq!(page["kind"], "trial", "{state}");
+        let ended: u64 = self.arena.totals().values().map(|t| t.ended).sum();
+        let hello = json!({"name": page["hello"]["name"], "template": page["hello"]["template"]});
+        let mut player = AutoPlayer::join_with(self.addr, hello).await;
+        let name = player.welcome.match_info.name.clone();
+        let step = state["step"].as_u64().expect("step");
+        let (status, _) = self
+            .call(
+                "POST",
+                &format!("/api/study/participants/{id}/trial"),
+                Some(json!({"step": step, "match": name})),
+            )
+            .await;
+        assert_eq!(status, 200);
+        player.wait("the match's end", |s| s.ended.then_some(())).await;
+        tokio::time::timeout(WAIT, self.arena.ended(ended + 1)).await.expect("the match is recorded in time");
+        let (_, summary) = self.operator("GET", &format!("/api/matches/{name}")).await;
+        let match_id = summary["id"].as_str().expect("the operator sees the id").to_string();
+        self.answer(id, step, json!({"match_id": match_id})).await
+    }
+}
+
+/// One HTTP request; returns the status and the body.
+async fn http(
+    addr: SocketAddr,
+    method: &str,
+    path: &str,
+    token: Option<&str>,
+    body: Option<&str>,
+) -> (u16, String) {
+    let mut stream = tokio::net::TcpStream::connect(addr).await.expect("connect");
+    let mut request = format!("{method} {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n");
+    if let Some(token) = token {
+        request += &format!("Authorization: Bearer {token}\r\n");
+    }
+    let body = body.unwrap_or("");
+    request += &format!("Content-Type: text/plain\r\nContent-Length: {}\r\n\r\n{body}", body.len());
+    let _ = stream.write_all(request.as_bytes()).await;
+    let mut answer = Vec::new();
+    let _ = tokio::time::timeout(WAIT, stream.read_to_end(&mut answer)).await.expect("an answer in time");
+    let answer = String::from_utf8_lossy(&answer).into_owned();
+    let status =
+        answer.split(' ').nth(1).and_then(|s| s.parse().ok()).unwrap_or_else(|| panic!("a status: {answer}"));
+    let body = answer.split_once("\r\n\r\n").map(|(_, b)| b.to_string()).unwrap_or_default();
+    (status, body)
+}
+
+/// A CSV file's rows as maps of column to cell (no quoted commas in what these tests read).
+fn csv_rows(path: &Path) -> Vec<std::collections::BTreeMap<String, String>> {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().expect("a header").split(',').collect();
+    lines
+        .map(|l| header.iter().map(|h| h.to_string()).zip(l.split(',').map(str::to_string)).collect())
+        .collect()
+}
+
+async fn arrive(rig: &StudyRig, id: &str) -> (u16, Value) {
+    rig.call(
+        "POST",
+        "/api/study/participants",
+        Some(json!({"params": {"PROLIFIC_PID": id, "STUDY_ID": "s1"}})),
+    )
+    .await
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_participant_goes_through_the_whole_study_and_the_export_has_every_row() {
+    let dir = temp_dir("flow");
+    let rig = StudyRig::start(&dir, STUDY).await;
+    let (status, info) = rig.call("GET", "/api/study", None).await;
+    assert_eq!(
+        (status, info["name"].as_str(), info["conditions"].clone()),
+        (200, Some("pilot"), json!(["alpha", "beta"]))
+    );
+
+    let (status, state) = arrive(&rig, "alice").await;
+    assert_eq!(status, 201, "{state}");
+    assert_eq!((state["step"].as_u64(), state["steps"].as_u64()), (Some(0), Some(6)));
+    assert_eq!(state["page"]["kind"], "consent");
+    let html = state["page"]["html"].as_str().expect("html");
+    assert!(html.contains("&lt;b&gt;raw&lt;/b&gt;") && !html.contains("<b>"), "raw HTML is escaped: {html}");
+    // Coming back with the link, or asking again, gives the same step.
+    let (status, again) = arrive(&rig, "alice").await;
+    assert_eq!((status, &again), (200, &state));
+    let (_, got) = rig.call("GET", "/api/study/participants/alice", None).await;
+    assert_eq!(got, state);
+
+    // Refusals name the problem.
+    let (status, wrong) = rig
+        .call("POST", "/api/study/participants/alice/answer", Some(json!({"step": 1, "answers": {}})))
+        .await;
+    assert_eq!(status, 409, "{wrong}");
+    assert!(wrong["error"].as_str().is_some_and(|e| e.contains("step 1")), "{wrong}");
+    assert_eq!(wrong["state"], state);
+    let (status, bad) =
+        rig.call("POST", "/api/study/participants", Some(json!({"params": {"pid": "a b/c"}}))).await;
+    assert!(status == 400 && bad["error"].as_str().is_some_and(|e| e.contains("pid")), "{bad}");
+    let (status, bad) = rig.call("GET", "/api/study/participants/nobody", None).await;
+    assert_eq!(status, 404, "{bad}");
+    let (status, bad) = rig
+        .call(
+            "POST",
+            "/api/study/participants/alice/answer",
+            Some(json!({"step": 0, "answers": {"consent": "yes"}})),
+        )
+        .await;
+    assert!(status == 400 && bad["error"].as_str().is_some_and(|e| e.contains("consent")), "{bad}");
+    let (status, _) =
+        http(rig.http, "POST", "/api/study/participants/alice/answer", None, Some("{not json")).await;
+    assert_eq!(status, 400);
+    let big = format!("{{\"events\": [\"{}\"]}}", "x".repeat(70 * 1024));
+    let (status, _) = http(rig.http, "POST", "/api/study/participants/alice/events", None, Some(&big)).await;
+    assert_eq!(status, 413, "a body over 64 KB is refused");
+    let (status, _) = rig.call("GET", "/api/study/participants", None).await;
+    assert_eq!(status, 401, "only the operator lists participants");
+
+    rig.answer("alice", 0, json!({"consent": true})).await;
+    let state = rig.answer("alice", 1, json!({})).await;
+    let page = &state["page"];
+    assert_eq!(
+        (page["kind"].as_str(), page["trial"].as_u64(), page["trials"].as_u64()),
+        (Some("trial"), Some(1), Some(2))
+    );
+    assert_eq!(
+        page["hello"],
+        json!({"template": "alpha", "name": "P1"}),
+        "the first to arrive starts with alpha"
+    );
+    assert_eq!(page["language"], json!({"kinds": ["going_to", "have"], "free_text": false}));
+    assert_eq!((page["view"].as_str(), page["time_limit_s"].as_u64()), (Some("own"), Some(1)));
+    assert!(page["html"].as_str().is_some_and(|h| h.contains("<strong>talks</strong>")), "{page}");
+
+    // The second participant gets the other order.
+    let (_, bob) = arrive(&rig, "bob").await;
+    assert_eq!(bob["step"], 0);
+    rig.answer("bob", 0, json!({"consent": true})).await;
+    let bob = rig.answer("bob", 1, json!({})).await;
+    assert_eq!(bob["page"]["hello"], json!({"template": "beta", "name": "P2"}));
+    assert_eq!(bob["page"]["view"], "overview");
+
+    // Events: any content type, appended with the server's time; unknown kinds refused.
+    let events = json!({"events": [
+        {"wall_ms": 1, "tick": null, "step": 2, "kind": "page_shown"},
+        {"wall_ms": 2, "tick": 3, "step": 2, "kind": "key", "key": "p"},
+        {"wall_ms": 3, "tick": 4, "step": 2, "kind": "act", "id": 1, "action": "goTo", "args": ["RoomA1"]},
+    ]});
+    let (status, recorded) = rig.call("POST", "/api/study/participants/alice/events", Some(events)).await;
+    assert_eq!((status, recorded["recorded"].as_u64()), (200, Some(3)), "{recorded}");
+    let (status, bad) = rig
+        .call("POST", "/api/study/participants/alice/events", Some(json!({"events": [{"kind": "dance"}]})))
+        .await;
+    assert!(status == 400 && bad["error"].as_str().is_some_and(|e| e.contains("dance")), "{bad}");
+
+    // The trial: an answer while its match runs is refused; a finished one is taken.
+    let hello =
+        json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": "P1", "template": "alpha"});
+    let mut client = Client::connect(rig.addr).await;
+    client.send(hello).await;
+    let welcome = client
+        .until(|m| match m {
+            ServerMessage::Welcome(w) => Some(w.clone()),
+            ServerMessage::Error(e) => panic!("hello refused: {e:?}"),
+            _ => None,
+        })
+        .await;
+    let name = welcome.match_info.name.clone();
+    let (status, _) = rig
+        .call("POST", "/api/study/participants/alice/trial", Some(json!({"step": 2, "match": name})))
+        .await;
+    assert_eq!(status, 200);
+    // Unanswered, the lockstep match waits a second on each tick: it is still running.
+    let (status, running) = rig
+        .call(
+            "POST",
+            "/api/study/participants/alice/answer",
+            Some(json!({"step": 2, "answers": {"match": name}})),
+        )
+        .await;
+    assert_eq!(status, 409, "{running}");
+    assert!(running["error"].as_str().is_some_and(|e| e.contains("still running")), "{running}");
+    // Bob may not answer his trial with Alice's match.
+    let (_, summary) = rig.operator("GET", &format!("/api/matches/{name}")).await;
+    let alice_match = summary["id"].as_str().expect("id").to_string();
+    let mut player = AutoPlayer::adopt(client, welcome);
+    player.wait("the match's end", |s| s.ended.then_some(())).await;
+    tokio::time::timeout(WAIT, rig.arena.ended(1)).await.expect("the match is recorded");
+    let (status, bad) = rig
+        .call(
+            "POST",
+            "/api/study/participants/bob/answer",
+            Some(json!({"step": 2, "answers": {"match_id": alice_match}})),
+        )
+        .await;
+    assert!(status == 400 && bad["error"].as_str().is_some_and(|e| e.contains("beta")), "{status} {bad}");
+    let state = rig.answer("alice", 2, json!({"match_id": alice_match})).await;
+    let page = &state["page"];
+    assert_eq!((page["kind"].as_str(), page["id"].as_str()), (Some("questionnaire"), Some("after")));
+    assert_eq!(
+        page["items"][0],
+        json!({"id": "teamwork", "kind": "likert", "text": "We worked well together.", "scale": 7, "labels": ["no", "yes"], "required": true})
+    );
+
+    // Questionnaire checks name the item.
+    for (answers, needle) in [
+        (json!({"load": "easy"}), "teamwork"),
+        (json!({"teamwork": 8, "load": "easy"}), "teamwork"),
+        (json!({"teamwork": 3, "load": "medium"}), "load"),
+        (json!({"teamwork": 3, "load": "easy", "extra": 1}), "extra"),
+    ] {
+        let (status, bad) = rig
+            .call(
+                "POST",
+                "/api/study/participants/alice/answer",
+                Some(json!({"step": 3, "answers": answers})),
+            )
+            .await;
+        assert!(
+            status == 400 && bad["error"].as_str().is_some_and(|e| e.contains(needle)),
+            "{answers}: {bad}"
+        );
+    }
+    let state = rig.answer("alice", 3, json!({"teamwork": 6, "load": "hard", "note": "fun"})).await;
+    assert_eq!(state["page"]["hello"]["template"], "beta");
+    let state = rig.play_trial("alice", &state).await;
+    let page = &state["page"];
+    assert_eq!(page["kind"], "final", "{state}");
+    assert_eq!(page["completion_code"], "ABC123");
+    assert_eq!(page["redirect"], "https://example.org/done?cc=ABC123&p=alice");
+    assert!(page["html"].as_str().is_some_and(|h| h.contains("Code ABC123 for alice.")), "{page}");
+    let (status, done) = rig
+        .call("POST", "/api/study/participants/alice/answer", Some(json!({"step": 5, "answers": {}})))
+        .await;
+    assert_eq!(status, 409, "{done}");
+
+    let (status, list) = rig.operator("GET", "/api/study/participants").await;
+    assert_eq!(status, 200, "{list}");
+    let people = list["participants"].as_array().expect("list");
+    assert_eq!(people.len(), 2);
+    assert_eq!(
+        (people[0]["participant"].as_str(), people[0]["completed"].as_bool()),
+        (Some("alice"), Some(true))
+    );
+    assert_eq!(
+        (people[1]["page_kind"].as_str(), people[1]["condition"].as_str()),
+        (Some("trial"), Some("beta"))
+    );
+    rig.shutdown().await;
+
+    let out = dir.join("export");
+    let summary = study::export(&dir, &out).expect("export");
+    assert_eq!((summary.participants, summary.trials, summary.incomplete), (2, 2, 0), "{summary:?}");
+    let trials = csv_rows(&out.join("trials.csv"));
+    let conditions: Vec<(&str, &str, &str)> = trials
+        .iter()
+        .map(|t| (t["participant"].as_str(), t["condition"].as_str(), t["complete"].as_str()))
+        .collect();
+    assert_eq!(conditions, [("alice", "alpha", "true"), ("alice", "beta", "true")]);
+    assert!(trials.iter().all(|t| t["end_reason"] == "max_ticks" && t["ticks"] == "20"), "{trials:?}");
+    let answers = csv_rows(&out.join("answers.csv"));
+    let teamwork: Vec<(&str, &str)> = answers
+        .iter()
+        .filter(|a| a["item"] == "teamwork")
+        .map(|a| (a["after_condition"].as_str(), a["value"].as_str()))
+        .collect();
+    assert_eq!(teamwork, [("alpha", "6")]);
+    assert!(
+        answers.iter().any(|a| a["participant"] == "bob" && a["item"] == "consent" && a["value"] == "true")
+    );
+    let events = csv_rows(&out.join("events.csv"));
+    let kinds: Vec<&str> = events.iter().map(|e| e["kind"].as_str()).collect();
+    assert_eq!(kinds, ["page_shown", "key", "act"]);
+    let people = csv_rows(&out.join("participants.csv"));
+    assert_eq!((people[0]["order"].as_str(), people[0]["completed"].as_str()), ("alpha;beta", "true"));
+    assert_eq!((people[1]["order"].as_str(), people[1]["completed"].as_str()), ("beta;alpha", "false"));
+    let metadata: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("metadata.json")).expect("metadata"))
+            .expect("json");
+    assert_eq!(metadata["conditions"], json!(["alpha", "beta"]));
+    assert!(metadata["study_file"].as_str().is_some_and(|t| t.contains("name = \"pilot\"")));
+    // Each trial's replay, labelled with the participant, condition and trial.
+    let replay = out.join(&trials[1]["replay"]);
+    let header: Value = serde_json::from_str(
+        std::fs::read_to_string(&replay).expect("replay copied").lines().next().expect("header"),
+    )
+    .expect("json");
+    assert_eq!(header["labels"]["participant"], "alice");
+    assert_eq!(
+        (header["labels"]["condition"].as_str(), header["labels"]["trial"].as_str()),
+        (Some("beta"), Some("2"))
+    );
+    // The same data exports the same rows.
+    let again = dir.join("export2");
+    study::export(&dir, &again).expect("export again");
+    for file in ["trials.csv", "answers.csv", "events.csv", "participants.csv"] {
+        assert_eq!(std::fs::read(out.join(file)).ok(), std::fs::read(again.join(file)).ok(), "{file}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_restarted_server_continues_each_participant_and_gives_a_lost_trial_again() {
+    let dir = temp_dir("restart");
+    let rig = StudyRig::start(&dir, STUDY).await;
+    arrive(&rig, "carol").await;
+    rig.answer("carol", 0, json!({"consent": true})).await;
+    let state = rig.answer("carol", 1, json!({})).await;
+    // Carol's trial starts, and the server stops under it.
+    let hello =
+        json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": "P1", "template": "alpha"});
+    let mut client = Client::connect(rig.addr).await;
+    client.send(hello).await;
+    let welcome = client
+        .until(|m| match m {
+            ServerMessage::Welcome(w) => Some(w.clone()),
+            _ => None,
+        })
+        .await;
+    let (status, _) = rig
+        .call(
+            "POST",
+            "/api/study/participants/carol/trial",
+            Some(json!({"step": 2, "match": welcome.match_info.name})),
+        )
+        .await;
+    assert_eq!(status, 200);
+    rig.shutdown().await;
+    drop(client);
+
+    let rig = StudyRig::start(&dir, STUDY).await;
+    let (status, again) = rig.call("GET", "/api/study/participants/carol", None).await;
+    assert_eq!((status, &again), (200, &state), "the same trial is given again");
+    let log = std::fs::read_to_string(dir.join("participants/carol.jsonl")).expect("log");
+    assert!(log.contains("\"trial_incomplete\""), "{log}");
+    let seqs: Vec<u64> = log
+        .lines()
+        .map(|l| serde_json::from_str::<Value>(l).expect("a whole line")["seq"].as_u64().expect("seq"))
+        .collect();
+    assert_eq!(seqs, (1..=seqs.len() as u64).collect::<Vec<_>>(), "seq numbers go on across the restart");
+    let state = rig.play_trial("carol", &again).await;
+    assert_eq!(state["page"]["kind"], "questionnaire");
+    // Declining consent ends the study for that participant.
+    arrive(&rig, "dan").await;
+    let body = json!({"step": 0, "answers": {"consent": false}});
+    let (status, dan) = rig.call("POST", "/api/study/participants/dan/answer", Some(body.clone())).await;
+    assert_eq!((status, dan["page"]["kind"].as_str()), (200, Some("declined")), "{dan}");
+    let (status, _) = rig.call("POST", "/api/study/participants/dan/answer", Some(body)).await;
+    assert_eq!(status, 409);
+    rig.shutdown().await;
+
+    let out = dir.join("export");
+    let summary = study::export(&dir, &out).expect("export");
+    assert_eq!((summary.trials, summary.incomplete), (2, 1), "{summary:?}");
+    let trials = csv_rows(&out.join("trials.csv"));
+    assert_eq!(trials[0]["complete"], "false");
+    assert!(trials[0]["incomplete_reason"].contains("server stopped"), "{trials:?}");
+    assert_eq!((trials[1]["complete"].as_str(), trials[1]["trial"].as_str()), ("true", "1"));
+    let metadata: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("metadata.json")).expect("metadata"))
+            .expect("json");
+    assert_eq!(metadata["incomplete_trials"][0]["participant"], "carol");
+    let people = csv_rows(&out.join("participants.csv"));
+    assert_eq!((people[1]["participant"].as_str(), people[1]["declined"].as_str()), ("dan", "true"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Stops a child process when dropped.
+struct KillOnDrop(std::process::Child);
+
+impl Drop for KillOnDrop {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_killed_server_leaves_readable_logs_and_the_export_lists_the_unfinished_trial() {
+    use std::io::BufRead;
+    let dir = temp_dir("killed");
+    let file = dir.join("pilot.toml");
+    std::fs::write(
+        &file,
+        STUDY
+            .replace("mode = \"lockstep\"", "mode = \"realtime\"")
+            .replace("time_limit_s = 1", "time_limit_s = 600"),
+    )
+    .expect("study file");
+    let data = dir.join("data");
+    let mut child = KillOnDrop(
+        std::process::Command::new(env!("CARGO_BIN_EXE_bw4t"))
+            .args([
+                "study",
+                file.to_str().expect("path"),
+                "--data",
+                data.to_str().expect("path"),
+                "--port",
+                "0",
+                "--http",
+                "0",
+            ])
+            .args(["--operator-token", TOKEN, "-q"])
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .expect("start bw4t study"),
+    );
+    let mut lines = std::io::BufReader::new(child.0.stdout.take().expect("stdout")).lines();
+    let mut next = |prefix: &str| {
+        let line = lines.next().expect("a line").expect("read");
+        line.strip_prefix(prefix).unwrap_or_else(|| panic!("expected '{prefix}...', got {line}")).to_string()
+    };
+    let addr: SocketAddr = next("listening on ").parse().expect("address");
+    let web: SocketAddr = next("http on ").parse().expect("address");
+    let dashboard =
+        (0..4).map(|_| next("")).find(|l| l.starts_with("dashboard: ")).expect("a dashboard line");
+    assert!(dashboard.ends_with(&format!("/study/admin?token={TOKEN}")), "{dashboard}");
+    let (status, _) =
+        http(web, "POST", "/api/study/participants", None, Some(r#"{"params": {"participant": "erin"}}"#))
+            .await;
+    assert_eq!(status, 201);
+    for (step, answers) in [(0, json!({"consent": true})), (1, json!({}))] {
+        let body = json!({"step": step, "answers": answers}).to_string();
+        let (status, _) = http(web, "POST", "/api/study/participants/erin/answer", None, Some(&body)).await;
+        assert_eq!(status, 200);
+    }
+    let player = AutoPlayer::join_with(addr, json!({"name": "P1", "template": "alpha"})).await;
+    let body = json!({"step": 2, "match": player.welcome.match_info.name}).to_string();
+    let (status, _) = http(web, "POST", "/api/study/participants/erin/trial", None, Some(&body)).await;
+    assert_eq!(status, 200);
+    child.0.kill().expect("kill");
+    child.0.wait().expect("wait");
+
+    let log = std::fs::read_to_string(data.join("participants/erin.jsonl")).expect("log");
+    for line in log.lines() {
+        serde_json::from_str::<Value>(line).unwrap_or_else(|e| panic!("a whole JSON line ({e}): {line}"));
+    }
+    let export = crate::util::bw4t_within(&["study", "export", data.to_str().expect("path")], WAIT);
+    assert!(export.status.success(), "{}", String::from_utf8_lossy(&export.stderr));
+    let printed = String::from_utf8_lossy(&export.stdout);
+    assert!(printed.contains("1 trial (1 without an end)"), "{printed}");
+    let trials = csv_rows(&data.join("export/trials.csv"));
+    assert_eq!((trials[0]["participant"].as_str(), trials[0]["complete"].as_str()), ("erin", "false"));
+    assert!(trials[0]["incomplete_reason"].contains("no end recorded"), "{trials:?}");
+    drop(player);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_study_files_are_refused_naming_the_problem() {
+    let cases: [(&str, &str, &str, &[&str]); 7] = [
+        ("an unknown key", "name = \"alpha\"\n", "name = \"alpha\"\ncolour = \"red\"\n", &["colour"]),
+        (
+            "an unknown strategy",
+            "strategy = \"coop\"",
+            "strategy = \"genius\"",
+            &["condition 1 'alpha'", "strategy = 'genius'", "coop"],
+        ),
+        (
+            "a bad map",
+            "name = \"beta\"\n",
+            "name = \"beta\"\nmap = \"nowhere\"\n",
+            &["condition 2 'beta'", "map = 'nowhere'"],
+        ),
+        (
+            "no trial pages",
+            "kind = \"trial\"",
+            "kind = \"instructions\"\ntext = \"x\"",
+            &["1 trial page and 2 conditions"],
+        ),
+        ("a bad likert scale", "scale = 7", "scale = 1", &["page 4", "'teamwork'", "scale = 1"]),
+        (
+            "an unknown kind of message",
+            "kinds = [\"going_to\", \"have\"]",
+            "kinds = [\"dance\"]",
+            &["condition 1", "kinds", "dance"],
+        ),
+        (
+            "a final page not last",
+            "[[page]]\nkind = \"final\"",
+            "[[page]]\nkind = \"final\"\n[[page]]\nkind = \"instructions\"\ntext = \"x\"\n[[page]]\nkind = \"final\"",
+            &["final must be the last page"],
+        ),
+    ];
+    parse(STUDY).expect("the good file loads");
+    for (what, from, to, needles) in cases {
+        assert!(STUDY.contains(from), "{what}: the test's file has '{from}'");
+        let text = STUDY.replacen(from, to, 1);
+        let error = parse(&text).err().unwrap_or_else(|| panic!("{what}: accepted"));
+        for needle in needles {
+            assert!(error.contains(needle), "{what}: '{error}' should name '{needle}'");
+        }
+    }
+    // Reading a file names it.
+    let dir = temp_dir("bad");
+    let path = dir.join("broken.toml");
+    std::fs::write(&path, STUDY.replace("strategy = \"coop\"", "strategy = \"genius\"")).expect("write");
+    let error = study::load(&path, &maps).expect_err("refused");
+    assert!(error.starts_with(&path.display().to_string()), "{error}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn the_example_study_loads() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/study/study.toml");
+    let study = study::load(&path, &maps).unwrap_or_else(|e| panic!("{e}"));
+    let names: Vec<&str> = study.conditions.iter().map(|c| c.name.as_str()).collect();
+    assert_eq!(names, ["talking", "silent"]);
+    assert_eq!(study.trials(), 2);
+    assert!(matches!(study.pages.last(), Some(study::Page::Final { completion_code: Some(_), .. })));
+}
