@@ -344,6 +344,18 @@ async fn a_participant_goes_through_the_whole_study_and_the_export_has_every_row
         .call("POST", "/api/study/participants/alice/trial", Some(json!({"step": 2, "match": name})))
         .await;
     assert_eq!(status, 200);
+    // The operator pauses and resumes the live match.
+    let (status, _) = http(rig.http, "POST", &format!("/api/matches/{name}/pause"), None, Some("")).await;
+    assert_eq!(status, 401);
+    let (status, paused) = rig.operator("POST", &format!("/api/matches/{name}/pause")).await;
+    assert_eq!(
+        (status, paused["paused"].as_bool(), paused["name"].as_str()),
+        (200, Some(true), Some(name.as_str()))
+    );
+    let (status, resumed) = rig.operator("POST", &format!("/api/matches/{name}/resume")).await;
+    assert_eq!((status, resumed["paused"].as_bool()), (200, Some(false)), "{resumed}");
+    let (status, _) = rig.operator("POST", "/api/matches/nothing-here/pause").await;
+    assert_eq!(status, 404);
     // Unanswered, the lockstep match waits a second on each tick: it is still running.
     let (status, running) = rig
         .call(
