@@ -230,3 +230,48 @@ pub(crate) fn order_for(study: &Study, number: u64, id: &str) -> Vec<usize> {
 pub(crate) fn valid_id(id: &str) -> bool {
     !id.is_empty() && id.len() <= 64 && id.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
 }
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use super::order_for;
+    use crate::study::{Order, parse};
+
+    fn study(order: &str, conditions: usize) -> crate::study::Study {
+        let mut text = format!("[study]\nname = \"s\"\norder = \"{order}\"\n");
+        for i in 0..conditions {
+            text += &format!("[[condition]]\nname = \"c{i}\"\n[[page]]\nkind = \"trial\"\n");
+        }
+        text += "[[page]]\nkind = \"final\"\n";
+        let map = |_: &str| {
+            bw4t_map::Map::from_native(include_str!("../../../../maps/default.toml"))
+                .map_err(|e| e.to_string())
+        };
+        parse(&text, Path::new("s.toml"), &map).expect("a good study")
+    }
+
+    #[test]
+    fn counterbalanced_orders_are_the_rotations_in_turn() {
+        let s = study("counterbalanced", 3);
+        let orders: Vec<Vec<usize>> = (0..4).map(|n| order_for(&s, n, "x")).collect();
+        assert_eq!(orders, [vec![0, 1, 2], vec![1, 2, 0], vec![2, 0, 1], vec![0, 1, 2]]);
+        assert_eq!(order_for(&study("fixed", 3), 1, "x"), [0, 1, 2]);
+    }
+
+    #[test]
+    fn random_orders_are_permutations_fixed_by_seed_and_id() {
+        let s = study("random", 4);
+        assert_eq!(s.order, Order::Random);
+        let mut seen = std::collections::BTreeSet::new();
+        for id in ["a", "b", "c", "d", "e", "f", "g", "h"] {
+            let order = order_for(&s, 0, id);
+            assert_eq!(order, order_for(&s, 9, id), "the arrival number does not matter");
+            let mut sorted = order.clone();
+            sorted.sort_unstable();
+            assert_eq!(sorted, [0, 1, 2, 3]);
+            seen.insert(order);
+        }
+        assert!(seen.len() > 1, "ids give different orders");
+    }
+}
