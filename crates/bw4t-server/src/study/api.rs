@@ -76,16 +76,16 @@ pub(crate) async fn respond(
             match *what {
                 "answer" => study.answer(id, &body).await,
                 "trial" => {
-                let mut body = body;
-                if let (None, Some(name)) =
-                    (body.get("match_id"), body.get("match").and_then(Value::as_str).map(str::to_string))
-                {
-                    if let Some(id) = study.match_id_of(&name).await {
-                        body["match_id"] = id.into();
+                    let mut body = body;
+                    if let (None, Some(name)) =
+                        (body.get("match_id"), body.get("match").and_then(Value::as_str).map(str::to_string))
+                    {
+                        if let Some(id) = study.match_id_of(&name).await {
+                            body["match_id"] = id.into();
+                        }
                     }
+                    study.trial_started(id, &body)
                 }
-                study.trial_started(id, &body)
-            }
                 _ => study.events(id, &body),
             }
         }
