@@ -1,11 +1,13 @@
 //! `bw4t bench arena`: many matches in one arena server. Realtime matches played by
-//! loopback TCP clients (tick lateness, CPU, memory and descriptors per match), lockstep
+//! loopback TCP clients (tick lateness, CPU, memory and descriptors per match), study-sized
+//! matches (two people and two built-in teammates each: lateness and the people's
+//! input-to-acknowledgement latency), lockstep
 //! matches of built-in teams on one and on two worker threads, and a churn soak (players
 //! joining by template, dropping and coming back, leaving, while others keep playing).
 
 use std::net::SocketAddr;
-use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
@@ -43,6 +45,10 @@ pub(crate) struct ArenaArgs {
     /// is replaced by the next, on the next seed).
     #[arg(long, default_value_t = 3.0)]
     arena_lockstep_seconds: f64,
+    /// `arena` study: matches of 2 participants (TCP players that move and talk) and 2
+    /// built-in cooperative teammates.
+    #[arg(long, default_value_t = 100)]
+    study_matches: usize,
     /// `arena` soak: seconds of churn (the long run: 10 minutes by default).
     #[arg(long, default_value_t = 600.0)]
     soak_seconds: f64,
@@ -60,6 +66,10 @@ enum Kind {
     /// Realtime matches of 3 TCP players at 20 ticks/s on a 2-worker server: tick
     /// lateness, CPU, memory and descriptors.
     Realtime,
+    /// A study's load: matches of 2 participants, who move and send a message of the
+    /// language every second, and 2 built-in teammates, at 20 ticks/s: tick lateness and
+    /// the time from a participant's action to its acknowledgement.
+    Study,
     /// Lockstep matches of 3 built-in agents (no sockets) on 1 then 2 worker threads.
     Lockstep,
     /// Matches that end and restart while players join, drop, come back and leave.
@@ -86,7 +96,8 @@ pub(crate) fn run(args: &ArenaArgs, map: &str, seed: u64) -> Result<()> {
         if args.arena_kinds.is_empty() { Kind::value_variants().to_vec() } else { args.arena_kinds.clone() };
     for kind in kinds {
         let line = match kind {
-            Kind::Realtime => realtime(args, &map, seed)?,
+            Kind::Realtime => realtime(args, &map, seed, Shape::players(args.arena_matches))?,
+            Kind::Study => realtime(args, &map, seed, Shape::study(args.study_matches))?,
             Kind::Lockstep => lockstep(args, &map, seed)?,
             Kind::Soak => soak(args, &map, seed)?,
         };
@@ -95,14 +106,38 @@ pub(crate) fn run(args: &ArenaArgs, map: &str, seed: u64) -> Result<()> {
     Ok(())
 }
 
-/// `realtime`: `arena_matches` matches of 3 players, every player a TCP client that keeps
-/// its robot moving; lateness and costs over `arena_seconds` once all have started.
-fn realtime(args: &ArenaArgs, map: &Map, seed: u64) -> Result<Value> {
-    let n = args.arena_matches;
-    if n == 0 {
-        bail!("--arena-matches must be at least 1");
+/// What the realtime matches are made of.
+struct Shape {
+    kind: &'static str,
+    matches: usize,
+    /// TCP players per match.
+    players: usize,
+    /// Built-in cooperative teammates per match.
+    teammates: usize,
+    /// Players send a message of the language this often (participants do; bench players
+    /// only move).
+    talk_every: Option<Duration>,
+}
+
+impl Shape {
+    fn players(matches: usize) -> Shape {
+        Shape { kind: "realtime", matches, players: ROBOTS, teammates: 0, talk_every: None }
     }
-    let connections = n * ROBOTS;
+
+    fn study(matches: usize) -> Shape {
+        Shape { kind: "study", matches, players: 2, teammates: 2, talk_every: Some(Duration::from_secs(1)) }
+    }
+}
+
+/// `realtime` and `study`: matches of TCP players (and built-in teammates), every player
+/// keeping its robot moving; lateness, acknowledgement latency and costs over
+/// `arena_seconds` once all have started.
+fn realtime(args: &ArenaArgs, map: &Map, seed: u64, shape: Shape) -> Result<Value> {
+    let n = shape.matches;
+    if n == 0 {
+        bail!("--arena-matches and --study-matches must be at least 1");
+    }
+    let connections = n * shape.players;
     check_descriptors(2 * connections, &format!("--arena-matches {n}"))?;
     let (server_rt, client_rt) = (runtime(SERVER_WORKERS, SERVER_THREADS)?, runtime(1, CLIENT_THREADS)?);
     let (rss_start, fds_start) = (rss_kb()?, open_fds()?);
@@ -111,12 +146,15 @@ fn realtime(args: &ArenaArgs, map: &Map, seed: u64) -> Result<Value> {
     let mut config = match_config(map, seed, Mode::Realtime);
     config.lateness = Some(lateness.clone());
     config.max_connections = connections + 16;
+    config.robots = shape.players + shape.teammates;
     let names: Vec<String> = (1..=n).map(|i| format!("m{i}")).collect();
     let template = Template {
         name: "bench".into(),
         maps: vec![map.clone()],
         config: config.clone(),
-        seats: Vec::new(),
+        seats: (1..=shape.teammates)
+            .map(|i| SeatPlan::builtin(format!("Bot{i}"), bw4t_agents::Strategy::Cooperative))
+            .collect(),
         names: names.clone(),
         max_running: n,
         on_end: OnEnd::Stay,
@@ -128,17 +166,17 @@ fn realtime(args: &ArenaArgs, map: &Map, seed: u64) -> Result<Value> {
     let rooms = room_names(map)?;
     let (progress, mut watch_progress) = watch::channel(Progress::default());
     let progress = Arc::new(progress);
-    let counts = Arc::new(PlayCounts::default());
+    let counts = Arc::new(PlayCounts { talk_every: shape.talk_every, ..PlayCounts::default() });
     let addr = server.addr;
     let players = client_rt.block_on(async {
         let gate = Arc::new(tokio::sync::Semaphore::new(CONNECTING));
         let mut players = Vec::with_capacity(connections);
         for (m, name) in names.iter().enumerate() {
-            for p in 0..ROBOTS {
+            for p in 0..shape.players {
                 let permit = gate.clone().acquire_owned().await?;
                 let mut hello = Hello::agent(format!("P{}", p + 1), None);
                 hello.match_name = Some(name.clone());
-                let player_seed = seed ^ ((m * ROBOTS + p) as u64).wrapping_mul(0x9e37_79b9);
+                let player_seed = seed ^ ((m * shape.players + p) as u64).wrapping_mul(0x9e37_79b9);
                 let (progress, counts, rooms) = (progress.clone(), counts.clone(), rooms.clone());
                 players.push(tokio::spawn(async move {
                     let outcome =
@@ -173,6 +211,7 @@ fn realtime(args: &ArenaArgs, map: &Map, seed: u64) -> Result<Value> {
 
     // The window: every match is playing.
     lateness.reset();
+    counts.latencies.lock().map_err(|_| anyhow::anyhow!("a player panicked"))?.clear();
     let before = Usage::now(&counts)?;
     std::thread::sleep(Duration::from_secs_f64(args.arena_seconds));
     let after = Usage::now(&counts)?;
@@ -180,6 +219,10 @@ fn realtime(args: &ArenaArgs, map: &Map, seed: u64) -> Result<Value> {
     let window = after.since(&before);
     let (ticks, skipped) = (lateness.ticks(), lateness.skipped());
     let quantiles = [lateness.quantile(0.5), lateness.quantile(0.99), lateness.quantile(1.0)];
+    let mut acks = counts.latencies.lock().map_err(|_| anyhow::anyhow!("a player panicked"))?.clone();
+    acks.sort_unstable();
+    let ack_quantile =
+        |q: f64| acks.get(((acks.len() as f64 - 1.0) * q).round() as usize).copied().map(millis);
 
     server.stop(&server_rt)?;
     finish_clients(&client_rt, players);
@@ -188,16 +231,18 @@ fn realtime(args: &ArenaArgs, map: &Map, seed: u64) -> Result<Value> {
     let per_match = |cpu: f64| round(cpu * 100.0 / n as f64, 3);
     Ok(json!({
         "case": "arena",
-        "kind": "realtime",
+        "kind": shape.kind,
         "map": map.name(),
         "matches": n,
-        "robots": ROBOTS,
+        "robots": shape.players + shape.teammates,
+        "players_per_match": shape.players,
+        "builtin_teammates_per_match": shape.teammates,
         "tick_hz": TICK_HZ,
         "connections": connections,
         "server_workers": SERVER_WORKERS,
         "clients": "in this process, on a runtime of their own with 1 worker thread",
         "players_welcomed": progress.borrow().connected,
-        "matches_started": progress.borrow().started / ROBOTS,
+        "matches_started": progress.borrow().started / shape.players,
         "seconds": round(window.wall, 2),
         "ticks": ticks,
         "ticks_expected": (n as f64 * f64::from(TICK_HZ) * window.wall).round(),
@@ -213,6 +258,12 @@ fn realtime(args: &ArenaArgs, map: &Map, seed: u64) -> Result<Value> {
         "cpu_percent_per_match": per_match(window.process / window.wall),
         "server_cpu_percent_per_match": per_match(window.server / window.wall),
         "orders": window.orders,
+        "messages_sent": window.messages,
+        // From a player's action leaving to its ack arriving: a realtime action waits for
+        // the next tick boundary, up to one period (50 ms at 20 ticks/s).
+        "acks_measured": acks.len(),
+        "input_to_ack_p50_ms": ack_quantile(0.5),
+        "input_to_ack_p99_ms": ack_quantile(0.99),
         "percepts_received": window.percepts,
         "rss_start_mb": mb(rss_start),
         "rss_matches_mb": mb(rss_matches),
@@ -243,6 +294,11 @@ struct Progress {
 struct PlayCounts {
     orders: AtomicU64,
     percepts: AtomicU64,
+    messages: AtomicU64,
+    /// How often each player sends a message, if it talks.
+    talk_every: Option<Duration>,
+    /// Times from sending an action to its ack.
+    latencies: Mutex<Vec<Duration>>,
 }
 
 /// A realtime player: joins its match by name and keeps its robot moving until the match
@@ -671,6 +727,10 @@ struct Player {
     rng: SeededRng,
     next_id: u64,
     counts: Arc<PlayCounts>,
+    /// When each action still awaiting its ack was sent.
+    sent: std::collections::HashMap<u64, Instant>,
+    /// When the player sends its next message, if it talks.
+    next_talk: Option<tokio::time::Instant>,
 }
 
 /// What a player heard, as far as the benchmark cares.
@@ -705,12 +765,34 @@ impl Player {
         let (reader, mut writer) = stream.into_split();
         writer.write_all(encode(&ClientMessage::Hello(hello.clone())).as_bytes()).await?;
         let lines = BufReader::new(reader).lines();
-        Ok(Player { lines, writer, rooms, rng: SeededRng::new(seed), next_id: 0, counts })
+        let mut player = Player {
+            lines,
+            writer,
+            rooms,
+            rng: SeededRng::new(seed),
+            next_id: 0,
+            counts,
+            sent: std::collections::HashMap::new(),
+            next_talk: None,
+        };
+        player.plan_talk();
+        Ok(player)
     }
 
     /// Reads one line and plays on it.
     async fn next(&mut self) -> Result<Heard> {
-        let Some(line) = self.lines.next_line().await? else { return Ok(Heard::Ended) };
+        let line = match self.next_talk {
+            // A person's input comes at any moment, not in step with the ticks.
+            Some(at) => tokio::select! {
+                line = self.lines.next_line() => line?,
+                () = tokio::time::sleep_until(at) => {
+                    self.talk().await?;
+                    return Ok(Heard::Playing);
+                }
+            },
+            None => self.lines.next_line().await?,
+        };
+        let Some(line) = line else { return Ok(Heard::Ended) };
         if line.starts_with(PERCEPTS) {
             self.counts.percepts.fetch_add(1, Ordering::Relaxed);
             return Ok(Heard::Playing);
@@ -718,6 +800,14 @@ impl Player {
         // Not `decode_server`: its list of message types lacks `lobby`.
         let message: ServerMessage =
             serde_json::from_str(&line).with_context(|| format!("not a server message: {line}"))?;
+        if let ServerMessage::Ack(ack) = &message {
+            let id = ack.id.as_ref().and_then(|id| serde_json::to_value(id).ok()).and_then(|v| v.as_u64());
+            if let Some(sent) = id.and_then(|id| self.sent.remove(&id)) {
+                if let Ok(mut latencies) = self.counts.latencies.lock() {
+                    latencies.push(sent.elapsed());
+                }
+            }
+        }
         Ok(match message {
             ServerMessage::Welcome(welcome) => {
                 self.go().await?;
@@ -741,11 +831,35 @@ impl Player {
 
     /// Orders the robot to a random room.
     async fn go(&mut self) -> Result<()> {
-        self.next_id += 1;
         let room = self.rooms[self.rng.index(self.rooms.len())].clone();
-        let act = act_message(self.next_id, &Action::GoTo(room));
-        self.writer.write_all(encode(&act).as_bytes()).await?;
+        self.send(&Action::GoTo(room)).await?;
         self.counts.orders.fetch_add(1, Ordering::Relaxed);
+        Ok(())
+    }
+
+    /// Tells the team where it is going, as a person would from the page's menu.
+    async fn talk(&mut self) -> Result<()> {
+        self.plan_talk();
+        let mut said = bw4t_protocol::Said::new("going_to");
+        said.room = Some(self.rooms[self.rng.index(self.rooms.len())].clone());
+        self.send(&Action::SendMessage { to: bw4t_sim::Receiver::All, text: said.to_text() }).await?;
+        self.counts.messages.fetch_add(1, Ordering::Relaxed);
+        Ok(())
+    }
+
+    /// Picks when to talk next: `talk_every` on average, at a random moment.
+    fn plan_talk(&mut self) {
+        self.next_talk = self.counts.talk_every.map(|every| {
+            let jitter = every.mul_f64(self.rng.index(1000) as f64 / 1000.0);
+            tokio::time::Instant::now() + every / 2 + jitter
+        });
+    }
+
+    /// Sends an action, noting when, for its ack's latency.
+    async fn send(&mut self, action: &Action) -> Result<()> {
+        self.next_id += 1;
+        self.sent.insert(self.next_id, Instant::now());
+        self.writer.write_all(encode(&act_message(self.next_id, action)).as_bytes()).await?;
         Ok(())
     }
 
@@ -843,6 +957,7 @@ struct Usage {
     clients: f64,
     orders: u64,
     percepts: u64,
+    messages: u64,
 }
 
 /// What happened between two [`Usage`]s.
@@ -853,6 +968,7 @@ struct Window {
     clients: f64,
     orders: u64,
     percepts: u64,
+    messages: u64,
 }
 
 impl Usage {
@@ -864,6 +980,7 @@ impl Usage {
             clients: thread_cpu_seconds(CLIENT_THREADS)?,
             orders: counts.orders.load(Ordering::Relaxed),
             percepts: counts.percepts.load(Ordering::Relaxed),
+            messages: counts.messages.load(Ordering::Relaxed),
         })
     }
 
@@ -875,6 +992,7 @@ impl Usage {
             clients: self.clients - before.clients,
             orders: self.orders - before.orders,
             percepts: self.percepts - before.percepts,
+            messages: self.messages - before.messages,
         }
     }
 }
