@@ -1,5 +1,5 @@
-// The study dashboard (/study/admin): for the operator (the token typed here, kept for this
-// tab), the participants and how far each is (GET /api/study/participants, every POLL_MS),
+// The study dashboard (/study/admin): for the operator (the token typed here or given as
+// `?token=`, kept for this tab), the participants and how far each is (GET /api/study/participants, every POLL_MS),
 // and for each live trial its match: watch it (the page's overview as the operator, in a
 // new tab), pause, resume or abort it (POST /api/matches/NAME/pause|resume|stop).
 
@@ -134,6 +134,12 @@ function showTokenForm() {
 }
 
 function start() {
+  // `?token=` (the link the server prints): kept for this tab, and taken out of the address.
+  const query = new URLSearchParams(location.search);
+  if (query.get('token')) {
+    sessionStorage.setItem(OPERATOR_TOKEN_KEY, query.get('token'));
+    history.replaceState(null, '', location.pathname);
+  }
   $('#dash-token-form').addEventListener('submit', (event) => {
     event.preventDefault();
     const value = $('#dash-token').value.trim();

@@ -114,10 +114,11 @@ function onPlayerMessage(message) {
       player.robot = message.robot;
       report('welcome', { name: message.name, robot: message.robot, match: message.match });
       setMessagePolicy(message.match.language);
-      if (page.lobby && message.match.name && !embedded) {
-        // The match (maybe chosen by a template) is now this page's: a reload comes back to it.
+      if (page.lobby && message.match.name) {
+        // The match (maybe chosen by a template) is now this page's: a reload comes back to
+        // it (embedded, the embedding page decides what a reload does).
         page.matchName = message.match.name;
-        history.replaceState(null, '', linkTo({ match: page.matchName, play: message.name }));
+        if (!embedded) history.replaceState(null, '', linkTo({ match: page.matchName, play: message.name }));
       }
       sessionStorage.setItem(sessionKey(message.name), message.session);
       showMatch(message.match);

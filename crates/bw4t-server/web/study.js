@@ -18,6 +18,8 @@ const STORE_KEY = 'bw4t-study-participant';
 const FLUSH_MS = 1000;
 /** A batch's most bytes (the server takes at most 64 KB). */
 const BATCH_BYTES = 60 * 1024;
+/** A batch's most events (the server takes at most 1000). */
+const BATCH_EVENTS = 1000;
 /** How long a finished trial's answer is retried while the server says its match is still
  * running (it is told of the match's end a moment after the player is). */
 const TRIAL_ANSWER_MS = 60_000;
@@ -81,7 +83,7 @@ function takeBatches() {
       event = { ...event, add: [], del: [], truncated: true };
       size = encoder.encode(JSON.stringify(event)).length + 1;
     }
-    if (bytes + size > BATCH_BYTES && events.length) {
+    if ((bytes + size > BATCH_BYTES || events.length >= BATCH_EVENTS) && events.length) {
       batches.push(events);
       events = [];
       bytes = 16;
@@ -286,6 +288,12 @@ function renderTrial(p) {
   return [head, frame, over];
 }
 
+/** The trial's match as the API takes it: its name, and its id (`welcome.match.id`) when
+ * the server gave one (without, the server finds it by the name). */
+function trialMatch(trial) {
+  return { ...(trial.matchName ? { match: trial.matchName } : {}), ...(trial.matchId ? { match_id: trial.matchId } : {}) };
+}
+
 /** The trial's match has ended: answer the trial with its match (again while the server
  * has not seen the end yet), then offer to go on. */
 async function finishTrial() {
@@ -296,13 +304,13 @@ async function finishTrial() {
   over.hidden = false;
   over.replaceChildren(el('p', {}, 'The task is over. Saving…'));
   await flush();
-  if (!trial.matchId) {
+  if (!trial.matchName && !trial.matchId) {
     over.replaceChildren(el('p', {}, 'The task ended before it started. Please reload the page.'));
     return;
   }
   const deadline = performance.now() + TRIAL_ANSWER_MS;
   for (;;) {
-    const result = await api('POST', participantPath('/answer'), { step: trial.step, answers: { match_id: trial.matchId } });
+    const result = await api('POST', participantPath('/answer'), { step: trial.step, answers: trialMatch(trial) });
     if (result.ok) {
       const next = result.body;
       over.replaceChildren(
@@ -331,9 +339,9 @@ async function onViewEvent(event) {
   if (event.kind === 'welcome') {
     trial.matchId = event.match?.id ?? null;
     trial.matchName = event.match?.name ?? null;
-    const result = await api('POST', participantPath('/trial'), { step: trial.step, match: trial.matchName, match_id: trial.matchId });
+    const result = await api('POST', participantPath('/trial'), { step: trial.step, ...trialMatch(trial) });
     if (!result.ok) console.warn('bw4t study: trial start not recorded', result.status, result.body);
-  } else if (event.kind === 'match_over' || (event.kind === 'bye' && trial.matchId)) {
+  } else if (event.kind === 'match_over' || (event.kind === 'bye' && trial.matchName)) {
     finishTrial();
   }
 }
