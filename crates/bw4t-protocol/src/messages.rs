@@ -237,6 +237,9 @@ pub struct MatchInfo {
     /// The match's name on the server (the `match` of a later `hello`).
     #[serde(default, skip_serializing_if = "String::is_empty")]
     pub name: String,
+    /// This run of the match (`NAME.RUN`): the id its result and replay are filed under.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub id: String,
     /// The template the match was made from, if any.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub template: Option<String>,

@@ -40,6 +40,9 @@ use tokio::sync::mpsc;
 pub struct ServerConfig {
     /// The match's name on the server (`hello.match`, `welcome.match.name`).
     pub name: String,
+    /// This run's id (`NAME.RUN`, `welcome.match.id`), under which its result is filed;
+    /// set by the arena.
+    pub id: String,
     /// The template the match was made from, if any.
     pub template: Option<String>,
     /// At the start timeout, seat built-in agents of this strategy in the empty seats.
@@ -106,6 +109,7 @@ impl ServerConfig {
     pub fn new(map: Map) -> Self {
         ServerConfig {
             name: DEFAULT_MATCH.to_string(),
+            id: String::new(),
             template: None,
             fill: None,
             lateness: None,

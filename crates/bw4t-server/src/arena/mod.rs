@@ -276,6 +276,9 @@ struct Inner {
     outcomes: Mutex<VecDeque<(String, Result<MatchResult, String>)>>,
     /// Map layouts (`/map.json`), by map name.
     layouts: Mutex<BTreeMap<String, Arc<str>>>,
+    /// The study served on this arena, whose API the HTTP server answers (weak: the study
+    /// holds the arena).
+    study: Mutex<Option<crate::study::StudyRef>>,
 }
 
 /// A handle on the server's matches; clones share them.
@@ -347,6 +350,7 @@ impl Arena {
                 ended_count: watch::Sender::new(0),
                 outcomes: Mutex::new(VecDeque::new()),
                 layouts: Mutex::new(BTreeMap::new()),
+                study: Mutex::new(None),
             }),
         };
         let starting: Vec<(String, String)> = arena
@@ -437,6 +441,7 @@ impl Arena {
         let name = config.name.clone();
         let run = state.runs.get(&name).copied().unwrap_or(0) + 1;
         let id = format!("{name}.{run}");
+        config.id.clone_from(&id);
         // Its own replay, else the one `--replay` asked for (taken by the first match made),
         // else one in the results directory if its template keeps them.
         let replay = replay
@@ -613,6 +618,16 @@ impl Arena {
         let ended = |_: &usize| self.lock().live.get(name).is_none_or(|l| l.id != id);
         let _ = count.wait_for(ended).await;
         Ok(id)
+    }
+
+    /// Serves `study`'s API beside the arena's own, while it lives.
+    pub(crate) fn attach_study(&self, study: crate::study::StudyRef) {
+        *self.inner.study.lock().unwrap_or_else(|p| p.into_inner()) = Some(study);
+    }
+
+    /// The study served on this arena, if any.
+    pub(crate) fn study(&self) -> Option<crate::study::StudyRef> {
+        self.inner.study.lock().unwrap_or_else(|p| p.into_inner()).clone()
     }
 
     /// Stops a live match's clock (`paused`) or starts it again; players stay connected.

@@ -177,6 +177,7 @@ impl MatchHost {
             private_messages: private,
             match_info: MatchInfo {
                 name: self.config.name.clone(),
+                id: self.config.id.clone(),
                 template: self.config.template.clone(),
                 map: self.game.map().name().to_string(),
                 seed: self.config.seed,

@@ -47,13 +47,10 @@ struct Slot {
     file: File,
 }
 
-/// Studies served, by the address of their arena's settings (unique while the arena
-/// lives, and a study keeps its arena alive), so the HTTP API finds an arena's study.
-static SERVED: Mutex<Vec<(usize, Weak<Shared>)>> = Mutex::new(Vec::new());
-
-fn arena_key(arena: &Arena) -> usize {
-    std::ptr::from_ref(arena.config()) as usize
-}
+/// What an arena keeps of the study it serves: a weak handle, since the study holds the
+/// arena.
+#[derive(Clone)]
+pub(crate) struct StudyRef(Weak<Shared>);
 
 /// The milliseconds since the Unix epoch (the logs' `server_ms`).
 pub fn now_ms() -> u64 {
@@ -100,23 +97,13 @@ impl StudyServer {
                 }
             }
         }
-        let key = arena_key(&server.inner.arena);
-        let mut served = lock(&SERVED);
-        served.retain(|(_, study)| study.strong_count() > 0);
-        served.push((key, Arc::downgrade(&server.inner)));
+        server.inner.arena.attach_study(StudyRef(Arc::downgrade(&server.inner)));
         Ok(server)
     }
 
     /// The study served on `arena`, if any.
     pub(crate) fn of(arena: &Arena) -> Option<StudyServer> {
-        let key = arena_key(arena);
-        let served = lock(&SERVED);
-        served
-            .iter()
-            .rev()
-            .find(|(k, _)| *k == key)
-            .and_then(|(_, s)| s.upgrade())
-            .map(|inner| StudyServer { inner })
+        arena.study()?.0.upgrade().map(|inner| StudyServer { inner })
     }
 
     /// The study.
