@@ -24,6 +24,9 @@ mod agents;
 /// The cooperative team's progress rule: no deadlock whatever the seed and team size.
 mod coop_deadlock;
 
+/// The built-in team in the shared message language: what it says, silence, requests.
+mod coop_language;
+
 /// The match server over real loopback TCP.
 mod server;
 

@@ -33,7 +33,8 @@ impl Driver {
     /// The actions wait in the queue for the next boundary.
     pub fn observe(&mut self, game: &mut Match) {
         let Some(delta) = game.poll_percepts(self.robot) else { return };
-        let told = !delta.is_empty() || !self.told.done.is_empty();
+        let due = self.agent.wake_at().is_some_and(|tick| game.tick() >= tick);
+        let told = !delta.is_empty() || !self.told.done.is_empty() || due;
         if !delta.is_empty() {
             self.told.percepts.push(delta);
         }

@@ -11,7 +11,7 @@ mod view;
 use bw4t_sim::{Action, OrderOutcome, PerceptDelta};
 
 pub use baseline::Baseline;
-pub use coop::{CLAIM_LAPSE_TICKS, Cooperative};
+pub use coop::{CLAIM_LAPSE_TICKS, Cooperative, STALL_TICKS};
 pub use drive::{Driver, Team};
 pub use seat::SeatSpec;
 
@@ -55,11 +55,18 @@ impl Observation {
 }
 
 /// A player's brain. Drivers call [`Agent::decide`] at every tick the player is told
-/// something (a non-empty percept delta, or the end of an order), and apply the returned
-/// actions, in order, at the next tick boundary.
+/// something (a non-empty percept delta, or the end of an order), or that the agent asked
+/// to be woken at ([`Agent::wake_at`]), and apply the returned actions, in order, at the
+/// next tick boundary.
 pub trait Agent: Send {
     /// The actions to take now.
     fn decide(&mut self, observation: &Observation) -> Vec<Action>;
+
+    /// A tick at which to be called even if told nothing (something it waits for may have
+    /// run out by then); `None`: only when told something.
+    fn wake_at(&self) -> Option<u64> {
+        None
+    }
 }
 
 /// The built-in strategies.

@@ -77,7 +77,13 @@
 //! `index` or look for its colour, unless a holder of that colour moves its claim there
 //! first. Whoever claims `index` delivers it, so the sequence advances. The guarantee is for
 //! a team that follows this rule; players that do not claim count as free in `n`, and a
-//! claim that is not kept lapses.
+//! claim that is not kept lapses. People do not follow it (a person counted as free may
+//! not fetch `index`; a claim may lapse while every robot holds a block for a later
+//! position), so when `index` stays unclaimed, with no room announced, for
+//! [`STALL_TICKS`], each robot with a claim on a later position gives it up and claims only
+//! `index` until the sequence advances. An agent asks its driver to wake it
+//! ([`Agent::wake_at`](crate::Agent::wake_at)) when a lapse or a stall falls due, since
+//! nothing may be perceived then.
 
 mod says;
 #[cfg(test)]
@@ -98,6 +104,13 @@ use says::Heard;
 /// sequence has not advanced and the claimer has not renewed it: two minutes at the
 /// default 20 ticks a second (an agent is not told the match's rate).
 pub const CLAIM_LAPSE_TICKS: u64 = 2_400;
+
+/// Ticks the next position may stay unclaimed, with nobody announcing a room to look
+/// into, before robots with claims on later positions give them up to fetch it themselves
+/// (a player counted as free who does not fetch it, or a claim that lapsed, would
+/// otherwise leave every robot waiting with a block for a later position). Fifteen seconds
+/// at the default rate; a team that follows the progress rule never waits that long.
+pub const STALL_TICKS: u64 = 300;
 
 #[derive(Clone, Debug, PartialEq, Eq)]
 enum Task {
@@ -158,6 +171,10 @@ pub struct Cooperative {
     /// The current tick, and the tick the sequence last advanced.
     tick: u64,
     index_since: (usize, u64),
+    /// Since when the next position has been unclaimed with no room announced.
+    open_since: Option<u64>,
+    /// The team stalled: claim only the next position until the sequence advances.
+    urgent: bool,
     next_action: u64,
     /// The goTo/goToBlock in flight.
     moving: Option<u64>,
@@ -199,6 +216,8 @@ impl Cooperative {
             task: Task::Idle,
             tick: 0,
             index_since: (0, 0),
+            open_since: None,
+            urgent: false,
             next_action: 0,
             moving: None,
             redirected: false,
@@ -463,10 +482,12 @@ impl Cooperative {
     /// so nobody could count on it to leave the next position to others: it claims only
     /// the next position, which keeps a team of silent robots from all waiting with blocks
     /// for later positions.
+    /// So does a robot of a stalled team (see [`STALL_TICKS`]).
     fn own_window(&self, v: &View) -> std::ops::Range<usize> {
-        match self.manner {
-            Manner::Silent => v.index..(v.index + 1).min(v.sequence.len()),
-            Manner::Talkative | Manner::Ignoring => Self::window(v),
+        if self.manner == Manner::Silent || self.urgent {
+            v.index..(v.index + 1).min(v.sequence.len())
+        } else {
+            Self::window(v)
         }
     }
 
@@ -766,6 +787,7 @@ impl Cooperative {
     fn forget_stale(&mut self, v: &View) {
         if v.index != self.index_since.0 {
             self.index_since = (v.index, self.tick);
+            self.urgent = false;
         }
         let present: BTreeSet<&String> = v.players.iter().chain([&self.name]).collect();
         let (me, now, advanced) = (&self.name, self.tick, self.index_since.1);
@@ -774,6 +796,36 @@ impl Cooperative {
         };
         self.claims.retain(|p, c| present.contains(&c.who) && *p >= v.index && !lapsed(&c.who, c.since));
         self.exploring.retain(|_, (who, since)| present.contains(who) && !lapsed(who, *since));
+    }
+
+    /// Notices a stall: the next position unclaimed, nobody looking into a room, for
+    /// [`STALL_TICKS`]. A robot with a claim on a later position then gives it up and
+    /// claims only the next position until the sequence advances.
+    fn notice_stall(&mut self, v: &View) {
+        let open =
+            v.index < v.sequence.len() && !self.claims.contains_key(&v.index) && self.exploring.is_empty();
+        self.open_since = if open { Some(self.open_since.unwrap_or(self.tick)) } else { None };
+        let stalled = self.open_since.is_some_and(|since| self.tick >= since + STALL_TICKS);
+        let later = self.claims.iter().any(|(p, c)| c.who == self.name && *p > v.index);
+        if stalled && !self.urgent && later {
+            self.urgent = true;
+            self.redirected = true;
+        }
+    }
+
+    /// The tick by which something may have changed with no percept to tell: a claim of
+    /// another player lapses, or the next position has stayed open too long.
+    fn next_wake(&self) -> Option<u64> {
+        let advanced = self.index_since.1;
+        let lapses = self
+            .claims
+            .values()
+            .filter(|c| c.who != self.name)
+            .map(|c| c.since)
+            .chain(self.exploring.values().filter(|(who, _)| *who != self.name).map(|(_, since)| *since))
+            .map(|since| since.max(advanced) + CLAIM_LAPSE_TICKS + 1);
+        let stall = self.open_since.filter(|_| !self.urgent).map(|since| since + STALL_TICKS);
+        lapses.chain(stall).filter(|t| *t > self.tick).min()
     }
 }
 
@@ -814,6 +866,7 @@ impl Agent for Cooperative {
                 self.say(says::with_colour("dropped", colour));
             }
         }
+        self.notice_stall(&v);
         self.observe_room(&v);
         let mut actions = Vec::new();
         if !v.complete() {
@@ -842,5 +895,9 @@ impl Agent for Cooperative {
         }
         self.next_action += actions.len() as u64;
         actions
+    }
+
+    fn wake_at(&self) -> Option<u64> {
+        self.next_wake()
     }
 }

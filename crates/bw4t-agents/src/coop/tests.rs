@@ -7,7 +7,7 @@ use bw4t_map::Colour::{self, Blue, Green, Red, White, Yellow};
 use bw4t_protocol::Said;
 use bw4t_sim::{Action, MoveState, OrderOutcome, Percept, PerceptDelta, Receiver};
 
-use super::{CLAIM_LAPSE_TICKS, Cooperative};
+use super::{CLAIM_LAPSE_TICKS, Cooperative, STALL_TICKS};
 use crate::{Agent, Observation, OrderDone};
 
 const PLACES: [&str; 7] = ["RoomA1", "RoomA2", "RoomB1", "RoomB2", "DropZone", "FrontDropZone", "LeftHallA"];
@@ -535,4 +535,32 @@ fn a_loser_holding_a_block_needed_only_beyond_the_window_puts_it_back() {
         !kinds(&actions).iter().any(|(k, _)| k == "giving_up"),
         "position 0 is Bot1's now, not Bot2's to give up: {actions:?}"
     );
+}
+
+/// A person counted as free never fetches the next position: the robot, waiting with a
+/// block for a later one, asks to be woken when the stall falls due, then gives its claim
+/// up and puts the block back to fetch the next position itself.
+#[test]
+fn a_stalled_team_gives_later_claims_up() {
+    let (mut bench, first) = Bench::start(
+        Cooperative::new("Bot1"),
+        &["Human"],
+        vec![Red, Blue],
+        "RoomA1",
+        &[(4, Blue)],
+        vec![Percept::AtBlock(4)],
+    );
+    assert_eq!(claims(&first), vec![("Blue".to_string(), 1)]);
+    assert!(first.contains(&Action::PickUp(Some(4))), "{first:?}");
+    let actions = bench.next(vec![Percept::Holding(4)], vec![Percept::AtBlock(4), Percept::Color(4, Blue)]);
+    assert_eq!(goes_to(&actions).as_deref(), Some("FrontDropZone"), "waits for its turn: {actions:?}");
+    let wake = bench.agent.wake_at().expect("a stall to wake for");
+    assert_eq!(wake, bench.tick + STALL_TICKS - 1, "the next position has been open since the tick before");
+    bench.tick = wake - 2;
+    let actions = bench.next(vec![], vec![]);
+    assert!(actions.is_empty(), "not yet: {actions:?}");
+    // Woken with nothing new to perceive (still in the room, on its way out).
+    let actions = bench.next(vec![], vec![]);
+    assert!(kinds(&actions).contains(&("giving_up".to_string(), Receiver::All)), "{actions:?}");
+    assert!(actions.contains(&Action::PutDown), "puts the blue block back: {actions:?}");
 }
