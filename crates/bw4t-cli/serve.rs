@@ -128,7 +128,7 @@ enum PaceArg {
 
 /// Serves matches until stopped (or, with `--once`, one match) and writes the last result.
 pub(crate) fn run(args: &ServeArgs) -> Result<()> {
-    init_logs(args);
+    init_logs(args.quiet, args.verbose, args.log_json);
     let seed = args.seed.unwrap_or_else(crate::random_seed);
     let mut settings = ArenaConfig::new(Vec::new());
     settings.hello_timeout = Duration::from_secs(args.hello_timeout_s);
@@ -320,9 +320,9 @@ fn announce(args: &ServeArgs, text: String) {
 }
 
 /// Sends log lines to standard error: as text or JSON, at the level `-v`/`-q` choose.
-fn init_logs(args: &ServeArgs) {
+pub(crate) fn init_logs(quiet: bool, verbose: u8, json: bool) {
     use tracing_subscriber::fmt;
-    let level = match (args.quiet, args.verbose) {
+    let level = match (quiet, verbose) {
         (true, _) => tracing::Level::WARN,
         (false, 0) => tracing::Level::INFO,
         (false, 1) => tracing::Level::DEBUG,
@@ -332,7 +332,7 @@ fn init_logs(args: &ServeArgs) {
     let builder =
         fmt().with_writer(std::io::stderr).with_max_level(level).with_target(false).with_ansi(colour);
     // A second subscriber (tests calling this twice in one process) is simply not installed.
-    let _ = if args.log_json { builder.json().try_init() } else { builder.try_init() };
+    let _ = if json { builder.json().try_init() } else { builder.try_init() };
 }
 
 /// Listens on `addr` (with a deep queue, see [`bw4t_server::listen`]); returns the listener

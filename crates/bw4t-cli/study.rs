@@ -101,7 +101,7 @@ fn run_export(args: &ExportArgs) -> Result<()> {
 }
 
 fn serve(args: &StudyArgs, file: &Path) -> Result<()> {
-    init_logs(args);
+    crate::serve::init_logs(args.quiet, args.verbose, args.log_json);
     let study =
         bw4t_server::study::load(file, &|spec: &str| crate::maps::load(spec).map_err(|e| format!("{e:#}")))
             .map_err(anyhow::Error::msg)?;
@@ -198,17 +198,3 @@ fn make_token() -> String {
     format!("{:016x}{:016x}", half(1), half(2))
 }
 
-/// Sends log lines to standard error, as `bw4t serve` does.
-fn init_logs(args: &StudyArgs) {
-    use tracing_subscriber::fmt;
-    let level = match (args.quiet, args.verbose) {
-        (true, _) => tracing::Level::WARN,
-        (false, 0) => tracing::Level::INFO,
-        (false, 1) => tracing::Level::DEBUG,
-        (false, _) => tracing::Level::TRACE,
-    };
-    let colour = std::io::IsTerminal::is_terminal(&std::io::stderr());
-    let builder =
-        fmt().with_writer(std::io::stderr).with_max_level(level).with_target(false).with_ansi(colour);
-    let _ = if args.log_json { builder.json().try_init() } else { builder.try_init() };
-}
