@@ -31,6 +31,14 @@ struct Record {
     not_language: Vec<String>,
     /// Claims outside `[index, index + team)`, described.
     outside_window: Vec<String>,
+    /// (tick, loser, position): a robot lost a position it claimed in the same tick as a
+    /// player with a smaller name, while holding a block.
+    lost_while_holding: Vec<(u64, String, usize)>,
+}
+
+/// The position a message claims (`getting_for`, `bringing`).
+fn claimed(said: &Said) -> Option<usize> {
+    ["getting_for", "bringing"].contains(&said.kind.as_str()).then_some(said.position? as usize)
 }
 
 type Shared = Arc<Mutex<Record>>;
@@ -40,6 +48,8 @@ struct Spy {
     name: String,
     inner: Box<dyn Agent>,
     beliefs: Beliefs,
+    /// The tick of the last decision and the positions it claimed.
+    last_claims: (u64, Vec<usize>),
     record: Shared,
 }
 
@@ -48,8 +58,9 @@ impl Agent for Spy {
         for delta in &obs.percepts {
             self.beliefs.apply(delta);
         }
-        self.beliefs.take_messages();
+        let heard = self.beliefs.take_messages();
         let facts = self.beliefs.facts();
+        let holding = facts.iter().any(|p| matches!(p, Percept::Holding(_)));
         let index = facts
             .iter()
             .find_map(|p| match p {
@@ -58,14 +69,22 @@ impl Agent for Spy {
             })
             .unwrap_or(0);
         let team = 1 + facts.iter().filter(|p| matches!(p, Percept::Player(_))).count();
-        let actions = self.inner.decide(obs);
         let mut record = self.record.lock().expect("record");
+        for (from, text) in heard {
+            let Some(pos) = Said::from_text(&text).as_ref().and_then(claimed) else { continue };
+            let same_tick = self.last_claims.0 + 1 == obs.tick && self.last_claims.1.contains(&pos);
+            if same_tick && holding && *from < *self.name {
+                record.lost_while_holding.push((obs.tick, self.name.clone(), pos));
+            }
+        }
+        let actions = self.inner.decide(obs);
+        let mut claims = Vec::new();
         for action in &actions {
             let Action::SendMessage { to, text } = action else { continue };
             match Said::from_text(text) {
                 Some(said) if said.sentence().is_ok() => {
-                    if let Some(pos) = said.position.filter(|_| said.kind != "giving_up") {
-                        let pos = pos as usize;
+                    if let Some(pos) = claimed(&said) {
+                        claims.push(pos);
                         if !(index..index + team).contains(&pos) {
                             record.outside_window.push(format!(
                                 "{} at tick {} claimed {pos} with index {index} and {team} players",
@@ -78,6 +97,7 @@ impl Agent for Spy {
                 _ => record.not_language.push(format!("{}: {text}", self.name)),
             }
         }
+        self.last_claims = (obs.tick, claims);
         actions
     }
 
@@ -91,6 +111,7 @@ fn spy(name: &str, strategy: Strategy, record: &Shared) -> Seat {
         name: name.into(),
         inner: strategy.agent(name),
         beliefs: Beliefs::default(),
+        last_claims: (u64::MAX - 1, Vec::new()),
         record: record.clone(),
     };
     Seat { name: name.into(), agent: Box::new(spy) }
@@ -329,4 +350,20 @@ fn a_forgotten_will_get_lapses_and_the_team_completes() {
         );
         assert!(first_claim.tick < CLAIM_LAPSE_TICKS + 1_000, "seed {seed}: {first_claim:?} long after");
     }
+}
+
+/// The match where a deadlock was once found (the progress rule's reason): Bot1 and Bot2
+/// claim one position in the same tick, Bot2 picking its block up as it claims; the loser
+/// with a block in hand must neither claim beyond the window nor stall the team.
+#[test]
+fn a_robot_that_loses_a_claim_while_holding_its_block_does_not_stall_the_team() {
+    let map = random_grid(2, 3);
+    let mut collisions = 0;
+    for seed in 120..130 {
+        let (reason, ticks, record) = play_team(&map, seed, 3, Strategy::Cooperative);
+        assert_eq!(record.outside_window, Vec::<String>::new());
+        assert_eq!(reason, "completed", "seed {seed} after {ticks} ticks; {:?}", record.lost_while_holding);
+        collisions += record.lost_while_holding.len();
+    }
+    assert!(collisions > 0, "no seed builds the collision (the loser holding its block); pick others");
 }
