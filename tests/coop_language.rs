@@ -209,6 +209,9 @@ fn the_silent_team_says_nothing_and_completes() {
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
+/// What a talker heard: tick, sender, what.
+type Heard = Vec<(u64, String, Said)>;
+
 /// Lines to say, given the rooms (sorted) and the sequence: (tick, to whom, what).
 type Lines = fn(&[String], &[Colour]) -> Vec<(u64, Receiver, Said)>;
 
@@ -219,7 +222,7 @@ struct Talker {
     lines: Lines,
     /// The lines not said yet, once the first percepts came.
     pending: Option<Vec<(u64, Receiver, Said)>>,
-    heard: Arc<Mutex<Vec<(u64, String, Said)>>>,
+    heard: Arc<Mutex<Heard>>,
 }
 
 impl Agent for Talker {
@@ -258,7 +261,7 @@ impl Agent for Talker {
 }
 
 /// Plays a talker named `Asker` beside `Bot1` and `Bot2` (cooperative, watched).
-fn play_with_talker(seed: u64, lines: Lines) -> (EndReason, u64, Vec<Sent>, Vec<(u64, String, Said)>) {
+fn play_with_talker(seed: u64, lines: Lines) -> (EndReason, u64, Vec<Sent>, Heard) {
     let record = Shared::default();
     let heard = Arc::new(Mutex::new(Vec::new()));
     let talker = Talker {
