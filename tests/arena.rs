@@ -12,10 +12,9 @@ use bw4t_protocol::{Hello, Mode, ServerMessage};
 use bw4t_server::{Arena, ArenaConfig, OnEnd, ResultsStore, SeatPlan, ServerConfig, Template};
 use bw4t_sim::Action;
 use serde_json::{Value, json};
-use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::sync::oneshot;
 
-use crate::util::{AutoPlayer, Client, WAIT, shipped_map};
+use crate::util::{AutoPlayer, Client, WAIT, http, shipped_map};
 
 /// An arena served on loopback ports, stopped when dropped.
 struct ArenaServer {
@@ -82,32 +81,6 @@ fn temp_dir(what: &str) -> std::path::PathBuf {
 /// `hello` fields joining a match or a template.
 fn hello_in(name: &str, field: &str, value: &str) -> Value {
     json!({"name": name, field: value})
-}
-
-/// One HTTP request; returns the status and the body.
-async fn http(
-    addr: SocketAddr,
-    method: &str,
-    path: &str,
-    token: Option<&str>,
-    body: Option<&str>,
-) -> (u16, String) {
-    let mut stream = tokio::net::TcpStream::connect(addr).await.expect("connect");
-    let mut request = format!("{method} {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n");
-    if let Some(token) = token {
-        request += &format!("Authorization: Bearer {token}\r\n");
-    }
-    let body = body.unwrap_or("");
-    request += &format!("Content-Length: {}\r\n\r\n{body}", body.len());
-    stream.write_all(request.as_bytes()).await.expect("request");
-    let mut answer = String::new();
-    tokio::time::timeout(WAIT, stream.read_to_string(&mut answer))
-        .await
-        .expect("an answer in time")
-        .expect("read");
-    let status = answer.split(' ').nth(1).and_then(|s| s.parse().ok()).expect("a status");
-    let body = answer.split_once("\r\n\r\n").map(|(_, b)| b.to_string()).unwrap_or_default();
-    (status, body)
 }
 
 fn json_of(body: &str) -> Value {

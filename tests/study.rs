@@ -9,10 +9,9 @@ use bw4t_protocol::ServerMessage;
 use bw4t_server::study::{self, StudyServer};
 use bw4t_server::{Arena, ArenaConfig, ResultsStore};
 use serde_json::{Value, json};
-use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::sync::oneshot;
 
-use crate::util::{AutoPlayer, Client, WAIT, shipped_map};
+use crate::util::{AutoPlayer, Client, WAIT, http, shipped_map};
 
 const TOKEN: &str = "op-secret";
 
@@ -193,31 +192,6 @@ impl StudyRig {
         let match_id = summary["id"].as_str().expect("the operator sees the id").to_string();
         self.answer(id, step, json!({"match_id": match_id})).await
     }
-}
-
-/// One HTTP request; returns the status and the body.
-async fn http(
-    addr: SocketAddr,
-    method: &str,
-    path: &str,
-    token: Option<&str>,
-    body: Option<&str>,
-) -> (u16, String) {
-    let mut stream = tokio::net::TcpStream::connect(addr).await.expect("connect");
-    let mut request = format!("{method} {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n");
-    if let Some(token) = token {
-        request += &format!("Authorization: Bearer {token}\r\n");
-    }
-    let body = body.unwrap_or("");
-    request += &format!("Content-Type: text/plain\r\nContent-Length: {}\r\n\r\n{body}", body.len());
-    let _ = stream.write_all(request.as_bytes()).await;
-    let mut answer = Vec::new();
-    let _ = tokio::time::timeout(WAIT, stream.read_to_end(&mut answer)).await.expect("an answer in time");
-    let answer = String::from_utf8_lossy(&answer).into_owned();
-    let status =
-        answer.split(' ').nth(1).and_then(|s| s.parse().ok()).unwrap_or_else(|| panic!("a status: {answer}"));
-    let body = answer.split_once("\r\n\r\n").map(|(_, b)| b.to_string()).unwrap_or_default();
-    (status, body)
 }
 
 /// A CSV file's rows as maps of column to cell (no quoted commas in what these tests read).

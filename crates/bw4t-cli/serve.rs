@@ -29,15 +29,8 @@ pub(crate) struct ServeArgs {
     /// and kept replays into this directory.
     #[arg(long, value_name = "DIR")]
     results_dir: Option<PathBuf>,
-    /// More log lines (-v: each connection's events, -vv: everything).
-    #[arg(short, long, action = clap::ArgAction::Count, conflicts_with = "quiet")]
-    verbose: u8,
-    /// Only warnings and errors in the log.
-    #[arg(short, long)]
-    quiet: bool,
-    /// Log lines as JSON objects (one per line) instead of text.
-    #[arg(long)]
-    log_json: bool,
+    #[command(flatten)]
+    pub(crate) log: LogArgs,
     /// Map: a shipped map's name or a file path.
     #[arg(long, default_value = "default", conflicts_with = "config")]
     map: String,
@@ -128,7 +121,7 @@ enum PaceArg {
 
 /// Serves matches until stopped (or, with `--once`, one match) and writes the last result.
 pub(crate) fn run(args: &ServeArgs) -> Result<()> {
-    init_logs(args.quiet, args.verbose, args.log_json);
+    init_logs(&args.log);
     let seed = args.seed.unwrap_or_else(crate::random_seed);
     let mut settings = ArenaConfig::new(Vec::new());
     settings.hello_timeout = Duration::from_secs(args.hello_timeout_s);
@@ -312,17 +305,31 @@ fn single_match(args: &ServeArgs, seed: u64) -> Result<Template> {
 /// Says what the server does on standard error: a `bw4t:` line, or with `--log-json` a log
 /// event, so that the log stays one JSON object per line.
 fn announce(args: &ServeArgs, text: String) {
-    if args.log_json {
+    if args.log.json {
         tracing::info!("{text}");
     } else {
         eprintln!("bw4t: {text}");
     }
 }
 
+/// The log options of the commands that serve.
+#[derive(clap::Args)]
+pub(crate) struct LogArgs {
+    /// More log lines (-v: each connection's events, -vv: everything).
+    #[arg(short, long, action = clap::ArgAction::Count, conflicts_with = "quiet")]
+    verbose: u8,
+    /// Only warnings and errors in the log.
+    #[arg(short, long)]
+    quiet: bool,
+    /// Log lines as JSON objects (one per line) instead of text.
+    #[arg(long = "log-json")]
+    json: bool,
+}
+
 /// Sends log lines to standard error: as text or JSON, at the level `-v`/`-q` choose.
-pub(crate) fn init_logs(quiet: bool, verbose: u8, json: bool) {
+pub(crate) fn init_logs(log: &LogArgs) {
     use tracing_subscriber::fmt;
-    let level = match (quiet, verbose) {
+    let level = match (log.quiet, log.verbose) {
         (true, _) => tracing::Level::WARN,
         (false, 0) => tracing::Level::INFO,
         (false, 1) => tracing::Level::DEBUG,
@@ -332,7 +339,7 @@ pub(crate) fn init_logs(quiet: bool, verbose: u8, json: bool) {
     let builder =
         fmt().with_writer(std::io::stderr).with_max_level(level).with_target(false).with_ansi(colour);
     // A second subscriber (tests calling this twice in one process) is simply not installed.
-    let _ = if json { builder.json().try_init() } else { builder.try_init() };
+    let _ = if log.json { builder.json().try_init() } else { builder.try_init() };
 }
 
 /// Listens on `addr` (with a deep queue, see [`bw4t_server::listen`]); returns the listener

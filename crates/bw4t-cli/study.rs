@@ -47,15 +47,8 @@ pub(crate) struct StudyArgs {
     /// Connections accepted at once.
     #[arg(long, value_name = "N", default_value_t = 256)]
     max_connections: usize,
-    /// More log lines (-v: each connection's events, -vv: everything).
-    #[arg(short, long, action = clap::ArgAction::Count, conflicts_with = "quiet")]
-    verbose: u8,
-    /// Only warnings and errors in the log.
-    #[arg(short, long)]
-    quiet: bool,
-    /// Log lines as JSON objects (one per line) instead of text.
-    #[arg(long)]
-    log_json: bool,
+    #[command(flatten)]
+    log: crate::serve::LogArgs,
 }
 
 #[derive(Subcommand)]
@@ -101,7 +94,7 @@ fn run_export(args: &ExportArgs) -> Result<()> {
 }
 
 fn serve(args: &StudyArgs, file: &Path) -> Result<()> {
-    crate::serve::init_logs(args.quiet, args.verbose, args.log_json);
+    crate::serve::init_logs(&args.log);
     let study =
         bw4t_server::study::load(file, &|spec: &str| crate::maps::load(spec).map_err(|e| format!("{e:#}")))
             .map_err(anyhow::Error::msg)?;
@@ -197,4 +190,3 @@ fn make_token() -> String {
     };
     format!("{:016x}{:016x}", half(1), half(2))
 }
-
