@@ -7,6 +7,7 @@ import path from 'node:path';
 import { test } from 'node:test';
 
 import {
+  ROOT,
   canvasPicture,
   number,
   openBrowser,
@@ -101,6 +102,20 @@ test('the replay viewer seeks, plays and pauses', { timeout: 180_000 }, async (t
   }
 });
 
+const LANGUAGE = JSON.parse(fs.readFileSync(path.join(ROOT, 'protocol', 'schema', 'language.json'), 'utf8'));
+
+/** What the page shows for a message's text: a message of the language (an object, or its
+ * JSON text form) as its sentence, with positions counted from 1; other text as it is. */
+function shownText(text) {
+  let said = text;
+  if (typeof text === 'string') {
+    if (!text.startsWith('{')) return text;
+    said = JSON.parse(text);
+  }
+  const row = LANGUAGE.kinds.find((k) => k.kind === said.kind);
+  return row.slots.reduce((sentence, slot) => sentence.replace(`{${slot}}`, slot === 'position' ? said[slot] + 1 : said[slot]), row.sentence);
+}
+
 /** The messages a replay file records as sent ({tick, from, to, text}), in order. */
 function messagesInReplay(file) {
   const names = new Map();
@@ -112,7 +127,7 @@ function messagesInReplay(file) {
     for (const event of record.events) {
       if (event.kind === 'join') names.set(event.robot, event.name);
       if (event.kind === 'act' && event.action === 'sendMessage' && event.ok) {
-        sent.push({ tick: record.tick, from: names.get(event.robot), to: event.args[0], text: event.args[1] });
+        sent.push({ tick: record.tick, from: names.get(event.robot), to: event.args[0], text: shownText(event.args[1]) });
       }
     }
   }
