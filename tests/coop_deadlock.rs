@@ -7,6 +7,7 @@ use std::time::Duration;
 
 use bw4t_agents::{Agent, Observation, Strategy};
 use bw4t_map::{Colour, Map};
+use bw4t_protocol::Said;
 use bw4t_runner::{Seat, play_headless};
 use bw4t_sim::{Action, Beliefs, MatchConfig, MoveState, Percept, PerceptDelta, Receiver};
 
@@ -30,12 +31,10 @@ fn random_grid(rows: usize, cols: usize) -> Map {
     Map::new(parts).expect("a valid map")
 }
 
-/// The position of a `claim POS BLOCK` message.
+/// The position a claim (`getting_for`, `bringing`) names.
 fn claimed_position(text: &str) -> Option<usize> {
-    match text.split_whitespace().collect::<Vec<_>>().as_slice() {
-        ["claim", pos, _] => pos.parse().ok(),
-        _ => None,
-    }
+    let said = Said::from_text(text)?;
+    ["getting_for", "bringing"].contains(&said.kind.as_str()).then_some(said.position? as usize)
 }
 
 /// The positions this list of actions claims.
@@ -195,13 +194,19 @@ fn a_loser_holding_a_block_needed_only_beyond_the_window_puts_it_back() {
     assert_eq!(claims_in(&actions), vec![0], "{actions:?}");
     assert!(actions.contains(&Action::PickUp(Some(7))), "{actions:?}");
 
-    let said = |from: &str, text: &str| Percept::Message { from: name(from), text: name(text) };
+    let said = |from: &str, said: Said| Percept::Message { from: name(from), text: name(&said.to_text()) };
+    let bot1_claims = Said {
+        colour: Some("Red".into()),
+        room: Some("RoomB1".into()),
+        position: Some(0),
+        ..Said::new("getting_for")
+    };
     let second = Observation {
         tick: 11,
         percepts: vec![PerceptDelta {
             tick: 11,
             full: false,
-            add: vec![Percept::Holding(7), said("Bot1", "claim 0 12")],
+            add: vec![Percept::Holding(7), said("Bot1", bot1_claims)],
             not: vec![Percept::AtBlock(7), Percept::Color(7, Red)],
         }],
         ..Observation::default()
@@ -210,9 +215,8 @@ fn a_loser_holding_a_block_needed_only_beyond_the_window_puts_it_back() {
     assert_eq!(claims_in(&actions), Vec::<usize>::new(), "claims beyond the window: {actions:?}");
     assert!(actions.contains(&Action::PutDown), "puts the block back in the room: {actions:?}");
     assert!(
-        !actions.iter().any(
-            |a| matches!(a, Action::SendMessage { to: Receiver::All, text } if text.starts_with("release 0"))
-        ),
+        !actions.iter().any(|a| matches!(a, Action::SendMessage { to: Receiver::All, text }
+                if Said::from_text(text).is_some_and(|s| s.kind == "giving_up" && s.position == Some(0)))),
         "position 0 is Bot1's now, not Bot2's to release: {actions:?}"
     );
 }

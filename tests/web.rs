@@ -384,8 +384,10 @@ async fn the_replay_viewer_serves_every_ticks_frame() {
     }
     // Served over HTTP.
     let frames = std::sync::Mutex::new(frames);
-    let source: bw4t_server::FrameSource =
-        std::sync::Arc::new(move |t| frames.lock().expect("lock").frame_json(t));
+    let source: bw4t_server::FrameSource = std::sync::Arc::new(move |ask| match ask {
+        bw4t_server::ReplayAsk::Frame(t) => frames.lock().expect("lock").frame_json(t),
+        bw4t_server::ReplayAsk::View { robot, tick } => frames.lock().expect("lock").view_json(robot, tick),
+    });
     let site = bw4t_server::Site {
         map_json: bw4t_protocol::map_layout(&map).to_string(),
         info_json: json!({"mode": "replay"}).to_string(),
@@ -397,6 +399,14 @@ async fn the_replay_viewer_serves_every_ticks_frame() {
     let frame: Value = serde_json::from_str(&get(addr, "/replay/frame/100").await.body).expect("json");
     assert_eq!(frame["tick"], 100);
     assert_eq!(get(addr, "/replay/frame/99999").await.status, 404);
+    // One player's own view beside the overview: what its robot perceived then.
+    let view: Value = serde_json::from_str(&get(addr, "/replay/view/0/100").await.body).expect("json");
+    assert_eq!((&view["name"], &view["tick"]), (&json!("Bot1"), &json!(100)));
+    let facts = view["facts"].as_array().expect("facts");
+    assert!(facts.contains(&json!(["ownName", "Bot1"])), "{view}");
+    assert!(facts.iter().any(|f| f[0] == "at") && facts.iter().any(|f| f[0] == "sequence"), "{view}");
+    assert_eq!(get(addr, "/replay/view/7/100").await.status, 404, "no robot 7");
+    assert_eq!(get(addr, "/replay/view/0/99999").await.status, 404, "past the end");
     assert!(get(addr, "/replay.json").await.body.contains("\"ticks\""));
     task.abort();
 }

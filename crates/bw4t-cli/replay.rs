@@ -156,7 +156,13 @@ fn view(file: &Path, bind: std::net::IpAddr, port: u16) -> Result<u8> {
     });
     let map_json = bw4t_protocol::map_layout(frames.map()).to_string();
     let frames = Mutex::new(frames);
-    let source: bw4t_server::FrameSource = Arc::new(move |tick| frames.lock().ok()?.frame_json(tick));
+    let source: bw4t_server::FrameSource = Arc::new(move |ask| {
+        let mut frames = frames.lock().ok()?;
+        match ask {
+            bw4t_server::ReplayAsk::Frame(tick) => frames.frame_json(tick),
+            bw4t_server::ReplayAsk::View { robot, tick } => frames.view_json(robot, tick),
+        }
+    });
     let site = bw4t_server::Site {
         map_json,
         info_json:

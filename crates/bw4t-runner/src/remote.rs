@@ -76,8 +76,10 @@ pub async fn play_remote(
                 };
                 let delta =
                     PerceptDelta { tick: p.tick, full: p.full, add: facts(&p.add)?, not: facts(&p.not)? };
-                // The same rule as in-process: decide when told something.
-                let decide = !delta.is_empty() || !told.done.is_empty();
+                // The same rule as in-process: decide when told something, or when the agent
+                // asked to be woken by now (on time if the hello asked for every tick).
+                let due = agent.wake_at().is_some_and(|tick| p.tick >= tick);
+                let decide = !delta.is_empty() || !told.done.is_empty() || due;
                 if !delta.is_empty() {
                     told.percepts.push(delta);
                 }

@@ -403,6 +403,36 @@ impl ReplayFrames {
         if let Some(json) = self.cache.get(&tick) {
             return Some(json.clone());
         }
+        self.seek(tick, true)?;
+        let json = self.cache.get(&tick).cloned();
+        self.trim_cache(tick);
+        json
+    }
+
+    /// What robot `robot` perceived at `tick` (its facts, as the protocol writes them) and
+    /// the messages it had received by then, as JSON: the player's own view beside the
+    /// overview. `None` past the last tick or for a robot not in the match then.
+    pub fn view_json(&mut self, robot: u32, tick: u64) -> Option<String> {
+        if tick > self.last_tick {
+            return None;
+        }
+        let game = &self.seek(tick, false)?.game;
+        let id = bw4t_sim::RobotId(robot);
+        let facts: Vec<_> = game.perceived(id)?.iter().map(bw4t_protocol::percept_to_fact).collect();
+        let name = game.robots().find(|r| r.id == id).map(|r| r.name.to_string())?;
+        let upto = self.messages.partition_point(|m| m.tick < tick);
+        let heard: Vec<serde_json::Value> = self.messages[..upto]
+            .iter()
+            .filter(|m| m.message.from != name && (m.message.to == "all" || m.message.to == name))
+            .map(|m| serde_json::json!({ "tick": m.tick, "message": m.message }))
+            .collect();
+        let view = serde_json::json!({ "tick": tick, "robot": robot, "name": name, "facts": facts, "messages": heard });
+        serde_json::to_string(&view).ok()
+    }
+
+    /// Moves the cursor to `tick` (from the start when it is past it), keeping the frames
+    /// near `tick` on the way when `keep_frames`.
+    fn seek(&mut self, tick: u64, keep_frames: bool) -> Option<&Cursor> {
         let mut cursor = match self.cursor.take() {
             Some(cursor) if cursor.game.tick() <= tick => cursor,
             // Matches cannot be copied: going back means starting again.
@@ -411,7 +441,7 @@ impl ReplayFrames {
         let keep_from = tick.saturating_sub(FRAMES_BEHIND);
         loop {
             let now = cursor.game.tick();
-            if now >= keep_from && !self.cache.contains_key(&now) {
+            if keep_frames && now >= keep_from && !self.cache.contains_key(&now) {
                 let json = serde_json::to_string(&Frame::of(&cursor.game, self.messages_at(now))).ok()?;
                 self.cached_bytes += json.len();
                 self.cache.insert(now, json);
@@ -423,9 +453,7 @@ impl ReplayFrames {
             self.apply_due(&mut cursor);
         }
         self.cursor = Some(cursor);
-        let json = self.cache.get(&tick).cloned();
-        self.trim_cache(tick);
-        json
+        self.cursor.as_ref()
     }
 
     /// A cursor on `game` (a fresh match) with the events of tick 0 applied.

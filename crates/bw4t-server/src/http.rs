@@ -78,13 +78,28 @@ pub struct Site {
     pub map_json: String,
     /// `GET /info.json`.
     pub info_json: String,
-    /// Replay mode: `GET /replay.json`, and every tick's frame (`GET /replay/frame/T`).
+    /// Replay mode: `GET /replay.json`, every tick's frame (`GET /replay/frame/T`) and
+    /// every robot's own view at every tick (`GET /replay/view/R/T`).
     pub replay: Option<(String, FrameSource)>,
 }
 
-/// A replay's frames: the JSON of tick T's `frame`, or `None` when there is none. It may
-/// re-simulate, so it runs off the async threads.
-pub type FrameSource = Arc<dyn Fn(u64) -> Option<String> + Send + Sync>;
+/// What the replay viewer asks of a replay.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ReplayAsk {
+    /// The `frame` of a tick.
+    Frame(u64),
+    /// What one robot perceived at a tick, and the messages it had received by then.
+    View {
+        /// The robot's id.
+        robot: u32,
+        /// The tick.
+        tick: u64,
+    },
+}
+
+/// A replay's frames and views as JSON, or `None` when there is none. It may re-simulate,
+/// so it runs off the async threads.
+pub type FrameSource = Arc<dyn Fn(ReplayAsk) -> Option<String> + Send + Sync>;
 
 /// Serves the page (no match: `/ws` is not found) on `listener` until aborted, with at
 /// most `max_requests` requests being read or answered at once.
@@ -227,12 +242,19 @@ async fn respond(request: &http::Request<()>, site: &Site) -> Reply {
             Some((info, _)) => json(info),
             None => Reply::text(StatusCode::NOT_FOUND, "not a replay"),
         },
-        path if path.starts_with("/replay/frame/") => {
-            let tick = path.trim_start_matches("/replay/frame/").parse::<u64>().ok();
-            let frame = match (&site.replay, tick) {
-                (Some((_, frames)), Some(t)) => {
+        path if path.starts_with("/replay/frame/") || path.starts_with("/replay/view/") => {
+            let numbers: Vec<Option<u64>> = path.split('/').skip(3).map(|n| n.parse().ok()).collect();
+            let ask = match numbers.as_slice() {
+                [Some(tick)] if path.starts_with("/replay/frame/") => Some(ReplayAsk::Frame(*tick)),
+                [Some(robot), Some(tick)] => {
+                    u32::try_from(*robot).ok().map(|robot| ReplayAsk::View { robot, tick: *tick })
+                }
+                _ => None,
+            };
+            let frame = match (&site.replay, ask) {
+                (Some((_, frames)), Some(ask)) => {
                     let frames = frames.clone();
-                    tokio::task::spawn_blocking(move || frames(t)).await.ok().flatten()
+                    tokio::task::spawn_blocking(move || frames(ask)).await.ok().flatten()
                 }
                 _ => None,
             };

@@ -21,7 +21,7 @@ pub use arena::{
 };
 pub use connection::{ConnId, LISTEN_BACKLOG, listen};
 pub use host::{HostEvent, HostStatus, MatchHost, QueueRoom, Transmit};
-pub use http::{FrameSource, MAX_REQUESTS, Site, serve_site};
+pub use http::{FrameSource, MAX_REQUESTS, ReplayAsk, Site, serve_site};
 pub use lateness::TickLateness;
 pub use websocket::parse_origin;
 
