@@ -199,10 +199,12 @@ test('two participants go through a study; its export holds every input with its
       await row.locator('button.pause').click();
       for (let i = 0; i < 50 && (await paused()) !== true; i++) await new Promise((r) => setTimeout(r, 100));
       assert.equal(await paused(), true, 'paused from the dashboard');
+      await admin.waitForSelector('#participants tr[data-participant="ALICE1"][data-paused="true"] button.pause:disabled');
       if (SHOTS) await keep(admin, 'dashboard');
       await row.locator('button.resume').click();
       for (let i = 0; i < 50 && (await paused()) !== false; i++) await new Promise((r) => setTimeout(r, 100));
       assert.equal(await paused(), false, 'resumed from the dashboard');
+      await admin.waitForSelector('#participants tr[data-participant="ALICE1"][data-paused="false"] button.resume:disabled');
     })();
 
     const [aliceOrder, bobOrder] = await Promise.all([

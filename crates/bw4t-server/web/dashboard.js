@@ -1,6 +1,7 @@
 // The study dashboard (/study/admin): for the operator (the token typed here or given as
 // `?token=`, kept for this tab), the participants and how far each is (GET /api/study/participants, every POLL_MS),
-// and for each live trial its match: watch it (the page's overview as the operator, in a
+// and for each live trial its match (its tick, and whether it is paused, from
+// GET /api/matches): watch it (the page's overview as the operator, in a
 // new tab), pause, resume or abort it (POST /api/matches/NAME/pause|resume|stop).
 
 import { $, el, setText } from './dom.js';
@@ -12,6 +13,7 @@ const dash = {
   timer: null,
   polls: 0,
   rows: new Map(), // participant -> <tr>
+  matches: new Map(), // live match name -> its summary
 };
 
 const token = () => sessionStorage.getItem(OPERATOR_TOKEN_KEY) || '';
@@ -53,13 +55,16 @@ async function control(match, verb) {
 /** The cells of one participant's row. */
 function cells(p) {
   const match = p.match || '';
+  const live = dash.matches.get(match);
+  const paused = live?.paused === true;
   const controls = match
     ? [
+        el('span', { class: 'note live' }, live ? `${paused ? 'paused' : live.state} at tick ${live.tick} ` : ''),
         el('a', { href: `/?match=${encodeURIComponent(match)}&operator_token=${encodeURIComponent(token())}`, target: '_blank', rel: 'noopener', class: 'watch' }, 'watch'),
         ' ',
-        el('button', { type: 'button', class: 'pause', onclick: () => control(match, 'pause') }, 'pause'),
+        el('button', { type: 'button', class: 'pause', ...(paused ? { disabled: '' } : {}), onclick: () => control(match, 'pause') }, 'pause'),
         ' ',
-        el('button', { type: 'button', class: 'resume', onclick: () => control(match, 'resume') }, 'resume'),
+        el('button', { type: 'button', class: 'resume', ...(paused ? {} : { disabled: '' }), onclick: () => control(match, 'resume') }, 'resume'),
         ' ',
         el('button', { type: 'button', class: 'abort secondary', onclick: () => control(match, 'stop') }, 'abort'),
       ]
@@ -83,7 +88,8 @@ function showParticipants(list) {
   const seen = new Set();
   for (const p of list) {
     seen.add(p.participant);
-    const key = JSON.stringify([p.step, p.steps, p.page_kind, p.condition, p.match, p.completed, p.started_ms, p.last_ms]);
+    const live = dash.matches.get(p.match);
+    const key = JSON.stringify([p.step, p.steps, p.page_kind, p.condition, p.match, p.completed, p.started_ms, p.last_ms, live?.paused, live?.tick, live?.state]);
     let row = dash.rows.get(p.participant);
     if (!row) {
       row = el('tr', { dataset: { participant: p.participant } });
@@ -95,6 +101,7 @@ function showParticipants(list) {
     row.dataset.step = String(p.step);
     row.dataset.page = p.page_kind || '';
     row.dataset.match = p.match || '';
+    row.dataset.paused = String(live?.paused === true);
     row.dataset.completed = String(Boolean(p.completed));
     row.replaceChildren(...cells(p).map((content) => el('td', {}, ...(Array.isArray(content) ? content : [String(content)]))));
   }
@@ -113,7 +120,9 @@ async function poll() {
   dash.timer = null;
   if (!token()) return;
   try {
-    const answer = await api('GET', '/api/study/participants');
+    const [answer, matches] = await Promise.all([api('GET', '/api/study/participants'), api('GET', '/api/matches').catch(() => null)]);
+    const list = Array.isArray(matches) ? matches : matches?.matches || [];
+    dash.matches = new Map(list.map((m) => [m.name, m]));
     showParticipants(answer.participants || []);
     dash.polls += 1;
     const status = $('#dash-status');

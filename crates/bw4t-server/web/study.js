@@ -243,6 +243,11 @@ function renderQuestionnaire(p) {
   const items = p.items || [];
   const form = el('form', { id: 'questionnaire', novalidate: '' }, ...items.map(renderItem));
   form.append(el('div', { class: 'actions' }, el('button', { type: 'submit', id: 'questionnaire-submit' }, 'Continue')));
+  // An item answered after a refused submit is no longer marked.
+  form.addEventListener('input', (event) => {
+    const box = event.target.closest('fieldset[data-item]');
+    if (box?.getAttribute('aria-invalid') === 'true') markMissing(form, box.dataset.item, false);
+  });
   form.addEventListener('submit', async (event) => {
     event.preventDefault();
     logEvent('click', { target: 'questionnaire-submit' });
