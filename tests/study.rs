@@ -670,3 +670,74 @@ fn the_example_study_loads() {
     assert_eq!(study.trials(), 2);
     assert!(matches!(study.pages.last(), Some(study::Page::Final { completion_code: Some(_), .. })));
 }
+
+/// One condition for two people and two built-in teammates; a person whose partner does
+/// not come within a second plays with a built-in agent in the partner's seat.
+const PAIRS: &str = r##"
+[study]
+name = "pairs"
+seed = 3
+mode = "lockstep"
+time_limit_s = 1
+
+[[condition]]
+name = "together"
+humans = 2
+teammates = 2
+strategy = "coop"
+partner_timeout_s = 1
+
+[[page]]
+kind = "trial"
+
+[[page]]
+kind = "final"
+text = "Thank you."
+"##;
+
+/// The trial page's hello for `id`, who has just arrived.
+async fn trial_hello(rig: &StudyRig, id: &str) -> Value {
+    let (status, state) = arrive(rig, id).await;
+    assert_eq!((status, &state["page"]["kind"]), (201, &json!("trial")), "a new participant: {state}");
+    assert_eq!(state["page"]["humans"], 2, "{state}");
+    json!({"name": state["page"]["hello"]["name"], "template": state["page"]["hello"]["template"]})
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn two_people_meet_in_the_waiting_room_and_a_lone_one_gets_a_built_in_partner() {
+    let dir = temp_dir("pairs");
+    let rig = StudyRig::start(&dir, PAIRS).await;
+    // The first waits: its match does not start until the second comes.
+    let mut ann = AutoPlayer::join_with(rig.addr, trial_hello(&rig, "ann").await).await;
+    ann.wait("the lobby", |s| s.lobbies.last().map(|l| (!l.started).then_some(()))).await;
+    let mut bob = AutoPlayer::join_with(rig.addr, trial_hello(&rig, "bob").await).await;
+    assert_eq!(ann.welcome.match_info.name, bob.welcome.match_info.name, "one match for the pair");
+    for player in [&mut ann, &mut bob] {
+        player.wait("the match's end", |s| s.ended.then_some(())).await;
+    }
+    let together = ann.welcome.match_info.name.clone();
+    tokio::time::timeout(WAIT, rig.arena.ended(1)).await.expect("recorded");
+    let (_, summary) = rig.operator("GET", &format!("/api/matches/{together}")).await;
+    let players: Vec<&str> =
+        summary["players"].as_array().expect("players").iter().filter_map(Value::as_str).collect();
+    for name in [&ann.welcome.name, &bob.welcome.name] {
+        assert!(players.contains(&name.as_deref().expect("a name")), "{summary}");
+    }
+    assert_eq!(players.len(), 4, "two people and two built-in teammates: {summary}");
+    for (id, player) in [("ann", &ann), ("bob", &bob)] {
+        let answer = json!({"match_id": player.welcome.match_info.id});
+        let state = rig.answer(id, 0, answer).await;
+        assert_eq!(state["page"]["kind"], "final", "{state}");
+    }
+
+    // Alone: after the partner timeout a built-in agent takes the empty seat.
+    let mut cy = AutoPlayer::join_with(rig.addr, trial_hello(&rig, "cy").await).await;
+    assert_ne!(cy.welcome.match_info.name, together);
+    cy.wait("the match's end", |s| s.ended.then_some(())).await;
+    tokio::time::timeout(WAIT, rig.arena.ended(2)).await.expect("recorded");
+    let (_, summary) = rig.operator("GET", &format!("/api/matches/{}", cy.welcome.match_info.name)).await;
+    assert_eq!(summary["players"].as_array().map(Vec::len), Some(4), "the empty seat filled: {summary}");
+    let state = rig.answer("cy", 0, json!({"match_id": cy.welcome.match_info.id})).await;
+    assert_eq!(state["page"]["kind"], "final", "{state}");
+    rig.shutdown().await;
+}
