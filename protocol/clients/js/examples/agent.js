@@ -8,18 +8,22 @@
 //   bw4t run --robots 3 --agent "node protocol/clients/js/examples/agent.js"
 //   bw4t run --robots 3 --team builtin --agent "node protocol/clients/js/examples/agent.js"
 //
-// Team messages (plain text, to `all`):
-//   seen ROOM ID:COLOUR ...   what is in ROOM now (sent when it differs from what the team knew)
-//   claim INDEX BLOCK|- [held] I fetch sequence position INDEX (with that block, if chosen;
-//                             `held`: it is in my hand)
-//   unclaim INDEX             I gave position INDEX up
-//   going ROOM                I am exploring ROOM
-// Two players claiming the same position (or block): the one holding the block keeps it,
-// else the smaller name. A robot without a block moves to a lower free position when one
-// appears; if nobody fetches the colour needed now while others wait with blocks for
-// later positions, a waiting robot leaves its block in a room and fetches it. The agent
-// also understands the built-in team's words (`room` for `seen`, `explore` for `going`),
-// so it can play with `--team builtin` teammates.
+// The team talks in the shared message language (protocol/PROTOCOL.md, "The message
+// language"), all to `all`, so the built-in team understands this agent and it them:
+//   going_to ROOM                      I am exploring ROOM
+//   empty ROOM / contains_many ROOM COUNT COLOUR (one per colour, in one tick)
+//                                      what ROOM holds now (sent when it differs from what
+//                                      the team knew; a report replaces what was believed)
+//   getting_for COLOUR ROOM POSITION   I fetch sequence position POSITION (from 0, as
+//                                      sequenceIndex) from ROOM
+//   bringing COLOUR POSITION           ... with the block in my hand
+//   giving_up POSITION                 I gave that position up
+// A claim replaces the sender's previous one; a robot claims a position once it knows
+// where to get the block, and explores until then. Two players claiming the same
+// position: the smaller name keeps it (as the built-in team agrees). A robot without a
+// block moves to a lower free position when one appears; if nobody claims the position
+// needed now for a while, while others wait with blocks for later positions, a waiting
+// robot leaves its block in a room and fetches it.
 //
 // The agent decides when an update arrives and acts before that tick's `ready`, so
 // matches are reproducible (the one exception: a refused action, whose ack comes without
@@ -40,23 +44,23 @@ const isRoom = (/** @type {string} */ place) => place.startsWith('Room');
 
 // ---- what this player knows -------------------------------------------------------
 
-/** The built-in team (`bw4t run --team builtin`) says `room` and `explore` for `seen`
- * and `going`; its `claim INDEX BLOCK` is ours. */
-const SYNONYMS = { room: 'seen', explore: 'going' };
+/** Ticks the position needed now may stay unclaimed before a robot waiting with a block
+ * for a later one leaves it to fetch that position (ten seconds at 20 ticks a second). */
+const LEAVE_TICKS = 200;
 
 /** Rooms (places named Room...), in map order. @type {string[]} */
 let rooms = [];
-/** Room -> (block -> colour), as last seen by anyone in the team. */
+/** Room -> (colour -> count), as last seen or reported by anyone in the team. */
 const contents = new Map();
 /** Room -> the tick its contents were last seen. */
 const seenAt = new Map();
-/** Block -> colour, for every block ever seen. */
+/** Block -> colour, for every block this robot has seen. */
 const colourOf = new Map();
-/** Sequence index -> {by, block, held}: other players' claims. */
+/** Sequence index -> {by, colour, room, held}: other players' claims (room null when held). */
 const claims = new Map();
 /** Player -> the room it said it is exploring. */
 const exploring = new Map();
-/** My claim: the sequence index I fetch, the block I chose, whether it is in hand. @type {{index: number, block: number|null, held: boolean} | null} */
+/** My claim: the sequence index I fetch and the room I fetch from (null: in hand). @type {{index: number, room: string|null} | null} */
 let mine = null;
 /** The action in flight. @type {import('../index.js').ActionHandle | null} */
 let order = null;
@@ -72,6 +76,10 @@ let reachedBlock = null;
 let lastHall = null;
 /** Other players now in the match. @type {Set<string>} */
 let others = new Set();
+/** The tick since which the position needed now has been unclaimed. @type {number|null} */
+let openSince = null;
+/** A block in hand this robot decided to put back (not to claim again). */
+let abandoned = null;
 
 // ---- the loop ----------------------------------------------------------------------
 
@@ -98,77 +106,65 @@ function observe(update) {
   const b = update.beliefs;
   if (rooms.length === 0) rooms = b.all('place').map(([p]) => p).filter(isRoom);
   others = new Set(b.all('player').map(([p]) => p));
-  for (const { from, text } of update.messages) hear(from, text, update.tick);
+  const reports = new Set(); // "sender room" of the reports begun in this update
+  for (const { from, said } of update.messages) if (said) hear(from, said, update.tick, reports);
 
   const index = b.get('sequenceIndex');
   for (const [i, claim] of claims) if (i < index || !others.has(claim.by)) claims.delete(i);
   for (const player of exploring.keys()) if (!others.has(player)) exploring.delete(player);
   if (mine && mine.index < index) mine = null;
+  if (claims.has(index) || mine?.index === index) openSince = null;
+  else openSince ??= update.tick;
+  if (!b.holds('holding')) abandoned = null;
 
   if (order?.outcome?.outcome === 'arrived' && order.action === 'goToBlock') reachedBlock = order.args[0];
   if (!b.holds('in')) lastHall = b.get('at');
 
   const here = b.get('in');
   if (here && isRoom(here)) {
-    const now = new Map(b.all('color').map(([block, colour]) => [block, colour]));
-    if (describe(here, now) !== describe(here, contents.get(here))) tell(describe(here, now));
-    remember(here, now, update.tick);
+    const blocks = b.all('color');
+    for (const [block, colour] of blocks) colourOf.set(block, colour);
+    const now = new Map();
+    for (const [, colour] of blocks) now.set(colour, (now.get(colour) ?? 0) + 1);
+    if (!sameCounts(now, contents.get(here))) report(here, now);
+    contents.set(here, now);
+    seenAt.set(here, update.tick);
   }
 }
 
-/** A `seen` message for a room's contents. */
-function describe(room, blocks) {
-  if (!blocks) return '';
-  const items = [...blocks].sort((a, b) => a[0] - b[0]).map(([block, colour]) => `${block}:${colour}`);
-  return ['seen', room, ...items].join(' ');
+function sameCounts(a, b) {
+  return b !== undefined && a.size === b.size && [...a].every(([colour, n]) => b.get(colour) === n);
 }
 
-function remember(room, blocks, tick) {
-  contents.set(room, blocks);
-  seenAt.set(room, tick);
-  for (const [block, colour] of blocks) colourOf.set(block, colour);
-}
-
-/** Take in a team message. */
-function hear(from, text, tick) {
-  let [kind, ...words] = text.split(' ');
-  kind = SYNONYMS[kind] ?? kind;
-  if (kind === 'seen' && words.length >= 1) {
-    const blocks = new Map(words.slice(1).map((w) => {
-      const [block, colour] = w.split(':');
-      return [Number(block), colour];
-    }));
-    remember(words[0], blocks, tick);
-    if (exploring.get(from) === words[0]) exploring.delete(from);
-  } else if (kind === 'claim') {
-    const index = Number(words[0]);
-    const theirs = { by: from, block: words[1] === '-' ? null : Number(words[1]), held: words[2] === 'held' };
+/** Take in a team message of the language (`said`); `reports` holds the "sender room"
+ * pairs whose report has begun in this update: its first message forgets the room. */
+function hear(from, said, tick, reports) {
+  const { kind, room, colour, position } = said;
+  if (kind === 'empty' || kind === 'contains_many') {
+    if (!reports.has(`${from} ${room}`)) {
+      reports.add(`${from} ${room}`);
+      contents.set(room, new Map());
+      seenAt.set(room, tick);
+      if (exploring.get(from) === room) exploring.delete(from);
+    }
+    if (kind === 'contains_many' && said.count > 0) contents.get(room).set(colour, said.count);
+  } else if (kind === 'getting_for' || kind === 'bringing') {
+    exploring.delete(from); // busy fetching
     for (const [i, claim] of claims) if (claim.by === from) claims.delete(i);
-    const earlier = claims.get(index);
-    if (!earlier || beats(theirs, earlier)) claims.set(index, theirs);
-    if (!mine) return;
-    const holding = client.beliefs.get('holding');
-    const ours = { by: me, block: mine.block, held: holding !== undefined && holding === mine.block };
-    const sameIndex = mine.index === index;
-    const sameBlock = theirs.block !== null && theirs.block === mine.block && !ours.held;
-    if ((sameIndex || sameBlock) && beats(theirs, ours)) {
-      log(`${from} takes ${sameIndex ? `position ${index}` : `block ${theirs.block}`}; I choose again`);
+    const earlier = claims.get(position);
+    if (!earlier || from < earlier.by) {
+      claims.set(position, { by: from, colour, room: room ?? null, held: kind === 'bringing' });
+    }
+    if (mine?.index === position && from < me) {
+      log(`${from} takes position ${position}; I choose again`);
       mine = null;
       order = null; // replan now; a new order supersedes the current one
     }
-  } else if (kind === 'unclaim') {
-    const index = Number(words[0]);
-    if (claims.get(index)?.by === from) claims.delete(index);
-  } else if (kind === 'going') {
-    exploring.set(from, words[0]);
+  } else if (kind === 'giving_up') {
+    if (claims.get(position)?.by === from) claims.delete(position);
+  } else if (kind === 'going_to') {
+    exploring.set(from, room);
   }
-}
-
-/** Whether claim `a` wins over claim `b` for the same position or block: a block in hand
- * wins, else the smaller name. */
-function beats(a, b) {
-  if (a.held !== b.held) return a.held;
-  return a.by < b.by;
 }
 
 // ---- deciding ----------------------------------------------------------------------
@@ -185,6 +181,7 @@ function decide(b) {
 
 /** Whether to keep the block in hand (for the position `mine` then names). */
 function keep(block, sequence, index) {
+  if (block === abandoned) return false;
   const colour = colourOf.get(block);
   if (!mine || sequence[mine.index] !== colour) {
     const position = freePosition(sequence, index, colour);
@@ -192,16 +189,18 @@ function keep(block, sequence, index) {
       unclaim(); // nobody needs it
       return false;
     }
-    claim(position, block);
+    claim(position, null);
   } else {
-    claim(mine.index, block); // tells the team the block is in hand
+    claim(mine.index, null); // tells the team the block is in hand
   }
   const someoneFirst = [...claims.values()].some((c) => c.held && c.by < me);
-  if (mine.index > index && !claims.has(index) && !someoneFirst) {
+  const stalled = openSince !== null && client.tick - openSince >= LEAVE_TICKS;
+  if (mine.index > index && stalled && !someoneFirst) {
     // Nobody fetches the colour needed now while blocks for later positions wait: leave
     // this block in a room and fetch that one (else the team could wait forever).
     log(`nobody fetches position ${index}: I leave my ${colour} block and take it`);
-    claim(index, null);
+    unclaim();
+    abandoned = block;
     return false;
   }
   return true;
@@ -237,17 +236,18 @@ function fetch(b, sequence, index, holding) {
     }
   }
   const position = freePosition(sequence, index);
+  let target = mine?.index;
   if (!mine || (position !== undefined && position < mine.index)) {
     if (position === undefined) return explore(b) ?? leaveRoom(b); // every position is taken
-    claim(position, null);
+    target = position;
   }
-  const colour = sequence[mine.index];
+  const colour = sequence[target];
   const found = findBlock(b, colour, here);
   if (!found) {
-    claim(mine.index, null);
+    unclaim(); // claim it once I know where its block is
     return explore(b) ?? leaveRoom(b);
   }
-  claim(mine.index, found.block);
+  claim(target, found.room);
   if (found.room !== here || holding !== undefined) return go(b, found.room);
   if (reachedBlock === found.block || b.holds('atBlock', found.block)) {
     return start(client.pickUp(found.block), `pick up ${colour} block ${found.block}`);
@@ -264,14 +264,17 @@ function freePosition(sequence, index, colour) {
   return undefined;
 }
 
-/** A known block of this colour nobody else claims: in this room first, then in rooms nobody is in. */
+/** Where to get a block of this colour: a block in sight in this room first, else a room
+ * nobody is in believed to hold more of it than others are fetching from there. */
 function findBlock(b, colour, here) {
-  const taken = new Set([...claims.values()].map((c) => c.block));
+  if (here && isRoom(here)) {
+    const inSight = b.all('color').filter(([, c]) => c === colour).map(([block]) => block);
+    if (inSight.length > 0) return { room: here, block: Math.min(...inSight) };
+  }
   for (const room of myRoomOrder(here)) {
-    if (room !== here && b.holds('occupied', room)) continue;
-    for (const [block, c] of contents.get(room) ?? []) {
-      if (c === colour && !taken.has(block)) return { block, room };
-    }
+    if (room === here || b.holds('occupied', room)) continue;
+    const fetching = [...claims.values()].filter((c) => c.room === room && c.colour === colour).length;
+    if ((contents.get(room)?.get(colour) ?? 0) > fetching) return { room };
   }
   return null;
 }
@@ -284,7 +287,7 @@ function explore(b) {
   const unknown = candidates.filter((r) => !contents.has(r));
   const target = unknown[0] ?? candidates.sort((x, y) => (seenAt.get(x) ?? 0) - (seenAt.get(y) ?? 0))[0];
   if (!target) return undefined;
-  if (others.size > 0) client.say('all', `going ${target}`);
+  tell({ kind: 'going_to', room: target });
   return go(b, target) ?? true;
 }
 
@@ -336,19 +339,26 @@ function start(handle, what) {
 
 // ---- talking -----------------------------------------------------------------------
 
-function tell(text) {
-  if (others.size > 0) client.say('all', text);
+/** Say a message of the language to the team (if there is one). */
+function tell(said) {
+  if (others.size > 0) client.say('all', said);
 }
 
-function claim(index, block) {
-  const held = block !== null && client.beliefs.get('holding') === block;
-  if (mine && mine.index === index && mine.block === block && mine.held === held) return;
-  if (mine && mine.index !== index) tell(`unclaim ${mine.index}`);
-  mine = { index, block, held };
-  tell(`claim ${index} ${block ?? '-'}${held ? ' held' : ''}`);
+/** What a room holds, as one report: all its messages go out in this tick. */
+function report(room, counts) {
+  if (counts.size === 0) tell({ kind: 'empty', room });
+  for (const [colour, count] of [...counts].sort()) tell({ kind: 'contains_many', room, count, colour });
+}
+
+/** Claim a position (replacing my previous claim): fetching from `room`, or (null) for the block in hand. */
+function claim(index, room) {
+  if (mine && mine.index === index && mine.room === room) return;
+  mine = { index, room };
+  const colour = client.beliefs.get('sequence')[index];
+  tell(room === null ? { kind: 'bringing', colour, position: index } : { kind: 'getting_for', colour, room, position: index });
 }
 
 function unclaim() {
-  if (mine) tell(`unclaim ${mine.index}`);
+  if (mine) tell({ kind: 'giving_up', position: mine.index });
   mine = null;
 }

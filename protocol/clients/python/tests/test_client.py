@@ -489,3 +489,29 @@ def test_example_team_completes_a_match(bw4t_bin: str, tmp_path: Path) -> None:
     assert result["sequence_index"] == len(result["sequence"]) and result["wrong_drops"] == 0
     assert len(result["agents"]) == 3
     assert all(a["status"] == "ok" for a in result["agents"]), result["agents"]
+
+
+def test_example_plays_with_built_in_teammates_in_the_language(bw4t_bin: str, tmp_path: Path) -> None:
+    agent = f"{shlex.quote(sys.executable)} {shlex.quote(str(CLIENT_DIR / 'examples' / 'coop_agent.py'))}"
+    replay = tmp_path / "replay.jsonl"
+    argv = [
+        bw4t_bin, "run", "--map", "default", "--seed", "3", "--robots", "3", "--team", "builtin",
+        "--agent", agent, "--json", "--log-dir", str(tmp_path / "logs"), "--replay", str(replay),
+    ]
+    proc = subprocess.run(argv, capture_output=True, text=True, timeout=300, stdin=subprocess.DEVNULL)
+    assert proc.returncode == 0, proc.stderr
+    result = json.loads(proc.stdout)
+    assert result["completed"] and result["wrong_drops"] == 0, result
+    [mine] = [a for a in result["agents"] if a["kind"] == "external"]
+    assert mine["status"] == "ok", result["agents"]
+    # It takes part: the built-in robots understand its claims and reports, and it theirs.
+    [robot] = [r for r in result["per_robot"] if r["name"] == mine["name"]]
+    assert robot["good_drops"] >= 1, result["per_robot"]
+    kinds = set()
+    for line in replay.read_text().splitlines():
+        for event in json.loads(line).get("events", []):
+            if event.get("kind") == "act" and event.get("robot") == robot["id"] \
+                    and event.get("action") == "sendMessage":
+                assert isinstance(event["args"][1], dict), event  # a message of the language
+                kinds.add(event["args"][1]["kind"])
+    assert {"going_to", "contains_many", "getting_for", "bringing"} <= kinds, kinds
