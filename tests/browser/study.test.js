@@ -3,7 +3,8 @@
 // consent, instructions, a trial in one condition where they tell a teammate where to go
 // with the message menu (and the teammate goes there, seen from the operator's live view
 // opened from the dashboard), a questionnaire (its required items checked), the trial of the
-// other condition, the completion page. A third declines consent. The dashboard lists them
+// other condition, the completion page (one of them reloads the page during a trial and is
+// back in the same match). A third declines consent. The dashboard lists them
 // and pauses and resumes a live trial. Then `bw4t study export` must hold every input the
 // participants made, with its times. With BW4T_SCREENSHOTS=1 each kind of page is saved as
 // docs/screenshots/study-KIND.png.
@@ -88,9 +89,9 @@ async function questionnaire(page, step, { comments = null } = {}) {
  * to RoomC3 (and presses D, which is refused: nothing held); the operator's live view of
  * the match sees the teammate get there; at the match's end the page goes on.
  */
-async function trial(page, admin, id, step, expected) {
+async function trial(page, admin, id, step, expected, { reload = false } = {}) {
   await onPage(page, 'trial', step);
-  const frame = await (await page.waitForSelector('#trial-frame')).contentFrame();
+  let frame = await (await page.waitForSelector('#trial-frame')).contentFrame();
   await frame.waitForSelector('#status[data-status="connected"]', { timeout: 20_000 });
   const condition = await page.evaluate(() => document.querySelector('#trial-head')?.textContent || '');
   // Which condition this is shows in what the menu offers.
@@ -115,6 +116,15 @@ async function trial(page, admin, id, step, expected) {
   if (name === 'talking') {
     // A talking teammate says it will.
     await frame.waitForSelector(`#messages li[data-from="${bot}"][data-kind="ok"]`, { state: 'attached', timeout: 15_000 });
+  }
+  if (reload) {
+    // A reload in the middle of a trial goes back into the same match, as the same robot.
+    const before = [await frame.textContent('#match-name'), await frame.textContent('#me')];
+    await page.reload();
+    await onPage(page, 'trial', step);
+    frame = await (await page.waitForSelector('#trial-frame')).contentFrame();
+    await frame.waitForSelector('#status[data-status="connected"]', { timeout: 20_000 });
+    assert.deepEqual([await frame.textContent('#match-name'), await frame.textContent('#me')], before, 'the same match and robot after a reload');
   }
 
   // The operator watches the match from the dashboard: the teammate gets to RoomC3.
@@ -152,7 +162,7 @@ async function participant(page, admin, base, link, id, { shots = false } = {}) 
   await onPage(page, 'instructions', 1);
   if (shots) await keep(page, 'instructions');
   await page.click('#continue');
-  const first = await trial(page, admin, id, 2, expected);
+  const first = await trial(page, admin, id, 2, expected, { reload: shots });
   await questionnaire(page, 3, { comments: 'they went where I said' });
   if (shots) await keep(page, 'questionnaire');
   await page.click('#questionnaire-submit');

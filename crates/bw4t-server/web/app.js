@@ -107,13 +107,15 @@ async function start() {
   setupPlayerControls(canvas);
   requestAnimationFrame(animate);
 
-  // Embedded by the study page: play with the hello it gives (a template's next match).
+  // Embedded by the study page: play with the hello it gives: a template's next match, or
+  // (after a reload) the match the trial is in, with this tab's session for it.
   const hello = embeddedHello();
   if (hello) {
     // A player's role is the protocol's default (`agent`); the page sets the rest itself.
-    const { name: embeddedName, template, type: _t, protocol: _p, versions: _v, role: _r, ...extra } = hello;
-    page.lobby = page.lobby || Boolean(template);
-    joinAsPlayer(embeddedName, template || null, extra);
+    const { name: embeddedName, template, match, type: _t, protocol: _p, versions: _v, role: _r, ...extra } = hello;
+    page.lobby = page.lobby || Boolean(template || match);
+    if (match) page.matchName = match;
+    joinAsPlayer(embeddedName, match ? null : template || null, extra);
     return;
   }
 

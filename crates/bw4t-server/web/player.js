@@ -171,6 +171,7 @@ function onPlayerMessage(message) {
       break;
     }
     case 'error':
+      report('error', { code: message.code, fatal: message.fatal === true });
       log('error', `error ${message.code}: ${message.message}${message.fatal ? ' (fatal)' : ''}`, undefined, {
         code: message.code,
       });

@@ -15,6 +15,8 @@ import { $, el, setText } from './dom.js';
 
 const ID_PARAMS = ['PROLIFIC_PID', 'participant', 'pid', 'workerId', 'PARTICIPANT_ID'];
 const STORE_KEY = 'bw4t-study-participant';
+/** Where the match of the trial under way is kept, so that a reload goes back into it. */
+const trialKey = () => `bw4t-study-trial:${study.id}`;
 const FLUSH_MS = 1000;
 /** A batch's most bytes (the server takes at most 64 KB). */
 const BATCH_BYTES = 60 * 1024;
@@ -278,9 +280,17 @@ function renderQuestionnaire(p) {
  * the hello the state gives. */
 function renderTrial(p) {
   const hello = { ...(p.hello || {}) };
+  // Reloaded during this trial: back into its match (the frame has the session for it).
+  let kept = null;
+  try {
+    kept = JSON.parse(localStorage.getItem(trialKey()) || 'null');
+  } catch {
+    kept = null;
+  }
+  if (kept && kept.step === study.state.step && kept.match) hello.match = kept.match;
   const src = `/?embed=study&hello=${encodeURIComponent(JSON.stringify(hello))}`;
   const frame = el('iframe', { id: 'trial-frame', src, title: 'the task', allow: 'fullscreen' });
-  study.trial = { step: study.state.step, frame, matchId: null, matchName: null, finishing: false };
+  study.trial = { step: study.state.step, frame, matchId: null, matchName: null, rejoining: hello.match || null, finishing: false };
   frame.addEventListener('load', () => frame.focus());
   const head = el(
     'div',
@@ -317,6 +327,7 @@ async function finishTrial() {
   for (;;) {
     const result = await api('POST', participantPath('/answer'), { step: trial.step, answers: trialMatch(trial) });
     if (result.ok) {
+      localStorage.removeItem(trialKey());
       const next = result.body;
       over.replaceChildren(
         el('p', {}, 'The task is over.'),
@@ -344,9 +355,17 @@ async function onViewEvent(event) {
   if (event.kind === 'welcome') {
     trial.matchId = event.match?.id ?? null;
     trial.matchName = event.match?.name ?? null;
+    localStorage.setItem(trialKey(), JSON.stringify({ step: trial.step, match: trial.matchName }));
+    // Back in the match after a reload: its start is recorded already.
+    if (trial.rejoining && trial.rejoining === trial.matchName) return;
     const result = await api('POST', participantPath('/trial'), { step: trial.step, ...trialMatch(trial) });
     if (!result.ok) console.warn('bw4t study: trial start not recorded', result.status, result.body);
   } else if (event.kind === 'match_over' || (event.kind === 'bye' && trial.matchName)) {
+    finishTrial();
+  } else if (event.kind === 'error' && event.fatal && (trial.matchName || trial.rejoining)) {
+    // Back after a reload, and the match is gone (or the seat is): the trial is answered
+    // with that match, once the server has seen it end.
+    trial.matchName = trial.matchName || trial.rejoining;
     finishTrial();
   }
 }
