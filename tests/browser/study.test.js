@@ -1,6 +1,7 @@
 // A study from end to end in the browser: `bw4t study` serves a short study
 // (tests/fixtures/study-short) to two scripted participants in their own browsers at once:
-// consent, instructions, a trial in one condition where they tell a teammate where to go
+// consent, instructions, a trial in one condition (the robot's own view, or the whole map)
+// where they tell a teammate where to go
 // with the message menu (and the teammate goes there, seen from the operator's live view
 // opened from the dashboard), a questionnaire (its required items checked), the trial of the
 // other condition, the completion page (one of them reloads the page during a trial and is
@@ -100,6 +101,11 @@ async function trial(page, admin, id, step, expected, { reload = false } = {}) {
   const name = kinds === expected.quiet.kinds ? 'quiet' : 'talking';
   assert.equal(kinds, expected[name].kinds, `kinds offered (${condition})`);
   assert.equal(await frame.isVisible('#chat-form'), expected[name].freeText, 'free text box');
+  // The quiet condition shows the whole map (the match's frames), the talking one the
+  // robot's own view.
+  assert.equal(await frame.getAttribute('body', 'data-overview'), String(name === 'quiet'));
+  if (name === 'quiet') await frame.waitForSelector('#map[data-frames]:not([data-frames="0"])', { state: 'attached' });
+  else assert.equal(await frame.getAttribute('#map', 'data-frames'), null, 'no frames in the own view');
 
   await frame.waitForSelector('#chat-to option[value^="Bot"]', { state: 'attached' });
   const bot = await frame.getAttribute('#chat-to option[value^="Bot"]', 'value');

@@ -115,6 +115,8 @@ async function start() {
     const { name: embeddedName, template, match, type: _t, protocol: _p, versions: _v, role: _r, ...extra } = hello;
     page.lobby = page.lobby || Boolean(template || match);
     if (match) page.matchName = match;
+    page.overview = params.get('view') === 'overview';
+    document.body.dataset.overview = String(page.overview);
     joinAsPlayer(embeddedName, match ? null : template || null, extra);
     return;
   }

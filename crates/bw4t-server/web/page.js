@@ -8,6 +8,7 @@ import { Renderer } from './renderer.js';
 export const page = {
   view: 'loading', // 'lobby' | 'spectator' | 'player' | 'replay'
   lobby: false, // the server hosts many matches (`/info.json` says `"lobby": true`)
+  overview: false, // the player sees the whole map too (embedded with `view=overview`)
   matchName: null, // the match shown, by name: `?match=` or `welcome.match.name` (lobby servers only)
   map: null, // the geometry (geometry.js)
   renderer: null, // the Renderer (renderer.js)

@@ -21,7 +21,7 @@ import { colourCss } from './renderer.js';
 import { sentenceOf } from './language.js';
 import { addMessage, endMatch, log, setStatus, setTick, setWatchNote, showMatch, showSequence } from './panels.js';
 import { helloFor, openSocket } from './connection.js';
-import { spectator, startSpectator, stopSpectator } from './spectator.js';
+import { spectator, spectatorScene, startSpectator, stopSpectator } from './spectator.js';
 import { hideWaiting, showLobby, showRefusal } from './waiting.js';
 import { embedded, report, setReportTick } from './embed.js';
 import { setMenuOptions, setMessagePolicy, setupMenu } from './menu.js';
@@ -53,6 +53,7 @@ export const player = {
   pending: new Map(), // request id -> {words, durative, say, inputAt}: for the log until answered
   retriedWithName: false,
   extra: {}, // more fields of the hello (the study page's)
+  overviewSocket: null, // the overview's frames, when the player sees the whole map
   template: null, // the template joined by (`?template=`), until a match gives a seat
 };
 
@@ -97,6 +98,7 @@ function destination() {
 /** Opens a player's WebSocket with fresh beliefs; `identity`: `{name}` or `{session}`. */
 function connectPlayer(identity) {
   player.beliefs = new Beliefs();
+  stopOverview();
   // Messages from a socket that was replaced (its trailing `bye`) are not this player's.
   const onMessage = (message) => player.socket === socket && onPlayerMessage(message);
   const socket = openSocket(helloFor({ ...identity, ...destination() }), onMessage, () => {
@@ -130,6 +132,7 @@ function onPlayerMessage(message) {
       );
       // A template's match is known only now: draw its map.
       if (!page.map) loadMap(page.matchName, message.match.map).catch((err) => log('error', `no map: ${err.message}`));
+      if (page.overview) startOverview(message.match.name);
       break;
     case 'lobby':
       report('lobby', { lobby: message });
@@ -342,11 +345,61 @@ function showPlayerPanel() {
   }
 }
 
-/** What the renderer draws: the map as the player's beliefs show it. */
+/** The whole map beside the player's own view (`page.overview`, a study condition's
+ * `view = "overview"`): the match's frames as a spectator sees them, drawn under the
+ * player's place and chips. Refused (the match is not open to spectators), the player
+ * keeps its own view. */
+function startOverview(matchName) {
+  stopOverview();
+  const hello = helloFor(matchName ? { role: 'spectator', match: matchName } : { role: 'spectator' });
+  const socket = openSocket(
+    hello,
+    (message) => {
+      if (player.overviewSocket !== socket) return;
+      if (message.type === 'frame') {
+        spectator.frame = message;
+        page.frames += 1;
+        if (page.renderer) page.renderer.canvas.dataset.frames = String(page.frames);
+        page.dirty = true;
+      } else if (message.type === 'error' && message.fatal) {
+        log('info', `no overview: ${message.message}`);
+      }
+    },
+    () => {},
+  );
+  player.overviewSocket = socket;
+}
+
+function stopOverview() {
+  const socket = player.overviewSocket;
+  player.overviewSocket = null;
+  spectator.frame = null;
+  socket?.close();
+}
+
+/** What the renderer draws: the map as the player's beliefs show it (over the whole map's
+ * frame, in the overview). */
 export function playerScene() {
   const b = player.beliefs;
   const map = page.map;
   const inName = b.get('in');
+  if (page.overview && spectator.frame) {
+    const whole = spectatorScene();
+    const room = map.byName.get(inName);
+    const inside = (x, y) => room && x >= room.x && x < room.x + room.w && y >= room.y && y < room.y + room.h;
+    return {
+      ...whole,
+      // The room the player is in shows its blocks as the player's chips.
+      blocks: (whole.blocks || []).filter((block) => !inside(block.x, block.y)),
+      at: map.byName.get(b.get('at')) || null,
+      inRoom: room || null,
+      chips: visibleBlocks(),
+      atBlock: b.get('atBlock'),
+      holdingColor: b.get('holding') !== undefined ? b.colourOf(b.get('holding')) || '?' : null,
+      me: player.name,
+      hover: page.hover,
+    };
+  }
   return {
     occupied: new Set(b.all('occupied').map(([room]) => room)),
     at: map.byName.get(b.get('at')) || null,

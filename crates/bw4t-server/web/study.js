@@ -288,7 +288,8 @@ function renderTrial(p) {
     kept = null;
   }
   if (kept && kept.step === study.state.step && kept.match) hello.match = kept.match;
-  const src = `/?embed=study&hello=${encodeURIComponent(JSON.stringify(hello))}`;
+  const view = p.view === 'overview' ? '&view=overview' : '';
+  const src = `/?embed=study${view}&hello=${encodeURIComponent(JSON.stringify(hello))}`;
   const frame = el('iframe', { id: 'trial-frame', src, title: 'the task', allow: 'fullscreen' });
   study.trial = { step: study.state.step, frame, matchId: null, matchName: null, rejoining: hello.match || null, finishing: false };
   frame.addEventListener('load', () => frame.focus());
