@@ -237,9 +237,11 @@ test('two participants go through a study; its export holds every input with its
     await screenshot(bob.page, 'study-bob');
     await screenshot(admin, 'study-dashboard');
   }
-  // Everything is on disk before the pages close (each batch is written as it comes); the
-  // pages flush once a second.
-  await Promise.all([alice, bob].map((b) => b.page.close()));
+  // Every event is with the server before the pages close (they send once a second, and
+  // each batch is on disk when it is answered).
+  for (const b of [alice, bob, carol]) {
+    await b.page.waitForFunction(() => window.bw4tStudy.pending() === 0, null, { timeout: 10_000 });
+  }
   await stop(server.proc);
 
   const out = path.join(data, 'export');
@@ -279,4 +281,55 @@ test('two participants go through a study; its export holds every input with its
     assert.deepEqual(teamwork, ['5', '5'], `${id}: answers`);
   }
   assert.ok(events.some((e) => e.participant === 'CAROL3' && e.kind === 'click' && JSON.parse(e.data).target === 'consent-decline'));
+});
+
+test('two people share a trial: the first waits in the waiting room until the second comes', { timeout: 120_000 }, async (t) => {
+  const data = tempDir('study-pair');
+  t.after(() => fs.rmSync(data, { recursive: true, force: true }));
+  const pair = path.join(ROOT, 'tests', 'fixtures', 'study-pair', 'study.toml');
+  const server = await startBw4t(['study', pair, '--data', data, '--http', '0', '--port', '0', '--operator-token', TOKEN]);
+  t.after(() => stop(server.proc));
+  const browsers = await Promise.all([openBrowser(), openBrowser()]);
+  t.after(() => Promise.all(browsers.map((b) => b.close())));
+  const [ann, ben] = browsers.map((b) => b.page);
+  const frameOf = async (page) => (await page.waitForSelector('#trial-frame')).contentFrame();
+  try {
+    await ann.goto(new URL('/study?participant=ANN', server.url).href);
+    await onPage(ann, 'trial', 0);
+    const annView = await frameOf(ann);
+    // Alone: the waiting room says one more person is awaited.
+    await annView.waitForSelector('#waiting[data-state="waiting"]', { timeout: 20_000 });
+    await annView.waitForSelector('#waiting-awaited[data-awaited="1"]');
+    if (SHOTS) await keep(ann, 'waiting');
+
+    await ben.goto(new URL('/study?participant=BEN', server.url).href);
+    await onPage(ben, 'trial', 0);
+    const benView = await frameOf(ben);
+    for (const view of [annView, benView]) {
+      await view.waitForSelector('#status[data-status="connected"]');
+      await view.waitForSelector('#waiting', { state: 'hidden', timeout: 20_000 });
+    }
+    assert.equal(await annView.textContent('#match-name'), await benView.textContent('#match-name'), 'one match for both');
+
+    // Ann tells Ben what the team needs; Ben reads the sentence.
+    const benName = (await benView.textContent('#me')).split(' ')[0];
+    await annView.waitForSelector(`#chat-to option[value="${benName}"]`, { state: 'attached' });
+    await annView.selectOption('#chat-to', benName);
+    await annView.selectOption('#menu-kind', 'need');
+    await annView.selectOption('#menu-slot-colour', 'Red');
+    await annView.click('#menu-send');
+    await benView.waitForSelector('#messages li[data-kind="need"]', { state: 'attached' });
+    assert.equal(await benView.textContent('#messages li[data-kind="need"] .sentence'), 'We need Red.');
+
+    for (const page of [ann, ben]) {
+      await page.waitForSelector('#trial-continue', { timeout: 40_000 });
+      await page.click('#trial-continue');
+      await onPage(page, 'final', 1);
+      assert.equal((await page.textContent('#completion-code')).trim(), 'PAIR');
+    }
+    for (const b of browsers) assert.deepEqual(b.errors, [], 'no errors on the pages');
+  } finally {
+    await screenshot(ann, 'study-pair-ann');
+    await screenshot(ben, 'study-pair-ben');
+  }
 });

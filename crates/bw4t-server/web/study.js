@@ -35,17 +35,20 @@ const study = {
   tick: null, // the latest tick the trial's view reported
   queue: [], // events not sent yet
   sending: false,
+  unsent: 0, // events taken from the queue whose request has not been answered
   focused: null, // whether the participant's window has focus, as last logged
   trial: null, // {step, frame, matchId, matchName, finishing}
 };
 
 const encoder = new TextEncoder();
 
-/** A request to the study API: {status, ok, body} (body: the JSON answer or null). */
+/** A request to the study API: {status, ok, body} (body: the JSON answer or null). It is
+ * sent to its end even if the page goes away meanwhile (`keepalive`). */
 async function api(method, path, body) {
   const response = await fetch(path, {
     method,
     cache: 'no-store',
+    keepalive: method === 'POST',
     headers: body === undefined ? {} : { 'Content-Type': 'application/json' },
     body: body === undefined ? undefined : JSON.stringify(body),
   });
@@ -104,16 +107,18 @@ async function flush() {
   if (!study.id || study.sending || study.queue.length === 0) return;
   study.sending = true;
   const batches = takeBatches();
+  study.unsent = batches.reduce((n, events) => n + events.length, 0);
   try {
     while (batches.length) {
       const { ok, status } = await api('POST', participantPath('/events'), { events: batches[0] });
       if (!ok && status >= 500) throw new Error(`HTTP ${status}`);
-      batches.shift(); // sent (or refused for good: sending again would not help)
+      study.unsent -= batches.shift().length; // sent (or refused for good: sending again would not help)
     }
   } catch {
     study.queue = batches.flat().concat(study.queue);
   } finally {
     study.sending = false;
+    study.unsent = 0;
   }
 }
 
@@ -458,5 +463,8 @@ async function start() {
   checkFocus();
   render(result.body);
 }
+
+/** For tests: how many events are not yet recorded by the server. */
+window.bw4tStudy = { pending: () => study.queue.length + study.unsent };
 
 start();
