@@ -75,5 +75,5 @@ export function saidOfText(text) {
 export function chatLine(text, said = null) {
   const structured = said || saidOfText(text);
   if (!structured) return { sentence: text, said: null };
-  return { sentence: sentenceOf(structured) || (structured === said ? text : null) || text, said: structured };
+  return { sentence: sentenceOf(structured) || text, said: structured };
 }
