@@ -240,13 +240,19 @@ fn imports_of(module: &str, source: &str) -> Vec<String> {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn every_module_the_page_imports_is_served_as_javascript() {
     let (server, http) = web_server(0, 1).await;
-    let page = get(http, "/").await.body;
-    let mut queue: Vec<String> = page
-        .split("<script type=\"module\" src=\"")
-        .skip(1)
-        .map(|rest| format!("/{}", rest.split('"').next().expect("a src")))
-        .collect();
-    assert!(!queue.is_empty(), "index.html loads a module: {page}");
+    // The page, the study page and the study dashboard each load one module (the latter
+    // two name theirs from the root, as they are served at /study and /study/admin).
+    let mut queue: Vec<String> = Vec::new();
+    for at in ["/", "/study", "/study/admin"] {
+        let page = get(http, at).await.body;
+        let before = queue.len();
+        queue.extend(
+            page.split("<script type=\"module\" src=\"")
+                .skip(1)
+                .map(|rest| format!("/{}", rest.split('"').next().expect("a src").trim_start_matches('/'))),
+        );
+        assert!(queue.len() > before, "{at} loads a module: {page}");
+    }
     let mut served = std::collections::BTreeMap::new();
     while let Some(path) = queue.pop() {
         if served.contains_key(&path) {
