@@ -352,6 +352,10 @@ impl StudyServer {
                     format!("match_id: '{match_id}' is not an id of match '{name}'"),
                 );
             }
+            if slot.state.playing.as_ref().is_some_and(|(_, playing)| playing == match_id) {
+                // Said again (a page that retried): it is recorded already.
+                return Answer::Json(StatusCode::OK, slot.state.state(self.study()));
+            }
             let condition = self.study().conditions[c].name.clone();
             let record = Record::TrialStarted {
                 step,
