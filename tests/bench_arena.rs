@@ -64,6 +64,20 @@ fn realtime_matches_are_all_made_joined_and_measured() {
 }
 
 #[test]
+fn a_study_load_has_people_talking_beside_built_in_teammates_and_measures_their_acks() {
+    let lines = bench_arena(&["--arena-kind", "study", "--study-matches", "2", "--arena-seconds", "2"]);
+    assert_eq!(lines.len(), 1, "{lines:?}");
+    let line = &lines[0];
+    assert_eq!(line["kind"].as_str(), Some("study"));
+    assert_eq!((count(line, "matches"), count(line, "robots")), (2, 4));
+    assert_eq!(count(line, "connections"), 4, "two people per match: {line}");
+    assert_eq!(count(line, "matches_started"), 2, "the teammates are built in, so both started: {line}");
+    assert!(count(line, "messages_sent") > 0 && count(line, "acks_measured") > 0, "{line}");
+    let (p50, p99) = (number(line, "input_to_ack_p50_ms"), number(line, "input_to_ack_p99_ms"));
+    assert!(0.0 < p50 && p50 <= p99, "{line}");
+}
+
+#[test]
 fn lockstep_matches_run_on_one_and_on_two_workers() {
     let lines = bench_arena(&[
         "--arena-kind",
