@@ -206,3 +206,139 @@ test('the replay message list holds every message sent up to the tick shown', { 
     await screenshot(page, 'replay-messages');
   }
 });
+
+/** A robot's own view of a tick, as the server gives it. */
+async function viewOf(url, robot, tick) {
+  const response = await fetch(new URL(`replay/view/${robot}/${tick}`, url));
+  assert.equal(response.status, 200, `the view of robot ${robot} at tick ${tick}`);
+  return response.json();
+}
+
+const factOf = (view, name) => view.facts.find((f) => f[0] === name)?.slice(1);
+
+/** What the own-view column shows, read at once. */
+function shownOwnView(page) {
+  return page.evaluate(() => {
+    const section = document.querySelector('#ownview');
+    return {
+      tick: Number(section.dataset.tick),
+      at: document.querySelector('#ownview-at').textContent.trim(),
+      index: Number(document.querySelector('#ownview-index').dataset.index),
+      blocks: [...document.querySelectorAll('#ownview-blocks li')].map((li) => [Number(li.dataset.blockId), li.dataset.color]),
+      messages: [...document.querySelectorAll('#ownview-messages li')].map((li) => ({
+        from: li.dataset.from,
+        text: li.querySelector('.sentence').textContent,
+      })),
+    };
+  });
+}
+
+/** Waits (bounded) until the own view shows the tick the overview shows. */
+function ownViewCaughtUp(page, tick = null) {
+  return page.waitForFunction(
+    (want) => {
+      const section = document.querySelector('#ownview');
+      const shown = want ?? Number(document.querySelector('#tick').textContent.trim());
+      return section.dataset.stale === 'false' && section.dataset.tick === String(shown);
+    },
+    tick,
+    { timeout: 15_000 },
+  );
+}
+
+test("the replay viewer shows one player's own view beside the overview", { timeout: 180_000 }, async (t) => {
+  const dir = tempDir('replay-ownview');
+  t.after(() => fs.rmSync(dir, { recursive: true, force: true }));
+  const file = path.join(dir, 'match.jsonl');
+  await runBw4t(['run', '--map', 'fixed', '--seed', '3', '--replay', file]);
+  const server = await startBw4t(['replay', 'view', file, '--http', '0']);
+  t.after(() => stop(server.proc));
+  const info = await (await fetch(new URL('replay.json', server.url))).json();
+  const robots = (await (await fetch(new URL('replay/frame/0', server.url))).json()).robots;
+
+  // A robot and a tick where it is in a room seeing blocks and has heard messages.
+  let chosen = null;
+  for (const robot of robots) {
+    for (let tick = Math.floor(info.ticks / 4); tick <= info.ticks && !chosen; tick += 10) {
+      const view = await viewOf(server.url, robot.id, tick);
+      if (view.facts.some((f) => f[0] === 'color') && view.messages.length > 0) chosen = { robot, tick, view };
+    }
+    if (chosen) break;
+  }
+  assert.ok(chosen, 'some robot sees blocks after having heard messages');
+  const { robot, tick, view } = chosen;
+  assert.equal(view.name, robot.name);
+
+  const browser = await openBrowser();
+  t.after(() => browser.close());
+  const { page } = browser;
+  const viewRequests = [];
+  page.on('request', (request) => {
+    if (new URL(request.url()).pathname.startsWith('/replay/view/')) viewRequests.push(request.url());
+  });
+  try {
+    await page.goto(server.url);
+    await page.waitForSelector('#status[data-status="replay"]');
+    await waitForNumber(page, '#tick', { equals: 0 });
+    // None by default: no column, nothing fetched.
+    assert.equal(await page.inputValue('#ownview-robot'), '');
+    const options = await page.$$eval('#ownview-robot option', (all) => all.map((o) => o.textContent));
+    assert.deepEqual(options, ['none', ...info.players]);
+    assert.equal(await page.isVisible('#ownview'), false);
+    const overviewWidth = await page.evaluate(() => document.querySelector('#stage').clientWidth);
+
+    // Pick the robot, then move to the tick: its place, the blocks it sees, the sequence
+    // index and the messages it had heard, as the server's view of that tick has them.
+    await page.selectOption('#ownview-robot', robot.name);
+    assert.equal(await page.isVisible('#ownview'), true);
+    assert.ok((await page.evaluate(() => document.querySelector('#stage').clientWidth)) < overviewWidth, 'beside the overview');
+    await ownViewCaughtUp(page, 0);
+    await page.locator('#scrub').fill(String(tick));
+    await waitForNumber(page, '#tick', { equals: tick });
+    await ownViewCaughtUp(page, tick);
+    const shown = await shownOwnView(page);
+    assert.equal(shown.at, factOf(view, 'at')[0]);
+    assert.equal(shown.index, factOf(view, 'sequenceIndex')[0]);
+    const seen = view.facts.filter((f) => f[0] === 'color').map((f) => [f[1], f[2]]);
+    assert.ok(seen.length > 0);
+    assert.deepEqual(shown.blocks, seen.sort((a, b) => a[0] - b[0]));
+    assert.deepEqual(
+      shown.messages,
+      view.messages.slice(-300).map((m) => ({ from: m.message.from, text: m.message.text })),
+      'the messages heard, as sentences, newest last',
+    );
+    assert.match(await page.getAttribute('#ownview-map', 'width'), /^[1-9]\d*$/);
+    await screenshot(page, 'replay-ownview');
+
+    // Playing fast: the view follows at a bounded pace, and catches up once paused.
+    await page.locator('#scrub').fill('0');
+    await waitForNumber(page, '#tick', { equals: 0 });
+    await ownViewCaughtUp(page, 0);
+    await page.selectOption('#speed', '8');
+    const before = viewRequests.length;
+    const framesBefore = Number(await page.getAttribute('#map', 'data-frames'));
+    await page.click('#play');
+    await sleep(1500);
+    await page.click('#pause');
+    const requested = viewRequests.length - before;
+    const framesShown = Number(await page.getAttribute('#map', 'data-frames')) - framesBefore;
+    assert.ok(requested >= 2 && requested <= 12, `${requested} views fetched while ${framesShown} frames were shown`);
+    assert.ok(framesShown > requested, `${framesShown} frames shown`);
+    await ownViewCaughtUp(page);
+    const paused = await number(page, '#tick');
+    const pausedView = await viewOf(server.url, robot.id, paused);
+    assert.equal((await shownOwnView(page)).at, factOf(pausedView, 'at')[0], `at tick ${paused}`);
+
+    // None again: the column goes and nothing more is fetched.
+    await page.selectOption('#ownview-robot', '');
+    assert.equal(await page.isVisible('#ownview'), false);
+    await page.waitForFunction((width) => document.querySelector('#stage').clientWidth === width, overviewWidth, { timeout: 5000 });
+    const fetched = viewRequests.length;
+    await page.locator('#scrub').fill(String(tick + 7));
+    await waitForNumber(page, '#tick', { equals: tick + 7 });
+    assert.equal(viewRequests.length, fetched, 'no view fetched for none');
+    assert.deepEqual(browser.errors, []);
+  } finally {
+    await screenshot(page, 'replay-ownview-last');
+  }
+});

@@ -40,6 +40,7 @@ const PAGE_FILES: &[(&str, &str, &str)] = &[
     ("/spectator.js", JS, include_str!("../web/spectator.js")),
     ("/player.js", JS, include_str!("../web/player.js")),
     ("/replay.js", JS, include_str!("../web/replay.js")),
+    ("/ownview.js", JS, include_str!("../web/ownview.js")),
     ("/language.js", JS, include_str!("../web/language.js")),
     ("/menu.js", JS, include_str!("../web/menu.js")),
     ("/embed.js", JS, include_str!("../web/embed.js")),

@@ -6,11 +6,13 @@
 // every few ticks at high speed (frames hold the whole state, so skipping costs nothing).
 // If the fetches fall behind, playback waits for them instead of jumping. The message list
 // comes from every message of the match, in /replay.json: whatever tick is shown, it holds
-// the messages sent up to that tick (the newest LOG_LIMIT of them).
+// the messages sent up to that tick (the newest LOG_LIMIT of them). One player's own view
+// of the tick shown can be put beside the overview (ownview.js).
 
 import { $, fetchJSON, params, setText } from './dom.js';
 import { setView } from './page.js';
 import { LOG_LIMIT, addMessage, setStatus } from './panels.js';
+import { ownView } from './ownview.js';
 import { showFrame } from './spectator.js';
 
 export const replay = {
@@ -42,6 +44,7 @@ export const replay = {
     this.messages = info.messages || [];
     const players = (info.players || []).map((p) => (typeof p === 'string' ? p : p.name ?? JSON.stringify(p)));
     setText($('#replay-about'), `seed ${info.seed}${players.length ? `, ${players.join(', ')}` : ''}`);
+    ownView.setup(players);
     const scrub = $('#scrub');
     scrub.max = String(this.ticks);
     this.speed = Number(params.get('speed')) || 1;
@@ -140,6 +143,7 @@ export const replay = {
     this.seeking = null;
     showFrame(this.cache.get(tick));
     this.listMessages(tick);
+    ownView.follow(tick, this.cache.get(tick), this.playing);
     if (!this.scrubbing) $('#scrub').value = String(tick);
     setText($('#replay-position'), `${tick} / ${this.ticks}`);
   },
