@@ -12,7 +12,7 @@
 import { Beliefs } from './client/beliefs.js';
 import { $, el, setText } from './dom.js';
 import { page } from './page.js';
-import { Renderer, colourCss } from './renderer.js';
+import { Renderer, colourCss, perceivedScene, visibleBlocks } from './renderer.js';
 import { chatLine } from './language.js';
 import { LOG_LIMIT } from './panels.js';
 
@@ -231,7 +231,7 @@ export const ownView = {
       ),
     );
 
-    const blocks = this.visibleBlocks();
+    const blocks = visibleBlocks(this.beliefs);
     const atBlock = b.get('atBlock');
     $('#ownview-blocks').replaceChildren(
       ...blocks.map((x) =>
@@ -268,29 +268,12 @@ export const ownView = {
     list.scrollTop = list.scrollHeight;
   },
 
-  /** The visible blocks: id and colour from `color` facts, in id order. */
-  visibleBlocks() {
-    return this.beliefs
-      .all('color')
-      .map(([id, color]) => ({ id, color }))
-      .sort((a, b) => a.id - b.id);
-  },
 
   /** The map as the robot perceives it: the scene the player view draws (player.js). */
   draw() {
     if (!this.renderer || !this.beliefs) return;
-    const b = this.beliefs;
-    const map = page.map;
-    const held = b.get('holding');
-    this.renderer.draw({
-      occupied: new Set(b.all('occupied').map(([room]) => room)),
-      at: map.byName.get(b.get('at')) || null,
-      inRoom: map.byName.get(b.get('in')) || null,
-      chips: this.visibleBlocks(),
-      atBlock: b.get('atBlock'),
-      holdingColor: held !== undefined ? $('#ownview-holding').dataset.color || '?' : null,
-      me: this.name,
-      hover: null,
-    });
+    const held = this.beliefs.get('holding');
+    const holding = held !== undefined ? $('#ownview-holding').dataset.color || '?' : null;
+    this.renderer.draw(perceivedScene(this.beliefs, page.map, this.name, holding));
   },
 };

@@ -17,7 +17,7 @@ import { DURATIVE } from './client/table.js';
 import { $, el, linkTo, setText } from './dom.js';
 import { loadMap, page, setView } from './page.js';
 import { zoneAt } from './geometry.js';
-import { colourCss } from './renderer.js';
+import { colourCss, perceivedScene, visibleBlocks } from './renderer.js';
 import { sentenceOf } from './language.js';
 import { addMessage, endMatch, log, setStatus, setTick, setWatchNote, showMatch, showSequence } from './panels.js';
 import { helloFor, openSocket } from './connection.js';
@@ -255,12 +255,6 @@ function onPercepts(percepts) {
 }
 
 /** The visible blocks: id and colour from `color` facts, in id order. */
-function visibleBlocks() {
-  return player.beliefs
-    .all('color')
-    .map(([id, color]) => ({ id, color }))
-    .sort((a, b) => a.id - b.id);
-}
 
 /** The side panel from the beliefs: the robot's facts, the blocks in view, receivers, places. */
 function showPlayerPanel() {
@@ -288,7 +282,7 @@ function showPlayerPanel() {
   }
 
   // Visible blocks as buttons (rebuilt only when the set changes).
-  const blocks = visibleBlocks();
+  const blocks = visibleBlocks(player.beliefs);
   const atBlock = b.get('atBlock');
   const list = $('#blocks');
   const key = blocks.map((x) => `${x.id}:${x.color}`).join(' ');
@@ -393,23 +387,15 @@ export function playerScene() {
       blocks: (whole.blocks || []).filter((block) => !inside(block.x, block.y)),
       at: map.byName.get(b.get('at')) || null,
       inRoom: room || null,
-      chips: visibleBlocks(),
+      chips: visibleBlocks(b),
       atBlock: b.get('atBlock'),
       holdingColor: b.get('holding') !== undefined ? b.colourOf(b.get('holding')) || '?' : null,
       me: player.name,
       hover: page.hover,
     };
   }
-  return {
-    occupied: new Set(b.all('occupied').map(([room]) => room)),
-    at: map.byName.get(b.get('at')) || null,
-    inRoom: map.byName.get(inName) || null,
-    chips: visibleBlocks(),
-    atBlock: b.get('atBlock'),
-    holdingColor: b.get('holding') !== undefined ? b.colourOf(b.get('holding')) || '?' : null,
-    me: player.name,
-    hover: page.hover,
-  };
+  const holding = b.get('holding') !== undefined ? b.colourOf(b.get('holding')) || '?' : null;
+  return { ...perceivedScene(b, map, player.name, holding), hover: page.hover };
 }
 
 /** The input that made an action: a click (on `target`) at the event's time. */

@@ -299,3 +299,36 @@ function zoneFill(z) {
   }
 }
 
+
+/**
+ * The blocks a robot sees, from its `color` facts, in id order.
+ * @param {import('./client/beliefs.js').Beliefs} beliefs
+ */
+export function visibleBlocks(beliefs) {
+  return beliefs
+    .all('color')
+    .map(([id, color]) => ({ id, color }))
+    .sort((a, b) => a.id - b.id);
+}
+
+/**
+ * The scene of the map as one robot perceives it (its place, its room, the blocks it sees
+ * as chips, the occupied rooms, what it holds): what the player view draws, and the
+ * replay's view of one player.
+ * @param {import('./client/beliefs.js').Beliefs} beliefs the robot's facts
+ * @param {{byName: Map<string, object>}} map the page's map
+ * @param {string} me the player's name
+ * @param {string|null} holdingColor the colour of the block held, if any
+ */
+export function perceivedScene(beliefs, map, me, holdingColor) {
+  return {
+    occupied: new Set(beliefs.all('occupied').map(([room]) => room)),
+    at: map.byName.get(beliefs.get('at')) || null,
+    inRoom: map.byName.get(beliefs.get('in')) || null,
+    chips: visibleBlocks(beliefs),
+    atBlock: beliefs.get('atBlock'),
+    holdingColor,
+    me,
+    hover: null,
+  };
+}
