@@ -1,11 +1,11 @@
-//! Studies of people teaming with agents: a study file ([`config`]) of conditions, each
+//! Studies of people teaming with agents: a study file (`config.rs`) of conditions, each
 //! an arena template, and pages every participant goes through in order (consent,
 //! instructions, trials in a counterbalanced order, questionnaires, a final page).
 //!
 //! Each participant's every step and event is a line appended to
 //! `DIR/participants/ID.jsonl`, written with one `write_all` per request, so a killed
 //! server loses nothing already answered; at start the state is rebuilt from those logs
-//! ([`flow`]). The HTTP side is [`api`]; [`export`] makes tidy CSV of a data directory.
+//! (`flow.rs`). The HTTP side is `api.rs`; [`export`] makes tidy CSV of a data directory.
 
 mod answers;
 pub(crate) mod api;
