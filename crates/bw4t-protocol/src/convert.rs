@@ -279,4 +279,35 @@ mod tests {
                 .is_err()
         );
     }
+
+    #[test]
+    fn every_kind_of_message_has_its_wire_form_and_sentence() {
+        for row in crate::KINDS {
+            let mut said = json!({ "kind": row.word });
+            for slot in row.slots {
+                said[slot.name()] = match slot {
+                    crate::Slot::Room => json!("RoomC3"),
+                    crate::Slot::Colour => json!("Blue"),
+                    crate::Slot::Player => json!("Bot2"),
+                    crate::Slot::Count | crate::Slot::Position => json!(2),
+                };
+            }
+            let action = action_from_act("sendMessage", &[json!("all"), said.clone()]).expect(row.word);
+            let Action::SendMessage { text, .. } = action else { panic!("{}", row.word) };
+            let percept = Percept::Message { from: Arc::from("Ann"), text: Arc::from(text.as_str()) };
+            let fact = percept_to_fact(&percept);
+            assert_eq!(fact[3], said, "{}: the structure as sent", row.word);
+            assert_eq!(fact_to_percept(&fact), Ok(percept), "{}", row.word);
+            let sentence = fact[2].as_str().expect("a sentence");
+            assert!(!sentence.contains('{') && sentence.ends_with(['.', '?']), "{}: {sentence}", row.word);
+            for slot in row.slots {
+                // Positions count from 1 in sentences.
+                let shown = match slot {
+                    crate::Slot::Position => "3".to_string(),
+                    _ => said[slot.name()].to_string().trim_matches('"').to_string(),
+                };
+                assert!(sentence.contains(&shown), "{}: '{sentence}' lacks {shown}", row.word);
+            }
+        }
+    }
 }
