@@ -27,7 +27,7 @@ pub(crate) struct RunArgs {
     #[arg(long)]
     robots: Option<usize>,
     /// The built-in team filling the seats no --agent takes: `builtin` or `builtin:STRATEGY`
-    /// (coop, baseline).
+    /// (coop, silent, ignoring, baseline).
     #[arg(long)]
     team: Option<String>,
     /// An agent program, run with `sh -c`; repeat for more. One --agent with --robots N and
