@@ -2,130 +2,26 @@
 //! window `[index, index + team)`, a block in hand included, so the team never ends up with
 //! every robot holding a block for a later position and nobody fetching the next one.
 
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 use std::time::Duration;
 
-use bw4t_agents::{Agent, Observation, Strategy};
-use bw4t_map::{Colour, Map};
+use bw4t_agents::{Observation, Strategy};
+use bw4t_map::Colour;
 use bw4t_protocol::Said;
-use bw4t_runner::{Seat, play_headless};
-use bw4t_sim::{Action, Beliefs, MatchConfig, MoveState, Percept, PerceptDelta, Receiver};
+use bw4t_sim::{Action, MoveState, Percept, PerceptDelta, Receiver};
 
+use crate::coop_language::{claimed, play_team, random_grid};
 use crate::util::{bw4t_within, shipped_map};
-
-/// Every match of these tests must end within this many ticks.
-const TICK_LIMIT: u64 = 20_000;
-
-/// A generated grid of `rows` x `cols` rooms with random content drawn from the match seed
-/// (a six-colour sequence and 30 more blocks), so that every seed plays a different match.
-fn random_grid(rows: usize, cols: usize) -> Map {
-    let generated = bw4t_map::generate(cols, rows, 10, 7).expect("generate");
-    let mut parts = generated.parts().clone();
-    for zone in &mut parts.zones {
-        zone.blocks.clear();
-    }
-    parts.sequence.clear();
-    parts.random_sequence = 6;
-    parts.random_blocks = 30;
-    parts.seed = None;
-    Map::new(parts).expect("a valid map")
-}
-
-/// The position a claim (`getting_for`, `bringing`) names.
-fn claimed_position(text: &str) -> Option<usize> {
-    let said = Said::from_text(text)?;
-    ["getting_for", "bringing"].contains(&said.kind.as_str()).then_some(said.position? as usize)
-}
 
 /// The positions this list of actions claims.
 fn claims_in(actions: &[Action]) -> Vec<usize> {
     actions
         .iter()
         .filter_map(|a| match a {
-            Action::SendMessage { text, .. } => claimed_position(text),
+            Action::SendMessage { text, .. } => Said::from_text(text).as_ref().and_then(claimed),
             _ => None,
         })
         .collect()
-}
-
-/// What the spies saw during a match.
-#[derive(Default)]
-struct Record {
-    /// (tick, loser, position): a robot lost a position it claimed in the same tick as a
-    /// player with a smaller name, while holding a block.
-    lost_while_holding: Vec<(u64, String, usize)>,
-    /// Claims outside `[index, index + team)`, described.
-    outside_window: Vec<String>,
-}
-
-/// A built-in agent, watched from outside: it sees the same observations and actions.
-struct Spy {
-    name: String,
-    inner: Box<dyn Agent>,
-    beliefs: Beliefs,
-    /// The tick of the last decision and the positions it claimed.
-    last_claims: (u64, Vec<usize>),
-    record: Arc<Mutex<Record>>,
-}
-
-impl Agent for Spy {
-    fn decide(&mut self, obs: &Observation) -> Vec<Action> {
-        for delta in &obs.percepts {
-            self.beliefs.apply(delta);
-        }
-        let facts = self.beliefs.facts();
-        let holding = facts.iter().any(|p| matches!(p, Percept::Holding(_)));
-        let index = facts
-            .iter()
-            .find_map(|p| match p {
-                Percept::SequenceIndex(i) => Some(*i as usize),
-                _ => None,
-            })
-            .unwrap_or(0);
-        let team = 1 + facts.iter().filter(|p| matches!(p, Percept::Player(_))).count();
-        let mut record = self.record.lock().expect("record");
-        for (from, text) in self.beliefs.take_messages() {
-            let Some(pos) = claimed_position(&text) else { continue };
-            let same_tick = self.last_claims.0 + 1 == obs.tick && self.last_claims.1.contains(&pos);
-            if same_tick && holding && *from < *self.name {
-                record.lost_while_holding.push((obs.tick, self.name.clone(), pos));
-            }
-        }
-        let actions = self.inner.decide(obs);
-        let claims = claims_in(&actions);
-        for &pos in &claims {
-            if !(index..index + team).contains(&pos) {
-                record.outside_window.push(format!(
-                    "{} at tick {} claimed {pos} with index {index} and {team} robots",
-                    self.name, obs.tick
-                ));
-            }
-        }
-        self.last_claims = (obs.tick, claims);
-        actions
-    }
-}
-
-/// Plays the cooperative team of `robots`, every agent watched by a spy.
-fn play_watched(map: &Map, seed: u64, robots: usize) -> (bw4t_protocol::EndReason, u64, Record) {
-    let record = Arc::new(Mutex::new(Record::default()));
-    let seats = (1..=robots)
-        .map(|i| {
-            let name = format!("Bot{i}");
-            let spy = Spy {
-                name: name.clone(),
-                inner: Strategy::Cooperative.agent(&name),
-                beliefs: Beliefs::default(),
-                last_claims: (u64::MAX - 1, Vec::new()),
-                record: Arc::clone(&record),
-            };
-            Seat { name, agent: Box::new(spy) }
-        })
-        .collect();
-    let (game, reason) =
-        play_headless(map, &MatchConfig::default(), seed, seats, TICK_LIMIT, None).expect("play");
-    let record = Arc::try_unwrap(record).map_err(|_| "spies still held").expect("record").into_inner();
-    (reason, game.tick(), record.expect("record"))
 }
 
 /// The match where the deadlock was found: Bot1 and Bot2 claim position 1 in the same tick,
@@ -136,7 +32,7 @@ const SEED: u64 = 122;
 #[test]
 fn a_robot_that_loses_a_claim_while_holding_its_block_does_not_stall_the_team() {
     let map = random_grid(2, 3);
-    let (reason, ticks, record) = play_watched(&map, SEED, 3);
+    let (reason, ticks, record) = play_team(&map, SEED, 3, Strategy::Cooperative);
     assert!(
         !record.lost_while_holding.is_empty(),
         "the scenario no longer builds the collision (two claims of one position in one tick, \
@@ -238,7 +134,7 @@ fn the_cooperative_team_completes_every_seed_and_team_size() {
     for (map_name, map) in &maps {
         for robots in (1..=5).filter(|&n| n <= map.spawns().len()) {
             for seed in 0..seeds {
-                let (reason, ticks, record) = play_watched(map, seed, robots);
+                let (reason, ticks, record) = play_team(map, seed, robots, Strategy::Cooperative);
                 played += 1;
                 if reason != "completed" || !record.outside_window.is_empty() {
                     failures.push(format!(
