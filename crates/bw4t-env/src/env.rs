@@ -1,0 +1,366 @@
+//! One match as an environment: actions in, observations, masks and rewards out.
+
+use std::sync::Arc;
+
+use bw4t_agents::{Driver, Team};
+use bw4t_sim::{
+    Accepted, Action, Intent, Match, MatchError, MatchStats, OrderEnd, Percept, Rejection, RobotId, Seats,
+};
+
+use crate::config::{EnvConfig, RewardMode, Seat};
+use crate::encode::Codec;
+use crate::seen::Seen;
+use crate::spaces::{Dims, Spaces};
+
+/// Why an environment could not be made or reset.
+#[derive(Debug, thiserror::Error)]
+pub enum EnvError {
+    /// The match could not be created (a bad match config, content that does not fit).
+    #[error(transparent)]
+    Match(#[from] MatchError),
+    /// The map has fewer spawn points than seats, or a seat could not join.
+    #[error("robot {seat} cannot join: {reason}")]
+    Join {
+        /// The seat, from 0.
+        seat: usize,
+        /// Why.
+        reason: String,
+    },
+    /// A config value is out of range.
+    #[error("{0}")]
+    Config(&'static str),
+}
+
+/// What became of a learner's last action.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ActionOutcome {
+    /// It waited (action 0), or no step has been taken yet.
+    Waited,
+    /// The action was masked out (or out of range): nothing was done.
+    Masked,
+    /// The match accepted it.
+    Accepted,
+    /// The match refused it, with this code (`not_at_block`, ...).
+    Rejected(&'static str),
+    /// The episode ended before it could be applied.
+    Dropped,
+}
+
+/// How a step ended the episode, if it did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct StepEnd {
+    /// The whole sequence is delivered.
+    pub terminated: bool,
+    /// The tick limit was reached first.
+    pub truncated: bool,
+}
+
+impl StepEnd {
+    /// Whether the episode is over.
+    pub fn done(self) -> bool {
+        self.terminated || self.truncated
+    }
+}
+
+struct Learner {
+    robot: RobotId,
+    seen: Seen,
+    pending: Option<Action>,
+    outcome: ActionOutcome,
+}
+
+/// One BW4T match as an environment (see the crate docs for the spaces and the step).
+pub struct Env {
+    config: Arc<EnvConfig>,
+    codec: Arc<Codec>,
+    game: Match,
+    team: Team,
+    learners: Vec<Learner>,
+    /// The masks last written, learner after learner.
+    masks: Vec<u8>,
+    intents: Vec<Intent<u64>>,
+}
+
+impl Env {
+    /// An environment for `config`, reset with seed 0.
+    pub fn new(config: EnvConfig) -> Result<Env, EnvError> {
+        let spaces = Spaces::new(Dims::of(&config.map, config.slots));
+        let codec = Codec::new(spaces, &config.map);
+        Env::shared(Arc::new(config), Arc::new(codec))
+    }
+
+    /// An environment sharing its config and codec with others.
+    pub(crate) fn shared(config: Arc<EnvConfig>, codec: Arc<Codec>) -> Result<Env, EnvError> {
+        if config.ticks_per_step == 0 {
+            return Err(EnvError::Config("ticks_per_step must be at least 1"));
+        }
+        if config.learners() == 0 {
+            return Err(EnvError::Config("at least one seat must be a learner"));
+        }
+        let game = Match::new(&config.map, &config.match_config, 0)?;
+        let masks = vec![0; config.learners() * codec.spaces().n_actions()];
+        let mut env = Env {
+            config,
+            codec,
+            game,
+            team: Team::new(Vec::new()),
+            learners: Vec::new(),
+            masks,
+            intents: Vec::new(),
+        };
+        env.start(0)?;
+        Ok(env)
+    }
+
+    pub(crate) fn codec(&self) -> &Arc<Codec> {
+        &self.codec
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &Arc<EnvConfig> {
+        &self.config
+    }
+
+    /// The spaces.
+    pub fn spaces(&self) -> &Spaces {
+        self.codec.spaces()
+    }
+
+    /// How many learning robots there are (the agents of the parallel setting).
+    pub fn agents(&self) -> usize {
+        self.learners.len()
+    }
+
+    /// A new episode on `seed`; writes each learner's observation and mask
+    /// (`obs`: agents × obs_len, `masks`: agents × n_actions).
+    pub fn reset(&mut self, seed: u64, obs: &mut [f32], masks: &mut [u8]) -> Result<(), EnvError> {
+        self.start(seed)?;
+        self.write(obs, masks);
+        Ok(())
+    }
+
+    fn start(&mut self, seed: u64) -> Result<(), EnvError> {
+        let config = &self.config;
+        let mut game = Match::new(&config.map, &config.match_config, seed)?;
+        let (mut drivers, mut learners) = (Vec::new(), Vec::new());
+        let (mut agent_n, mut bot_n) = (0, 0);
+        for (seat, kind) in config.seats.iter().enumerate() {
+            let name = match kind {
+                Seat::Learner => {
+                    agent_n += 1;
+                    format!("Agent{agent_n}")
+                }
+                Seat::Builtin(_) => {
+                    bot_n += 1;
+                    format!("Bot{bot_n}")
+                }
+            };
+            let robot = game.join(&name).map_err(|e| EnvError::Join { seat, reason: e.to_string() })?;
+            match kind {
+                Seat::Learner => learners.push(Learner {
+                    robot,
+                    seen: Seen::new(config.map.zones().len()),
+                    pending: None,
+                    outcome: ActionOutcome::Waited,
+                }),
+                Seat::Builtin(strategy) => drivers.push(Driver::new(robot, strategy.agent(&name))),
+            }
+        }
+        for learner in &mut learners {
+            if let Some(delta) = game.poll_percepts(learner.robot) {
+                learner.seen.apply(&config.map, &delta);
+            }
+        }
+        self.game = game;
+        self.team = Team::new(drivers);
+        self.learners = learners;
+        Ok(())
+    }
+
+    /// One step: each learner's action (an index into the action space; masked-out ones
+    /// do nothing) applied at the next tick boundary, then `ticks_per_step` ticks with the
+    /// built-in teammates deciding as in a headless match. Writes the observations, masks
+    /// and rewards (`rewards`: one per learner).
+    pub fn step(
+        &mut self,
+        actions: &[u32],
+        obs: &mut [f32],
+        masks: &mut [u8],
+        rewards: &mut [f32],
+    ) -> StepEnd {
+        let n_actions = self.spaces().n_actions();
+        assert_eq!(actions.len(), self.learners.len(), "one action per learner");
+        assert_eq!(rewards.len(), self.learners.len(), "one reward per learner");
+        for (i, learner) in self.learners.iter_mut().enumerate() {
+            let action = actions[i] as usize;
+            let allowed = action < n_actions && self.masks[i * n_actions + action] == 1;
+            learner.pending = None;
+            learner.outcome = if !allowed {
+                ActionOutcome::Masked
+            } else {
+                learner.pending = self.codec.action(&learner.seen, &self.game, action);
+                if learner.pending.is_some() { ActionOutcome::Dropped } else { ActionOutcome::Waited }
+            };
+            learner.seen.start_step();
+        }
+        let before = self.drops();
+        let max_ticks = self.config.max_ticks;
+        for _ in 0..self.config.ticks_per_step {
+            self.team.observe(&mut self.game);
+            if self.game.is_complete() || self.game.tick() >= max_ticks {
+                break;
+            }
+            let mut seats =
+                Seating { team: &mut self.team, learners: &mut self.learners, intents: &mut self.intents };
+            self.game.boundary(&mut seats, &mut ());
+        }
+        for learner in &mut self.learners {
+            learner.pending = None;
+            if let Some(delta) = self.game.poll_percepts(learner.robot) {
+                learner.seen.apply(&self.config.map, &delta);
+            }
+        }
+        let after = self.drops();
+        let r = &self.config.rewards;
+        let value = |(good, wrong): (u32, u32)| good as f32 * r.delivery + wrong as f32 * r.wrong_drop;
+        for (i, reward) in rewards.iter_mut().enumerate() {
+            let (good, wrong) = match r.mode {
+                RewardMode::Team => (after.team.0 - before.team.0, after.team.1 - before.team.1),
+                RewardMode::Individual => {
+                    (after.own[i].0 - before.own[i].0, after.own[i].1 - before.own[i].1)
+                }
+            };
+            *reward = value((good, wrong)) - r.step_cost;
+        }
+        self.write(obs, masks);
+        let terminated = self.game.is_complete();
+        StepEnd { terminated, truncated: !terminated && self.game.tick() >= max_ticks }
+    }
+
+    /// Good and wrong drops so far: the whole match's and each learner's.
+    fn drops(&self) -> Drops {
+        let stats = self.game.stats();
+        let own = self
+            .learners
+            .iter()
+            .map(|l| self.game.robot_stats(l.robot).map_or((0, 0), |s| (s.good_drops, s.wrong_drops)))
+            .collect();
+        Drops { team: (stats.good_drops, stats.wrong_drops), own }
+    }
+
+    fn write(&mut self, obs: &mut [f32], masks: &mut [u8]) {
+        let spaces = self.codec.spaces();
+        let (obs_len, n_actions) = (spaces.obs_len(), spaces.n_actions());
+        assert_eq!(obs.len(), self.learners.len() * obs_len, "obs is agents x obs_len");
+        assert_eq!(masks.len(), self.learners.len() * n_actions, "masks is agents x n_actions");
+        let others = self.config.seats.len() > 1;
+        for (i, learner) in self.learners.iter().enumerate() {
+            let o = &mut obs[i * obs_len..(i + 1) * obs_len];
+            self.codec.observe(&learner.seen, &self.game, self.config.max_ticks, o);
+            self.codec.mask(&learner.seen, others, &mut self.masks[i * n_actions..(i + 1) * n_actions]);
+        }
+        masks.copy_from_slice(&self.masks);
+    }
+
+    /// The match's digest: equal digests mean equal matches, bit for bit.
+    pub fn digest(&self) -> u64 {
+        self.game.digest()
+    }
+
+    /// Ticks simulated in this episode.
+    pub fn tick(&self) -> u64 {
+        self.game.tick()
+    }
+
+    /// The match's statistics.
+    pub fn stats(&self) -> &MatchStats {
+        self.game.stats()
+    }
+
+    /// The match (read only).
+    pub fn game(&self) -> &Match {
+        &self.game
+    }
+
+    /// Learner `agent`'s robot.
+    pub fn robot(&self, agent: usize) -> Option<RobotId> {
+        self.learners.get(agent).map(|l| l.robot)
+    }
+
+    /// Every fact learner `agent`'s robot perceives now (for `infos`), built from scratch.
+    pub fn percepts(&self, agent: usize) -> Option<Vec<Percept>> {
+        self.game.perceived(self.robot(agent)?)
+    }
+
+    /// What became of each learner's last action.
+    pub fn outcomes(&self) -> impl Iterator<Item = ActionOutcome> + '_ {
+        self.learners.iter().map(|l| l.outcome)
+    }
+
+    /// The action index `action` of learner `agent` as the match's action (`None`: wait,
+    /// masked out, or out of range).
+    pub fn decode(&self, agent: usize, action: u32) -> Option<Action> {
+        let n = self.spaces().n_actions();
+        let learner = self.learners.get(agent)?;
+        let allowed = (action as usize) < n && self.masks[agent * n + action as usize] == 1;
+        allowed.then(|| self.codec.action(&learner.seen, &self.game, action as usize)).flatten()
+    }
+}
+
+struct Drops {
+    team: (u32, u32),
+    own: Vec<(u32, u32)>,
+}
+
+/// Who acts at a boundary: built-in teammates through their [`Team`], learners with
+/// the action of this step.
+struct Seating<'a> {
+    team: &'a mut Team,
+    learners: &'a mut [Learner],
+    intents: &'a mut Vec<Intent<u64>>,
+}
+
+enum Tag {
+    Team(u64),
+    Learner(usize),
+}
+
+impl Seats for Seating<'_> {
+    type Tag = Tag;
+
+    fn robots(&self, into: &mut Vec<RobotId>) {
+        self.team.robots(into);
+        into.extend(self.learners.iter().filter(|l| l.pending.is_some()).map(|l| l.robot));
+        into.sort_unstable();
+    }
+
+    fn take(&mut self, robot: RobotId, into: &mut Vec<Intent<Tag>>) {
+        if let Some(i) = self.learners.iter().position(|l| l.robot == robot) {
+            if let Some(action) = self.learners[i].pending.take() {
+                into.push(Intent::Act(Tag::Learner(i), action));
+            }
+            return;
+        }
+        self.team.take(robot, self.intents);
+        into.extend(self.intents.drain(..).map(|intent| match intent {
+            Intent::Act(n, action) => Intent::Act(Tag::Team(n), action),
+            Intent::Stop => Intent::Stop,
+        }));
+    }
+
+    fn answered(&mut self, robot: RobotId, tag: Tag, action: &Action, outcome: &Result<Accepted, Rejection>) {
+        match tag {
+            Tag::Team(n) => self.team.answered(robot, n, action, outcome),
+            Tag::Learner(i) => {
+                self.learners[i].outcome = match outcome {
+                    Ok(_) => ActionOutcome::Accepted,
+                    Err(e) => ActionOutcome::Rejected(e.code()),
+                }
+            }
+        }
+    }
+
+    fn ended(&mut self, end: &OrderEnd, tick: u64) {
+        self.team.ended(end, tick);
+    }
+}

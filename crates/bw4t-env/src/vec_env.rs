@@ -1,0 +1,206 @@
+//! Many environments stepped together into caller-provided arrays, on one or more
+//! threads, each reset on the next seed of its own stream when its episode ends.
+
+use std::sync::Arc;
+
+use bw4t_map::SeededRng;
+
+use crate::config::EnvConfig;
+use crate::encode::Codec;
+use crate::env::{Env, EnvError};
+use crate::spaces::Spaces;
+
+/// The seeds one environment of a [`VecEnv`] plays, episode after episode: SplitMix64
+/// from `base` mixed with the environment's index, so they do not depend on the order in
+/// which other environments end, nor on the number of threads.
+#[derive(Clone, Debug)]
+pub struct SeedStream(SeededRng);
+
+impl SeedStream {
+    /// The stream of environment `index` of a vector seeded with `base`.
+    pub fn new(base: u64, index: usize) -> SeedStream {
+        let mut mix = SeededRng::new(base ^ (index as u64).wrapping_mul(0xD1B5_4A32_D192_ED03));
+        SeedStream(SeededRng::new(mix.next_u64()))
+    }
+
+    /// The next episode's seed.
+    pub fn next_seed(&mut self) -> u64 {
+        self.0.next_u64()
+    }
+}
+
+struct Slot {
+    env: Env,
+    seeds: SeedStream,
+    episodes: u64,
+}
+
+/// `N` environments of one config, stepped together. Arrays are laid out environment
+/// after environment, learner after learner: `obs[(e * agents + a) * obs_len ..]`.
+///
+/// Auto-reset is *same-step*: when a step ends environment `e`'s episode, its rewards,
+/// `terminated` and `truncated` are those of the final step, and the observation and mask
+/// written are those of the new episode, reset on the next seed of its [`SeedStream`].
+/// The final observation itself is not written.
+pub struct VecEnv {
+    slots: Vec<Slot>,
+    codec: Arc<Codec>,
+    threads: usize,
+    agents: usize,
+    obs_len: usize,
+    n_actions: usize,
+}
+
+/// The arrays one step writes, each of `N × agents` rows.
+pub struct StepBuffers<'a> {
+    /// `N × agents × obs_len`.
+    pub obs: &'a mut [f32],
+    /// `N × agents × n_actions`.
+    pub masks: &'a mut [u8],
+    /// `N × agents`.
+    pub rewards: &'a mut [f32],
+    /// `N × agents`: 1 when the environment's episode ended by completing the sequence.
+    pub terminated: &'a mut [u8],
+    /// `N × agents`: 1 when it ended at the tick limit.
+    pub truncated: &'a mut [u8],
+}
+
+impl VecEnv {
+    /// `n` environments of `config`, seeded from `seed`, stepped on `threads` threads (the
+    /// caller's own and `threads - 1` more, per step). Not reset yet: call
+    /// [`VecEnv::reset`] first.
+    pub fn new(config: EnvConfig, n: usize, seed: u64, threads: usize) -> Result<VecEnv, EnvError> {
+        let first = Env::new(config)?;
+        let (config, codec) = (first.config().clone(), first.codec().clone());
+        let agents = first.agents();
+        let mut envs = vec![first];
+        for _ in 1..n {
+            envs.push(Env::shared(Arc::clone(&config), Arc::clone(&codec))?);
+        }
+        let (obs_len, n_actions) = (codec.spaces().obs_len(), codec.spaces().n_actions());
+        let slots = envs
+            .into_iter()
+            .enumerate()
+            .map(|(i, env)| Slot { env, seeds: SeedStream::new(seed, i), episodes: 0 })
+            .take(n)
+            .collect();
+        Ok(VecEnv { slots, codec, threads: threads.max(1), agents, obs_len, n_actions })
+    }
+
+    /// The number of environments.
+    pub fn len(&self) -> usize {
+        self.slots.len()
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.slots.is_empty()
+    }
+
+    /// Learners per environment.
+    pub fn agents(&self) -> usize {
+        self.agents
+    }
+
+    /// The spaces (the same for every environment).
+    pub fn spaces(&self) -> &Spaces {
+        self.codec.spaces()
+    }
+
+    /// Environment `i`.
+    pub fn env(&self, i: usize) -> &Env {
+        &self.slots[i].env
+    }
+
+    /// Episodes environment `i` has begun (resets, the first included).
+    pub fn episodes(&self, i: usize) -> u64 {
+        self.slots[i].episodes
+    }
+
+    /// Resets every environment on the next seed of its stream.
+    pub fn reset(&mut self, obs: &mut [f32], masks: &mut [u8]) -> Result<(), EnvError> {
+        let (o, m) = (self.agents * self.obs_len, self.agents * self.n_actions);
+        assert_eq!(obs.len(), self.slots.len() * o, "obs is N x agents x obs_len");
+        assert_eq!(masks.len(), self.slots.len() * m, "masks is N x agents x n_actions");
+        for ((slot, obs), masks) in self.slots.iter_mut().zip(obs.chunks_mut(o)).zip(masks.chunks_mut(m)) {
+            slot.episodes += 1;
+            slot.env.reset(slot.seeds.next_seed(), obs, masks)?;
+        }
+        Ok(())
+    }
+
+    /// Steps every environment with its learners' actions (`N × agents`), resetting those
+    /// whose episode ended (same-step, see [`VecEnv`]).
+    pub fn step(&mut self, actions: &[u32], out: StepBuffers<'_>) -> Result<(), EnvError> {
+        let (n, a) = (self.slots.len(), self.agents);
+        assert_eq!(actions.len(), n * a, "actions is N x agents");
+        assert_eq!(out.obs.len(), n * a * self.obs_len, "obs is N x agents x obs_len");
+        assert_eq!(out.masks.len(), n * a * self.n_actions, "masks is N x agents x n_actions");
+        assert_eq!(out.rewards.len(), n * a, "rewards is N x agents");
+        assert_eq!(out.terminated.len(), n * a, "terminated is N x agents");
+        assert_eq!(out.truncated.len(), n * a, "truncated is N x agents");
+        if n == 0 {
+            return Ok(());
+        }
+        let per = n.div_ceil(self.threads.min(n));
+        let (o, m) = (a * self.obs_len, a * self.n_actions);
+        let chunks = self
+            .slots
+            .chunks_mut(per)
+            .zip(actions.chunks(per * a))
+            .zip(out.obs.chunks_mut(per * o))
+            .zip(out.masks.chunks_mut(per * m))
+            .zip(out.rewards.chunks_mut(per * a))
+            .zip(out.terminated.chunks_mut(per * a))
+            .zip(out.truncated.chunks_mut(per * a))
+            .map(|((((((slots, actions), obs), masks), rewards), terminated), truncated)| Chunk {
+                slots,
+                actions,
+                out: StepBuffers { obs, masks, rewards, terminated, truncated },
+            });
+        let mut chunks: Vec<Chunk<'_>> = chunks.collect();
+        let own = chunks.remove(0);
+        std::thread::scope(|scope| {
+            let others: Vec<_> = chunks.into_iter().map(|chunk| scope.spawn(move || chunk.step(a))).collect();
+            let mut result = own.step(a);
+            for handle in others {
+                let theirs = handle.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+                result = result.and(theirs);
+            }
+            result
+        })
+    }
+}
+
+/// The environments one thread steps, and their part of the arrays.
+struct Chunk<'a> {
+    slots: &'a mut [Slot],
+    actions: &'a [u32],
+    out: StepBuffers<'a>,
+}
+
+impl Chunk<'_> {
+    fn step(self, agents: usize) -> Result<(), EnvError> {
+        let Chunk { slots, actions, out } = self;
+        let o = out.obs.len() / slots.len();
+        let m = out.masks.len() / slots.len();
+        let rows = slots
+            .iter_mut()
+            .zip(actions.chunks(agents))
+            .zip(out.obs.chunks_mut(o))
+            .zip(out.masks.chunks_mut(m))
+            .zip(out.rewards.chunks_mut(agents))
+            .zip(out.terminated.chunks_mut(agents))
+            .zip(out.truncated.chunks_mut(agents));
+        for ((((((slot, actions), obs), masks), rewards), terminated), truncated) in rows {
+            let end = slot.env.step(actions, obs, masks, rewards);
+            terminated.fill(u8::from(end.terminated));
+            truncated.fill(u8::from(end.truncated));
+            if end.done() {
+                slot.episodes += 1;
+                slot.env.reset(slot.seeds.next_seed(), obs, masks)?;
+            }
+        }
+        Ok(())
+    }
+}
