@@ -36,7 +36,7 @@ impl Figures {
 }
 
 /// Picks, per learner, a uniformly random action its mask allows.
-fn choose(rng: &mut SeededRng, masks: &[u8], n_actions: usize, actions: &mut [u32]) {
+pub(crate) fn choose(rng: &mut SeededRng, masks: &[u8], n_actions: usize, actions: &mut [u32]) {
     for (mask, action) in masks.chunks(n_actions).zip(actions.iter_mut()) {
         let allowed = mask.iter().filter(|&&m| m == 1).count() as u64;
         let mut pick = rng.below(allowed.max(1));

@@ -277,6 +277,12 @@ impl Env {
         self.game.stats()
     }
 
+    /// The match, to try actions on directly.
+    #[cfg(test)]
+    pub(crate) fn game_mut(&mut self) -> &mut Match {
+        &mut self.game
+    }
+
     /// The match (read only).
     pub fn game(&self) -> &Match {
         &self.game
