@@ -31,6 +31,10 @@ pub(crate) struct BenchArgs {
     /// Matches played by the `match` case.
     #[arg(long, default_value_t = 200)]
     matches: u64,
+    /// Steps of each environment per `env` vector measurement (a lone environment takes
+    /// 20 times as many).
+    #[arg(long, default_value_t = 200)]
+    env_steps: u64,
     /// Wall-clock seconds the `realtime` case measures for.
     #[arg(long, default_value_t = 5.0)]
     realtime_seconds: f64,
@@ -56,6 +60,11 @@ enum Case {
     /// robots on 10 x 10 rooms, and 10, 30 and 100 on the largest map `bw4t map generate`
     /// makes. One thread.
     Scale,
+    /// The learning environments (`bw4t-env`): learner steps per second of one environment
+    /// (3 learners; 1 learner among 2 built-in teammates) and of vectors of 64 and 256
+    /// environments of 3 learners on 1 and 2 threads, every learner taking a random allowed
+    /// action, and the resident memory per environment.
+    Env,
     /// Many matches in one arena server: realtime matches of 3 TCP players (tick lateness,
     /// CPU, memory and descriptors per match), lockstep matches of built-in agents on 1 and
     /// 2 worker threads, and a churn soak (`--soak-seconds`, 10 minutes by default).
@@ -94,6 +103,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<()> {
                     outln!("{}", scale(args, rows, cols, robots)?);
                 }
             }
+            Case::Env => env(args)?,
             Case::Arena => crate::bench_arena::run(&args.arena, &args.map, args.seed)?,
         }
     }
@@ -224,4 +234,96 @@ fn scale(args: &BenchArgs, rows: usize, cols: usize, robots: usize) -> Result<se
         "core_percent_at_20_hz": (per_tick_ms * 20.0 / 1000.0 * 100.0 * 100.0).round() / 100.0,
         "moves": play.accepted().moves,
     }))
+}
+
+/// The `env` case: one JSON line per measurement.
+fn env(args: &BenchArgs) -> Result<()> {
+    use bw4t_env::{EnvConfig, Figures};
+    let map = crate::maps::load(&args.map)?;
+    let line = |setting: &str, f: &Figures| {
+        json!({
+            "case": "env",
+            "setting": setting,
+            "map": map.name(),
+            "envs": f.envs,
+            "threads": f.threads,
+            "agents": f.agents,
+            "steps": f.steps,
+            "agent_steps": f.agent_steps,
+            "episodes_ended": f.episodes_ended,
+            "agent_steps_per_s": f.agent_steps_per_s().round(),
+            "ticks_per_step": bw4t_env::DEFAULT_TICKS_PER_STEP,
+        })
+    };
+    let parallel = EnvConfig::parallel(map.clone(), 3);
+    outln!("{}", env_memory(&parallel, args.seed)?);
+    let single = EnvConfig::single(map.clone(), 2, bw4t_agents::Strategy::Cooperative);
+    let steps = args.env_steps * 20;
+    outln!("{}", line("parallel", &bw4t_env::bench_single(parallel.clone(), steps, args.seed)?));
+    let mut one_tick = parallel.clone();
+    one_tick.ticks_per_step = 1;
+    let figures = bw4t_env::bench_single(one_tick, steps, args.seed)?;
+    outln!(
+        "{}",
+        line("parallel", &figures)
+            .as_object()
+            .cloned()
+            .map(|mut o| {
+                o.insert("ticks_per_step".into(), 1.into());
+                serde_json::Value::Object(o)
+            })
+            .unwrap_or_default()
+    );
+    outln!("{}", line("single_among_coop", &bw4t_env::bench_single(single, steps, args.seed)?));
+    for envs in [64, 256] {
+        for threads in [1, 2] {
+            let figures = bw4t_env::bench_vector(parallel.clone(), envs, threads, args.env_steps, args.seed)?;
+            outln!("{}", line("parallel", &figures));
+        }
+    }
+    Ok(())
+}
+
+/// Resident memory per environment: a vector of 256 environments of `config`, reset and
+/// stepped 20 times, measured while it is alive.
+fn env_memory(config: &bw4t_env::EnvConfig, seed: u64) -> Result<serde_json::Value> {
+    let envs = 256;
+    let before = resident_kb()?;
+    let mut vec_env = bw4t_env::VecEnv::new(config.clone(), envs, seed, 1)?;
+    let rows = envs * vec_env.agents();
+    let (obs_len, n) = (vec_env.spaces().obs_len(), vec_env.spaces().n_actions());
+    let (mut obs, mut masks) = (vec![0.0; rows * obs_len], vec![0; rows * n]);
+    let (mut rewards, mut terminated, mut truncated) = (vec![0.0; rows], vec![0; rows], vec![0; rows]);
+    vec_env.reset(&mut obs, &mut masks)?;
+    // Every learner heads for the last place: robots move, percepts flow.
+    let actions = vec![n as u32 - 1; rows];
+    for _ in 0..20 {
+        let out = bw4t_env::StepBuffers {
+            obs: &mut obs,
+            masks: &mut masks,
+            rewards: &mut rewards,
+            terminated: &mut terminated,
+            truncated: &mut truncated,
+        };
+        vec_env.step(&actions, out)?;
+    }
+    let after = resident_kb()?;
+    Ok(json!({
+        "case": "env_memory",
+        "envs": envs,
+        "agents": vec_env.agents(),
+        "kb_per_env": (after.saturating_sub(before) as f64 / envs as f64).round(),
+        "obs_len": obs_len,
+        "n_actions": n,
+    }))
+}
+
+/// This process's resident memory in kB (`VmRSS` of `/proc/self/status`).
+fn resident_kb() -> Result<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").context("reading /proc/self/status")?;
+    status
+        .lines()
+        .find_map(|l| l.strip_prefix("VmRSS:"))
+        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse().ok())
+        .context("no VmRSS in /proc/self/status")
 }
