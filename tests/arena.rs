@@ -502,3 +502,36 @@ async fn a_restarted_server_numbers_runs_on_from_its_results() {
     assert_eq!(stopped["id"].as_str(), Some(format!("ladder.{run}").as_str()), "{body}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Stopping a match while its template makes the next one: the stop waits on the count of
+/// live matches, which the arena changes under its own lock, so the stop must never look
+/// at the arena while it holds the count (that deadlocked, now and then, every thread
+/// stuck). Many stops of a ladder that restarts at once, watched from another thread so
+/// that a deadlock fails the test instead of hanging it.
+#[test]
+fn stops_racing_restarts_never_deadlock() {
+    let (done, finished) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let runtime = tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(2)
+            .enable_all()
+            .build()
+            .expect("runtime");
+        let stopped = runtime.block_on(async {
+            let mut t = Template::single("ladder", lockstep("default", 3, 5), OnEnd::Restart);
+            t.seats = (1..=3).map(|i| SeatPlan::builtin(format!("Bot{i}"), Strategy::Cooperative)).collect();
+            let server = ArenaServer::start(ArenaConfig::new(vec![t])).await;
+            let mut stopped = 0;
+            for _ in 0..300 {
+                if server.arena.stop("ladder").await.is_ok() {
+                    stopped += 1;
+                }
+            }
+            server.shutdown().await;
+            stopped
+        });
+        let _ = done.send(stopped);
+    });
+    let stopped = finished.recv_timeout(Duration::from_secs(120)).expect("every stop answered: no deadlock");
+    assert!(stopped > 0, "some stops found the ladder live");
+}

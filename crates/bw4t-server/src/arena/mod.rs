@@ -614,10 +614,23 @@ impl Arena {
         let _ = events.send(Event::Control(Control::Stop)).await;
         // The match's task holds the other end until it has recorded its end.
         events.closed().await;
-        let mut count = self.inner.live_count.subscribe();
-        let ended = |_: &usize| self.lock().live.get(name).is_none_or(|l| l.id != id);
-        let _ = count.wait_for(ended).await;
+        self.wait_live_until(|state, _| state.live.get(name).is_none_or(|l| l.id != id)).await;
         Ok(id)
+    }
+
+    /// Waits until `done` (given the state and the number of live matches) holds, checked
+    /// at the start and whenever that number changes. The arena's lock is taken only
+    /// between looks at the count, never inside `watch::Receiver::wait_for`: a match is
+    /// counted under that lock, so taking it while the count is borrowed would deadlock.
+    async fn wait_live_until(&self, mut done: impl FnMut(&State, usize) -> bool) {
+        let mut count = self.inner.live_count.subscribe();
+        loop {
+            let live = *count.borrow_and_update();
+            let met = done(&self.lock(), live);
+            if met || count.changed().await.is_err() {
+                return;
+            }
+        }
     }
 
     /// Serves `study`'s API beside the arena's own, while it lives.
@@ -820,8 +833,7 @@ impl Arena {
 
     /// Resolves when no match is live any more and at least one has ended.
     pub async fn idle(&self) {
-        let mut count = self.inner.live_count.subscribe();
-        let _ = count.wait_for(|n| *n == 0 && self.lock().any_ended).await;
+        self.wait_live_until(|state, live| live == 0 && state.any_ended).await;
     }
 
     /// How many matches have ended, how and in how many ticks, by template (or, for a
