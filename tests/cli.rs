@@ -96,6 +96,29 @@ fn bench_lockstep_and_realtime_report_their_figures() {
     );
 }
 
+#[test]
+fn bench_env_reports_steps_per_second_and_memory() {
+    let out = bw4t(&["bench", "env", "--env-steps", "2"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let lines = json_lines(&out);
+    assert_eq!(lines[0]["case"], "env_memory", "{lines:?}");
+    assert!(lines[0]["kb_per_env"].as_f64().is_some_and(|kb| kb > 0.0), "{}", lines[0]);
+    let runs: Vec<(u64, u64)> = lines[1..]
+        .iter()
+        .map(|l| (l["envs"].as_u64().expect("envs"), l["threads"].as_u64().expect("threads")))
+        .collect();
+    assert_eq!(runs, [(1, 1), (1, 1), (1, 1), (64, 1), (64, 2), (256, 1), (256, 2)]);
+    for line in &lines[1..] {
+        let steps = line["steps"].as_u64().expect("steps") * line["envs"].as_u64().expect("envs");
+        assert_eq!(
+            line["agent_steps"].as_u64(),
+            Some(steps * line["agents"].as_u64().expect("agents")),
+            "{line}"
+        );
+        assert!(line["agent_steps_per_s"].as_f64().is_some_and(|r| r > 0.0), "{line}");
+    }
+}
+
 /// Starts `serve` (a `bw4t serve` command), connects to the address it prints and says
 /// `hello` as Ann; returns the child and the connection (reads time out after 20 s).
 fn serve_and_say_hello(mut serve: Command) -> (std::process::Child, std::net::TcpStream) {
