@@ -254,6 +254,8 @@ function renderQuestionnaire(p) {
   form.addEventListener('input', (event) => {
     const box = event.target.closest('fieldset[data-item]');
     if (box?.getAttribute('aria-invalid') === 'true') markMissing(form, box.dataset.item, false);
+    // Every missing answer given: the reminder goes.
+    if (!form.querySelector('fieldset[aria-invalid="true"]')) showError('');
   });
   form.addEventListener('submit', async (event) => {
     event.preventDefault();
@@ -298,12 +300,14 @@ function renderTrial(p) {
   const frame = el('iframe', { id: 'trial-frame', src, title: 'the task', allow: 'fullscreen' });
   study.trial = { step: study.state.step, frame, matchId: null, matchName: null, rejoining: hello.match || null, finishing: false };
   frame.addEventListener('load', () => frame.focus());
+  // The count shows once: as the heading, or beside a heading of the study's own.
+  const counted = `Task ${p.trial} of ${p.trials}`;
   const head = el(
     'div',
     { id: 'trial-head' },
-    el('h2', {}, p.title || `Task ${p.trial} of ${p.trials}`),
+    el('h2', {}, p.title || counted),
     p.html ? html(p.html) : '',
-    el('span', { class: 'note' }, `Task ${p.trial} of ${p.trials}`),
+    p.title && p.title !== counted ? el('span', { class: 'note' }, counted) : '',
   );
   const over = el('div', { id: 'trial-over', hidden: '' });
   return [head, frame, over];
