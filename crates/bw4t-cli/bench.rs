@@ -290,22 +290,13 @@ fn env_memory(config: &bw4t_env::EnvConfig, seed: u64) -> Result<serde_json::Val
     let envs = 256;
     let before = resident_kb()?;
     let mut vec_env = bw4t_env::VecEnv::new(config.clone(), envs, seed, 1)?;
-    let rows = envs * vec_env.agents();
-    let (obs_len, n) = (vec_env.spaces().obs_len(), vec_env.spaces().n_actions());
-    let (mut obs, mut masks) = (vec![0.0; rows * obs_len], vec![0; rows * n]);
-    let (mut rewards, mut terminated, mut truncated) = (vec![0.0; rows], vec![0; rows], vec![0; rows]);
-    vec_env.reset(&mut obs, &mut masks)?;
+    let n = vec_env.spaces().n_actions();
+    let mut buffers = bw4t_env::VecBuffers::for_vec(&vec_env);
+    buffers.reset(&mut vec_env)?;
     // Every learner heads for the last place: robots move, percepts flow.
-    let actions = vec![n as u32 - 1; rows];
+    let actions = vec![n as u32 - 1; envs * vec_env.agents()];
     for _ in 0..20 {
-        let out = bw4t_env::StepBuffers {
-            obs: &mut obs,
-            masks: &mut masks,
-            rewards: &mut rewards,
-            terminated: &mut terminated,
-            truncated: &mut truncated,
-        };
-        vec_env.step(&actions, out)?;
+        buffers.step(&mut vec_env, &actions)?;
     }
     let after = resident_kb()?;
     Ok(json!({
@@ -313,7 +304,7 @@ fn env_memory(config: &bw4t_env::EnvConfig, seed: u64) -> Result<serde_json::Val
         "envs": envs,
         "agents": vec_env.agents(),
         "kb_per_env": (after.saturating_sub(before) as f64 / envs as f64).round(),
-        "obs_len": obs_len,
+        "obs_len": vec_env.spaces().obs_len(),
         "n_actions": n,
     }))
 }

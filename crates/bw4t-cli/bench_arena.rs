@@ -800,9 +800,10 @@ impl Player {
         // Not `decode_server`: its list of message types lacks `lobby`.
         let message: ServerMessage =
             serde_json::from_str(&line).with_context(|| format!("not a server message: {line}"))?;
-        if let ServerMessage::Ack(ack) = &message {
-            let id = ack.id.as_ref().and_then(|id| serde_json::to_value(id).ok()).and_then(|v| v.as_u64());
-            if let Some(sent) = id.and_then(|id| self.sent.remove(&id)) {
+        if let ServerMessage::Ack(bw4t_protocol::Ack { id: Some(bw4t_protocol::ActId::Number(id)), .. }) =
+            &message
+        {
+            if let Some(sent) = self.sent.remove(id) {
                 if let Ok(mut latencies) = self.counts.latencies.lock() {
                     latencies.push(sent.elapsed());
                 }

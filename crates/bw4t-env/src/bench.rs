@@ -7,7 +7,7 @@ use bw4t_map::SeededRng;
 
 use crate::config::EnvConfig;
 use crate::env::{Env, EnvError};
-use crate::vec_env::{StepBuffers, VecEnv};
+use crate::vec_env::{VecBuffers, VecEnv};
 
 /// What one measurement found.
 #[derive(Clone, Debug, PartialEq)]
@@ -93,24 +93,16 @@ pub fn vector(
     seed: u64,
 ) -> Result<Figures, EnvError> {
     let mut vec_env = VecEnv::new(config, envs, seed, threads)?;
-    let (agents, obs_len, n) = (vec_env.agents(), vec_env.spaces().obs_len(), vec_env.spaces().n_actions());
+    let (agents, n) = (vec_env.agents(), vec_env.spaces().n_actions());
     let rows = envs * agents;
-    let (mut obs, mut masks) = (vec![0.0; rows * obs_len], vec![0; rows * n]);
-    let (mut rewards, mut actions) = (vec![0.0; rows], vec![0; rows]);
-    let (mut terminated, mut truncated) = (vec![0; rows], vec![0; rows]);
+    let mut buffers = VecBuffers::for_vec(&vec_env);
+    let mut actions = vec![0; rows];
     let mut rng = SeededRng::new(seed);
-    vec_env.reset(&mut obs, &mut masks)?;
+    buffers.reset(&mut vec_env)?;
     let started = Instant::now();
     for _ in 0..steps {
-        choose(&mut rng, &masks, n, &mut actions);
-        let out = StepBuffers {
-            obs: &mut obs,
-            masks: &mut masks,
-            rewards: &mut rewards,
-            terminated: &mut terminated,
-            truncated: &mut truncated,
-        };
-        vec_env.step(&actions, out)?;
+        choose(&mut rng, &buffers.masks, n, &mut actions);
+        buffers.step(&mut vec_env, &actions)?;
     }
     let seconds = started.elapsed().as_secs_f64();
     let ended = (0..envs).map(|i| vec_env.episodes(i) - 1).sum();

@@ -125,4 +125,4 @@ pub use config::{
 };
 pub use env::{ActionOutcome, Env, EnvError, StepEnd};
 pub use spaces::{ACTION_SEGMENTS, Dims, OBS_SEGMENTS, Segment, SegmentRow, Size, Spaces};
-pub use vec_env::{SeedStream, StepBuffers, VecEnv};
+pub use vec_env::{SeedStream, StepBuffers, VecBuffers, VecEnv};

@@ -65,6 +65,53 @@ pub struct StepBuffers<'a> {
     pub truncated: &'a mut [u8],
 }
 
+/// The arrays of a vector's steps, owned and sized for it: for callers in Rust (bindings
+/// pass arrays of their own as [`StepBuffers`]).
+pub struct VecBuffers {
+    /// `N × agents × obs_len`.
+    pub obs: Vec<f32>,
+    /// `N × agents × n_actions`.
+    pub masks: Vec<u8>,
+    /// `N × agents`.
+    pub rewards: Vec<f32>,
+    /// `N × agents`.
+    pub terminated: Vec<u8>,
+    /// `N × agents`.
+    pub truncated: Vec<u8>,
+}
+
+impl VecBuffers {
+    /// Zeroed buffers for `vec_env`.
+    pub fn for_vec(vec_env: &VecEnv) -> VecBuffers {
+        let rows = vec_env.len() * vec_env.agents();
+        let spaces = vec_env.spaces();
+        VecBuffers {
+            obs: vec![0.0; rows * spaces.obs_len()],
+            masks: vec![0; rows * spaces.n_actions()],
+            rewards: vec![0.0; rows],
+            terminated: vec![0; rows],
+            truncated: vec![0; rows],
+        }
+    }
+
+    /// Resets `vec_env` into these buffers.
+    pub fn reset(&mut self, vec_env: &mut VecEnv) -> Result<(), EnvError> {
+        vec_env.reset(&mut self.obs, &mut self.masks)
+    }
+
+    /// Steps `vec_env` with `actions` into these buffers.
+    pub fn step(&mut self, vec_env: &mut VecEnv, actions: &[u32]) -> Result<(), EnvError> {
+        let out = StepBuffers {
+            obs: &mut self.obs,
+            masks: &mut self.masks,
+            rewards: &mut self.rewards,
+            terminated: &mut self.terminated,
+            truncated: &mut self.truncated,
+        };
+        vec_env.step(actions, out)
+    }
+}
+
 impl VecEnv {
     /// `n` environments of `config`, seeded from `seed`, stepped on `threads` threads (the
     /// caller's own and `threads - 1` more, per step). Not reset yet: call

@@ -305,6 +305,11 @@ impl MessagePolicy {
         }
     }
 
+    /// Whether any message is refused (else checking a message is not needed).
+    pub fn restricts(&self) -> bool {
+        self.kinds.is_some() || !self.free_text
+    }
+
     /// The kinds allowed, every kind's word when all are.
     pub fn allowed_kinds(&self) -> Vec<String> {
         match &self.kinds {

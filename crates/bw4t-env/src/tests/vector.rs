@@ -6,18 +6,16 @@ use bw4t_map::SeededRng;
 
 use super::{Buffers, default_map};
 use crate::bench::choose;
-use crate::{Env, EnvConfig, SeedStream, StepBuffers, VecEnv};
+use crate::{Env, EnvConfig, SeedStream, VecBuffers, VecEnv};
 
 fn check_vector_equals_singles(config: EnvConfig, n: usize, threads: usize, steps: usize) {
     let seed = 42;
     let mut vec_env = VecEnv::new(config.clone(), n, seed, threads).expect("vec env");
     let (a, obs_len, n_actions) =
         (vec_env.agents(), vec_env.spaces().obs_len(), vec_env.spaces().n_actions());
-    let rows = n * a;
-    let (mut obs, mut masks) = (vec![0.0; rows * obs_len], vec![0; rows * n_actions]);
-    let (mut rewards, mut actions) = (vec![0.0; rows], vec![0; rows]);
-    let (mut terminated, mut truncated) = (vec![0; rows], vec![0; rows]);
-    vec_env.reset(&mut obs, &mut masks).expect("reset");
+    let mut actions = vec![0; n * a];
+    let mut out = VecBuffers::for_vec(&vec_env);
+    out.reset(&mut vec_env).expect("reset");
 
     let mut singles: Vec<(Env, Buffers, SeedStream)> = (0..n)
         .map(|i| {
@@ -32,26 +30,26 @@ fn check_vector_equals_singles(config: EnvConfig, n: usize, threads: usize, step
     let mut resets = 0;
     for step in 0..steps {
         for (i, (env, b, _)) in singles.iter().enumerate() {
-            assert_eq!(b.obs[..], obs[i * a * obs_len..(i + 1) * a * obs_len], "env {i} step {step}");
-            assert_eq!(b.masks[..], masks[i * a * n_actions..(i + 1) * a * n_actions], "env {i} step {step}");
+            assert_eq!(b.obs[..], out.obs[i * a * obs_len..(i + 1) * a * obs_len], "env {i} step {step}");
+            assert_eq!(
+                b.masks[..],
+                out.masks[i * a * n_actions..(i + 1) * a * n_actions],
+                "env {i} step {step}"
+            );
             assert_eq!(env.digest(), vec_env.env(i).digest(), "env {i} step {step}");
         }
-        choose(&mut rng, &masks, n_actions, &mut actions);
-        let out = StepBuffers {
-            obs: &mut obs,
-            masks: &mut masks,
-            rewards: &mut rewards,
-            terminated: &mut terminated,
-            truncated: &mut truncated,
-        };
-        vec_env.step(&actions, out).expect("step");
+        choose(&mut rng, &out.masks, n_actions, &mut actions);
+        out.step(&mut vec_env, &actions).expect("step");
         for (i, (env, b, seeds)) in singles.iter_mut().enumerate() {
             b.actions.copy_from_slice(&actions[i * a..(i + 1) * a]);
             let end = b.step(env);
-            assert_eq!(b.rewards[..], rewards[i * a..(i + 1) * a], "env {i} step {step}");
+            assert_eq!(b.rewards[..], out.rewards[i * a..(i + 1) * a], "env {i} step {step}");
             for agent in 0..a {
                 let row = i * a + agent;
-                assert_eq!((terminated[row], truncated[row]), (end.terminated.into(), end.truncated.into()));
+                assert_eq!(
+                    (out.terminated[row], out.truncated[row]),
+                    (end.terminated.into(), end.truncated.into())
+                );
             }
             if end.done() {
                 resets += 1;

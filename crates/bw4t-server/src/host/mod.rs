@@ -944,8 +944,9 @@ impl MatchHost {
     /// Queues an action of a remote player, unless it is a message the match's policy
     /// refuses.
     fn queue_allowed(&mut self, conn: ConnId, robot: RobotId, id: Option<ActId>, action: Action) {
-        if let Action::SendMessage { text, .. } = &action {
-            if let Some(why) = self.config.language.refuses(bw4t_protocol::Said::from_text(text).as_ref()) {
+        let policy = &self.config.language;
+        if let (Action::SendMessage { text, .. }, true) = (&action, policy.restricts()) {
+            if let Some(why) = policy.refuses(bw4t_protocol::Said::from_text(text).as_ref()) {
                 return self.reject(conn, id, AckCode::NotAllowed, &why);
             }
         }
