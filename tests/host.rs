@@ -3,10 +3,10 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use bw4t_map::SeededRng;
-use bw4t_protocol::{FrameMessage, Mode, ServerMessage, Welcome};
+use bw4t_protocol::{FrameMessage, Mode, ServerMessage};
 use serde_json::{Value, json};
 
-use crate::util::{AutoPlayer, Client, TestServer, bw4t_within, lockstep};
+use crate::util::{AutoPlayer, Client, TestServer, bw4t_within, lockstep, welcomed};
 
 /// A `hello` with `fields` added.
 fn hello(fields: Value) -> Value {
@@ -26,20 +26,6 @@ async fn refusal(addr: SocketAddr, message: Value) -> String {
     assert!(error.fatal, "{error:?}");
     assert!(matches!(rest.last(), Some(ServerMessage::Bye(_))), "bye last: {rest:?}");
     error.code.to_string()
-}
-
-/// A connection that said `message` and got its `welcome`.
-async fn welcomed(addr: SocketAddr, message: Value) -> (Client, Welcome) {
-    let mut c = Client::connect(addr).await;
-    c.send(message.clone()).await;
-    let welcome = c
-        .until(|m| match m {
-            ServerMessage::Welcome(w) => Some(w.clone()),
-            ServerMessage::Error(e) => panic!("{message} refused: {e:?}"),
-            _ => None,
-        })
-        .await;
-    (c, welcome)
 }
 
 /// Every message a watcher's frames carry, up to and including the frame with `text`.

@@ -5,13 +5,12 @@
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 
-use bw4t_protocol::ServerMessage;
 use bw4t_server::study::{self, StudyServer};
 use bw4t_server::{Arena, ArenaConfig, ResultsStore};
 use serde_json::{Value, json};
 use tokio::sync::oneshot;
 
-use crate::util::{AutoPlayer, Client, WAIT, http, shipped_map};
+use crate::util::{AutoPlayer, WAIT, http, shipped_map, welcomed};
 
 const TOKEN: &str = "op-secret";
 
@@ -303,15 +302,7 @@ async fn a_participant_goes_through_the_whole_study_and_the_export_has_every_row
     // The trial: an answer while its match runs is refused; a finished one is taken.
     let hello =
         json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": "P1", "template": "alpha"});
-    let mut client = Client::connect(rig.addr).await;
-    client.send(hello).await;
-    let welcome = client
-        .until(|m| match m {
-            ServerMessage::Welcome(w) => Some(w.clone()),
-            ServerMessage::Error(e) => panic!("hello refused: {e:?}"),
-            _ => None,
-        })
-        .await;
+    let (client, welcome) = welcomed(rig.addr, hello).await;
     let name = welcome.match_info.name.clone();
     let (status, _) = rig
         .call("POST", "/api/study/participants/alice/trial", Some(json!({"step": 2, "match": name})))
@@ -468,14 +459,7 @@ async fn a_restarted_server_continues_each_participant_and_gives_a_lost_trial_ag
     // Carol's trial starts, and the server stops under it.
     let hello =
         json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": "P1", "template": "alpha"});
-    let mut client = Client::connect(rig.addr).await;
-    client.send(hello).await;
-    let welcome = client
-        .until(|m| match m {
-            ServerMessage::Welcome(w) => Some(w.clone()),
-            _ => None,
-        })
-        .await;
+    let (client, welcome) = welcomed(rig.addr, hello).await;
     let (status, _) = rig
         .call(
             "POST",

@@ -474,17 +474,9 @@ impl AutoPlayer {
 
     /// Joins with extra `hello` fields (e.g. `{"name": "Bob", "every_tick": true}`).
     pub async fn join_with(addr: SocketAddr, fields: Value) -> AutoPlayer {
-        let mut client = Client::connect(addr).await;
         let mut hello = json!({"type": "hello", "protocol": "bw4t", "versions": [1]});
         hello.as_object_mut().expect("object").extend(fields.as_object().expect("object").clone());
-        client.send(hello).await;
-        let welcome = client
-            .until(|m| match m {
-                ServerMessage::Welcome(w) => Some(w.clone()),
-                ServerMessage::Error(e) => panic!("hello refused: {e:?}"),
-                _ => None,
-            })
-            .await;
+        let (client, welcome) = welcomed(addr, hello).await;
         AutoPlayer::adopt(client, welcome)
     }
 
@@ -678,4 +670,18 @@ pub async fn http(
         answer.split(' ').nth(1).and_then(|s| s.parse().ok()).unwrap_or_else(|| panic!("a status: {answer}"));
     let body = answer.split_once("\r\n\r\n").map(|(_, b)| b.to_string()).unwrap_or_default();
     (status, body)
+}
+
+/// A connection that said `message` and got its `welcome` (a fatal error instead panics).
+pub async fn welcomed(addr: SocketAddr, message: Value) -> (Client, bw4t_protocol::Welcome) {
+    let mut c = Client::connect(addr).await;
+    c.send(message.clone()).await;
+    let welcome = c
+        .until(|m| match m {
+            ServerMessage::Welcome(w) => Some(w.clone()),
+            ServerMessage::Error(e) => panic!("{message} refused: {e:?}"),
+            _ => None,
+        })
+        .await;
+    (c, welcome)
 }
