@@ -92,8 +92,7 @@ pub(crate) fn realtime(seed: u64, robots: usize, seconds: f64) -> Result<Value> 
     std::fs::create_dir_all(&dir)?;
     let map_path = dir.join("crowded.toml");
     std::fs::write(&map_path, crowded_default(robots)?.to_native())?;
-    let exe = std::env::current_exe()?;
-    let mut child = std::process::Command::new(exe)
+    let mut child = crate::self_command()?
         .args(["serve", "--port", "0", "--mode", "realtime", "--tick-hz", "20"])
         .args(["--robots", &robots.to_string(), "--seed", &seed.to_string()])
         .arg("--map")

@@ -7,6 +7,8 @@ pub(crate) const SUCCESS: u8 = 0;
 /// written. The message on standard error names it. (A command line clap cannot read at
 /// all, such as an unknown option, exits with clap's status 2.)
 pub(crate) const ERROR: u8 = 1;
+/// A command line that cannot be read (an unknown option).
+pub(crate) const USAGE: u8 = 2;
 /// `run`: the match ended without completing the sequence (tick limit reached).
 pub(crate) const NOT_COMPLETED: u8 = 3;
 /// `run`: none of the external agents played (each crashed, never connected, broke the

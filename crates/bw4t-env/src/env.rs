@@ -4,7 +4,8 @@ use std::sync::Arc;
 
 use bw4t_agents::{Driver, Team};
 use bw4t_sim::{
-    Accepted, Action, Intent, Match, MatchError, MatchStats, OrderEnd, Percept, Rejection, RobotId, Seats,
+    Accepted, Action, Intent, Match, MatchError, MatchStats, OrderEnd, Percept, PerceptDelta, Rejection,
+    RobotId, Seats,
 };
 
 use crate::config::{EnvConfig, RewardMode, Seat};
@@ -63,10 +64,13 @@ impl StepEnd {
 }
 
 struct Learner {
+    name: String,
     robot: RobotId,
     seen: Seen,
     pending: Option<Action>,
     outcome: ActionOutcome,
+    /// The percepts polled at the end of the last step (or reset).
+    delta: Option<PerceptDelta>,
 }
 
 /// One BW4T match as an environment (see the crate docs for the spaces and the step).
@@ -158,23 +162,32 @@ impl Env {
             let robot = game.join(&name).map_err(|e| EnvError::Join { seat, reason: e.to_string() })?;
             match kind {
                 Seat::Learner => learners.push(Learner {
+                    name,
                     robot,
                     seen: Seen::new(config.map.zones().len()),
                     pending: None,
                     outcome: ActionOutcome::Waited,
+                    delta: None,
                 }),
                 Seat::Builtin(strategy) => drivers.push(Driver::new(robot, strategy.agent(&name))),
-            }
-        }
-        for learner in &mut learners {
-            if let Some(delta) = game.poll_percepts(learner.robot) {
-                learner.seen.apply(&config.map, &delta);
             }
         }
         self.game = game;
         self.team = Team::new(drivers);
         self.learners = learners;
+        self.poll();
+        self.refresh_masks();
         Ok(())
+    }
+
+    /// Each learner's new percepts, into what it has seen.
+    fn poll(&mut self) {
+        for learner in &mut self.learners {
+            learner.delta = self.game.poll_percepts(learner.robot);
+            if let Some(delta) = &learner.delta {
+                learner.seen.apply(&self.config.map, delta);
+            }
+        }
     }
 
     /// One step: each learner's action (an index into the action space; masked-out ones
@@ -190,7 +203,6 @@ impl Env {
     ) -> StepEnd {
         let n_actions = self.spaces().n_actions();
         assert_eq!(actions.len(), self.learners.len(), "one action per learner");
-        assert_eq!(rewards.len(), self.learners.len(), "one reward per learner");
         for (i, learner) in self.learners.iter_mut().enumerate() {
             let action = actions[i] as usize;
             let allowed = action < n_actions && self.masks[i * n_actions + action] == 1;
@@ -201,6 +213,32 @@ impl Env {
                 learner.pending = self.codec.action(&learner.seen, &self.game, action);
                 if learner.pending.is_some() { ActionOutcome::Dropped } else { ActionOutcome::Waited }
             };
+        }
+        let end = self.advance(rewards);
+        self.refresh_masks();
+        self.write(obs, masks);
+        end
+    }
+
+    /// One step with each learner's action given as the match's own action (`None`:
+    /// wait), whatever the mask says: the symbolic way in, as a remote player acts. The
+    /// match accepts or refuses it as it would a player's ([`Env::outcomes`] tells).
+    /// Writes the rewards; [`Env::delta`] has each learner's new percepts.
+    pub fn step_actions(&mut self, actions: Vec<Option<Action>>, rewards: &mut [f32]) -> StepEnd {
+        assert_eq!(actions.len(), self.learners.len(), "one action per learner");
+        for (learner, action) in self.learners.iter_mut().zip(actions) {
+            learner.outcome = if action.is_some() { ActionOutcome::Dropped } else { ActionOutcome::Waited };
+            learner.pending = action;
+        }
+        let end = self.advance(rewards);
+        self.refresh_masks();
+        end
+    }
+
+    /// Plays the step's ticks with the learners' pending actions; writes the rewards.
+    fn advance(&mut self, rewards: &mut [f32]) -> StepEnd {
+        assert_eq!(rewards.len(), self.learners.len(), "one reward per learner");
+        for learner in &mut self.learners {
             learner.seen.start_step();
         }
         let before = self.drops();
@@ -216,10 +254,8 @@ impl Env {
         }
         for learner in &mut self.learners {
             learner.pending = None;
-            if let Some(delta) = self.game.poll_percepts(learner.robot) {
-                learner.seen.apply(&self.config.map, &delta);
-            }
         }
+        self.poll();
         let after = self.drops();
         let r = &self.config.rewards;
         let value = |(good, wrong): (u32, u32)| good as f32 * r.delivery + wrong as f32 * r.wrong_drop;
@@ -232,7 +268,6 @@ impl Env {
             };
             *reward = value((good, wrong)) - r.step_cost;
         }
-        self.write(obs, masks);
         let terminated = self.game.is_complete();
         StepEnd { terminated, truncated: !terminated && self.game.tick() >= max_ticks }
     }
@@ -248,18 +283,46 @@ impl Env {
         Drops { team: (stats.good_drops, stats.wrong_drops), own }
     }
 
+    /// Writes each learner's observation and mask (the masks were refreshed by the step).
     fn write(&mut self, obs: &mut [f32], masks: &mut [u8]) {
-        let spaces = self.codec.spaces();
-        let (obs_len, n_actions) = (spaces.obs_len(), spaces.n_actions());
+        let obs_len = self.codec.spaces().obs_len();
         assert_eq!(obs.len(), self.learners.len() * obs_len, "obs is agents x obs_len");
-        assert_eq!(masks.len(), self.learners.len() * n_actions, "masks is agents x n_actions");
-        let others = self.config.seats.len() > 1;
-        for (i, learner) in self.learners.iter().enumerate() {
-            let o = &mut obs[i * obs_len..(i + 1) * obs_len];
+        assert_eq!(masks.len(), self.masks.len(), "masks is agents x n_actions");
+        for (learner, o) in self.learners.iter().zip(obs.chunks_mut(obs_len)) {
             self.codec.observe(&learner.seen, &self.game, self.config.max_ticks, o);
-            self.codec.mask(&learner.seen, others, &mut self.masks[i * n_actions..(i + 1) * n_actions]);
         }
         masks.copy_from_slice(&self.masks);
+    }
+
+    /// Each learner's mask of the actions valid now.
+    fn refresh_masks(&mut self) {
+        let n_actions = self.codec.spaces().n_actions();
+        let others = self.config.seats.len() > 1;
+        for (learner, mask) in self.learners.iter().zip(self.masks.chunks_mut(n_actions)) {
+            self.codec.mask(&learner.seen, others, mask);
+        }
+    }
+
+    /// Learner `agent`'s percepts polled at the end of the last step (or at reset: a full
+    /// snapshot); `None` when nothing changed for it.
+    pub fn delta(&self, agent: usize) -> Option<&PerceptDelta> {
+        self.learners.get(agent)?.delta.as_ref()
+    }
+
+    /// The match now as a standalone SVG document: the map, blocks where they lie, robots
+    /// where they stand (with what they hold), the sequence.
+    pub fn render_svg(&self) -> String {
+        crate::render::svg(&self.game)
+    }
+
+    /// The match now as an RGB image at `scale` pixels per map unit (1 to 32).
+    pub fn render_rgb(&self, scale: f32) -> crate::Rgb {
+        crate::render::rgb(&self.game, scale)
+    }
+
+    /// The names of the learners' robots (`Agent1`, ...), in learner order.
+    pub fn agent_names(&self) -> impl Iterator<Item = &str> + '_ {
+        self.learners.iter().map(|l| l.name.as_str())
     }
 
     /// The match's digest: equal digests mean equal matches, bit for bit.

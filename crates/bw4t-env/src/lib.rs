@@ -113,6 +113,7 @@ mod bench;
 mod config;
 mod encode;
 mod env;
+mod render;
 mod seen;
 mod spaces;
 #[cfg(test)]
@@ -124,5 +125,6 @@ pub use config::{
     DEFAULT_MAX_TICKS, DEFAULT_SLOTS, DEFAULT_TICKS_PER_STEP, EnvConfig, RewardMode, Rewards, Seat,
 };
 pub use env::{ActionOutcome, Env, EnvError, StepEnd};
+pub use render::Rgb;
 pub use spaces::{ACTION_SEGMENTS, Dims, OBS_SEGMENTS, Segment, SegmentRow, Size, Spaces};
 pub use vec_env::{SeedStream, StepBuffers, VecBuffers, VecEnv};

@@ -60,9 +60,9 @@ pub struct StepBuffers<'a> {
     /// `N × agents`.
     pub rewards: &'a mut [f32],
     /// `N × agents`: 1 when the environment's episode ended by completing the sequence.
-    pub terminated: &'a mut [u8],
+    pub terminated: &'a mut [bool],
     /// `N × agents`: 1 when it ended at the tick limit.
-    pub truncated: &'a mut [u8],
+    pub truncated: &'a mut [bool],
 }
 
 /// The arrays of a vector's steps, owned and sized for it: for callers in Rust (bindings
@@ -75,9 +75,9 @@ pub struct VecBuffers {
     /// `N × agents`.
     pub rewards: Vec<f32>,
     /// `N × agents`.
-    pub terminated: Vec<u8>,
+    pub terminated: Vec<bool>,
     /// `N × agents`.
-    pub truncated: Vec<u8>,
+    pub truncated: Vec<bool>,
 }
 
 impl VecBuffers {
@@ -89,8 +89,8 @@ impl VecBuffers {
             obs: vec![0.0; rows * spaces.obs_len()],
             masks: vec![0; rows * spaces.n_actions()],
             rewards: vec![0.0; rows],
-            terminated: vec![0; rows],
-            truncated: vec![0; rows],
+            terminated: vec![false; rows],
+            truncated: vec![false; rows],
         }
     }
 
@@ -241,8 +241,8 @@ impl Chunk<'_> {
             .zip(out.truncated.chunks_mut(agents));
         for ((((((slot, actions), obs), masks), rewards), terminated), truncated) in rows {
             let end = slot.env.step(actions, obs, masks, rewards);
-            terminated.fill(u8::from(end.terminated));
-            truncated.fill(u8::from(end.truncated));
+            terminated.fill(end.terminated);
+            truncated.fill(end.truncated);
             if end.done() {
                 slot.episodes += 1;
                 slot.env.reset(slot.seeds.next_seed(), obs, masks)?;

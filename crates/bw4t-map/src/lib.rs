@@ -30,7 +30,7 @@ pub use geometry::{Door, Orientation, Rect, Vec2};
 pub use limits::{MAX_COORDINATE, MAX_MAP_BYTES, MAX_SPAWNS, MAX_ZONES, coordinate_problem};
 pub use model::{DROP_ZONE, Map, MapError, MapParts, Spawn, Zone, ZoneIdx, ZoneKind};
 pub use native::NativeError;
-pub use render::render_svg;
+pub use render::{RobotMark, colour_hex, render_scene, render_svg, zone_fill};
 pub use rng::SeededRng;
 pub use rules::{Problem, Severity};
 pub use walls::{Wall, zone_walls};

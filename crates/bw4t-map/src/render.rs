@@ -1,5 +1,6 @@
 //! Maps drawn as SVG: zones, walls with their door openings, labels, blocks, spawn points
-//! and the goal sequence, in one standalone document.
+//! and the goal sequence, in one standalone document; and a moment of a match (blocks where
+//! they lie, robots where they stand) drawn the same way.
 //!
 //! The drawing is in map units (y grows downwards, as in map files) inside one scaled
 //! group, so its coordinates can be read against the map file. Output depends only on the
@@ -37,9 +38,7 @@ const LABEL_SIZE: f32 = 1.2;
 /// without it only the fixed sequence is shown, and no blocks (their spots are random).
 /// The same input always gives the same bytes.
 pub fn render_svg(map: &Map, content: Option<(&Content, u64)>) -> String {
-    let (min, max) = bounds(map);
-    let size = (max - min) * SCALE;
-    let name = if map.name().is_empty() { "(unnamed map)" } else { map.name() };
+    let name = map_name(map);
     let title = match content {
         Some((c, seed)) => {
             let s = if c.blocks.len() == 1 { "" } else { "s" };
@@ -47,7 +46,48 @@ pub fn render_svg(map: &Map, content: Option<(&Content, u64)>) -> String {
         }
         None => format!("{name}: layout and fixed sequence"),
     };
-    let sequence: &[Colour] = content.map_or(map.sequence(), |(c, _)| &c.sequence);
+    let ids: Vec<u32> = (1..).take(content.map_or(0, |(c, _)| c.blocks.len())).collect();
+    draw(map, content.map(|(c, _)| c), &ids, &[], &title)
+}
+
+/// A robot drawn in a [`render_scene`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct RobotMark {
+    /// Its player's name.
+    pub name: String,
+    /// Its centre.
+    pub pos: Vec2,
+    /// The colour of the block it holds.
+    pub holding: Option<Colour>,
+}
+
+/// Draws one moment of a match: `content` holds the blocks lying in rooms (block
+/// `block_ids[i]` is `content.blocks[i]`) and the sequence; robots are drawn as 2 x 2 discs
+/// with their name, holding a block of its colour. `title` heads the drawing.
+pub fn render_scene(
+    map: &Map,
+    content: &Content,
+    block_ids: &[u32],
+    robots: &[RobotMark],
+    title: &str,
+) -> String {
+    draw(map, Some(content), block_ids, robots, title)
+}
+
+fn map_name(map: &Map) -> &str {
+    if map.name().is_empty() { "(unnamed map)" } else { map.name() }
+}
+
+fn draw(
+    map: &Map,
+    content: Option<&Content>,
+    block_ids: &[u32],
+    robots: &[RobotMark],
+    title: &str,
+) -> String {
+    let (min, max) = bounds(map);
+    let size = (max - min) * SCALE;
+    let sequence: &[Colour] = content.map_or(map.sequence(), |c| &c.sequence);
     let more_random = if content.is_none() { map.random_sequence() } else { 0 };
     let row_width = SEQUENCE_LABEL + sequence.len() as f32 * (GOAL_SQUARE + 4.0) + 110.0;
     // A rough width of the bold title, so it is never cut off.
@@ -61,13 +101,13 @@ pub fn render_svg(map: &Map, content: Option<(&Content, u64)>) -> String {
         w = num(width),
         h = num(height)
     ));
-    svg.line(&format!("<title>{}</title>", escape(&title)));
+    svg.line(&format!("<title>{}</title>", escape(title)));
     svg.line(r##"<rect width="100%" height="100%" fill="#ffffff"/>"##);
     svg.line(&format!(
         r##"<text x="{}" y="{}" font-size="15" font-weight="bold" fill="#222222">{}</text>"##,
         num(MARGIN),
         num(MARGIN + 16.0),
-        escape(&title)
+        escape(title)
     ));
     let origin = Vec2::new(MARGIN, MARGIN + TITLE_HEIGHT) - min * SCALE;
     svg.line(&format!(
@@ -78,11 +118,14 @@ pub fn render_svg(map: &Map, content: Option<(&Content, u64)>) -> String {
     ));
     draw_map(&mut svg, map);
     // Labels go below blocks and spawn points, and are moved out from under them.
-    draw_labels(&mut svg, map, content.map(|(c, _)| c));
-    if let Some((c, _)) = content {
-        draw_blocks(&mut svg, c);
+    draw_labels(&mut svg, map, content);
+    if let Some(c) = content {
+        draw_blocks(&mut svg, c, block_ids);
     }
-    draw_spawns(&mut svg, map);
+    if robots.is_empty() {
+        draw_spawns(&mut svg, map);
+    }
+    draw_robots(&mut svg, robots);
     svg.line("</g>");
     draw_sequence(&mut svg, sequence, more_random, MARGIN + TITLE_HEIGHT + size.y + 14.0);
     svg.line("</svg>");
@@ -164,12 +207,27 @@ fn draw_map(svg: &mut Svg, map: &Map) {
 /// The CSS class and fill of a zone: rooms light, halls lighter, blockades dark, charging
 /// zones tinted, the drop zone its own colour.
 fn zone_style(zone: &Zone, is_drop_zone: bool) -> (&'static str, &'static str) {
+    (zone_class(zone, is_drop_zone), zone_fill(zone, is_drop_zone))
+}
+
+fn zone_class(zone: &Zone, is_drop_zone: bool) -> &'static str {
     match zone.kind {
-        ZoneKind::Room if is_drop_zone => ("room drop-zone", "#cfe8c6"),
-        ZoneKind::Room => ("room", "#efe7d4"),
-        ZoneKind::Corridor => ("corridor", "#fafaf6"),
-        ZoneKind::Charging => ("charging", "#d7ebf7"),
-        ZoneKind::Blockade => ("blockade", "#4d4d4d"),
+        ZoneKind::Room if is_drop_zone => "room drop-zone",
+        ZoneKind::Room => "room",
+        ZoneKind::Corridor => "corridor",
+        ZoneKind::Charging => "charging",
+        ZoneKind::Blockade => "blockade",
+    }
+}
+
+/// A zone's fill colour (`#rrggbb`) in drawings of the map.
+pub fn zone_fill(zone: &Zone, is_drop_zone: bool) -> &'static str {
+    match zone.kind {
+        ZoneKind::Room if is_drop_zone => "#cfe8c6",
+        ZoneKind::Room => "#efe7d4",
+        ZoneKind::Corridor => "#fafaf6",
+        ZoneKind::Charging => "#d7ebf7",
+        ZoneKind::Blockade => "#4d4d4d",
     }
 }
 
@@ -185,15 +243,42 @@ fn wall_path(zone: &Zone) -> String {
     d
 }
 
-fn draw_blocks(svg: &mut Svg, content: &Content) {
-    for (i, block) in content.blocks.iter().enumerate() {
+fn draw_blocks(svg: &mut Svg, content: &Content, ids: &[u32]) {
+    for (block, id) in content.blocks.iter().zip(ids) {
         svg.line(&format!(
             r##"<rect class="block" x="{}" y="{}" width="1" height="1" fill="{}" stroke="#333333" stroke-width="0.08"><title>block {}: {}</title></rect>"##,
             num(block.pos.x - 0.5),
             num(block.pos.y - 0.5),
             colour_hex(block.colour),
-            i + 1,
+            id,
             block.colour
+        ));
+    }
+}
+
+/// Robots as discs of a robot's size with their name, a held block as a square inside.
+fn draw_robots(svg: &mut Svg, robots: &[RobotMark]) {
+    for robot in robots {
+        let p = robot.pos;
+        svg.line(&format!(
+            r##"<circle class="robot" cx="{}" cy="{}" r="1" fill="#1d4f91"><title>{}</title></circle>"##,
+            num(p.x),
+            num(p.y),
+            escape(&robot.name)
+        ));
+        if let Some(colour) = robot.holding {
+            svg.line(&format!(
+                r##"<rect class="held" x="{}" y="{}" width="0.9" height="0.9" fill="{}" stroke="#ffffff" stroke-width="0.08"/>"##,
+                num(p.x - 0.45),
+                num(p.y - 0.45),
+                colour_hex(colour)
+            ));
+        }
+        svg.line(&format!(
+            r##"<text x="{}" y="{}" font-size="0.8" text-anchor="middle" fill="#1d4f91">{}</text>"##,
+            num(p.x),
+            num(p.y - 1.2),
+            escape(&robot.name)
         ));
     }
 }
@@ -340,7 +425,8 @@ fn draw_sequence(svg: &mut Svg, sequence: &[Colour], more_random: u32, top: f32)
 }
 
 /// The fill of a block of `colour`.
-fn colour_hex(colour: Colour) -> &'static str {
+/// A block colour as drawn (`#rrggbb`).
+pub fn colour_hex(colour: Colour) -> &'static str {
     match colour {
         Colour::Blue => "#1f64d6",
         Colour::Cyan => "#1fc8d8",

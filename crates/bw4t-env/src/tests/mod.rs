@@ -4,6 +4,7 @@
 mod episodes;
 mod masks;
 mod spaces;
+mod symbolic;
 mod vector;
 
 use bw4t_map::Map;

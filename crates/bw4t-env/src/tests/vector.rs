@@ -46,10 +46,7 @@ fn check_vector_equals_singles(config: EnvConfig, n: usize, threads: usize, step
             assert_eq!(b.rewards[..], out.rewards[i * a..(i + 1) * a], "env {i} step {step}");
             for agent in 0..a {
                 let row = i * a + agent;
-                assert_eq!(
-                    (out.terminated[row], out.truncated[row]),
-                    (end.terminated.into(), end.truncated.into())
-                );
+                assert_eq!((out.terminated[row], out.truncated[row]), (end.terminated, end.truncated));
             }
             if end.done() {
                 resets += 1;
