@@ -55,6 +55,17 @@ enum Command {
     Bench(bench::BenchArgs),
 }
 
+/// Loads a map for a match as every command does: a file path, else the name of a map
+/// shipped with bw4t; it must pass the map check (warnings go to standard error).
+pub fn load_map(spec: &str) -> anyhow::Result<bw4t_map::Map> {
+    maps::load(spec)
+}
+
+/// The names of the maps shipped with bw4t.
+pub fn shipped_maps() -> impl Iterator<Item = &'static str> {
+    maps::BUILTIN.iter().map(|(name, _)| *name)
+}
+
 /// A seed for when the user gives none, printed so the match can be replayed.
 pub(crate) fn random_seed() -> u64 {
     use std::hash::{BuildHasher, Hasher};

@@ -41,7 +41,7 @@ struct Slot {
 /// Auto-reset is *same-step*: when a step ends environment `e`'s episode, its rewards,
 /// `terminated` and `truncated` are those of the final step, and the observation and mask
 /// written are those of the new episode, reset on the next seed of its [`SeedStream`].
-/// The final observation itself is not written.
+/// The final observation is written to [`StepBuffers::final_obs`] when the caller gives one.
 pub struct VecEnv {
     slots: Vec<Slot>,
     codec: Arc<Codec>,
@@ -59,10 +59,13 @@ pub struct StepBuffers<'a> {
     pub masks: &'a mut [u8],
     /// `N × agents`.
     pub rewards: &'a mut [f32],
-    /// `N × agents`: 1 when the environment's episode ended by completing the sequence.
+    /// `N × agents`: true when the environment's episode ended by completing the sequence.
     pub terminated: &'a mut [bool],
-    /// `N × agents`: 1 when it ended at the tick limit.
+    /// `N × agents`: true when it ended at the tick limit.
     pub truncated: &'a mut [bool],
+    /// `N × agents × obs_len`, optional: for each environment whose episode ended, the last
+    /// observation of that episode (the rows of the others are left as they were).
+    pub final_obs: Option<&'a mut [f32]>,
 }
 
 /// The arrays of a vector's steps, owned and sized for it: for callers in Rust (bindings
@@ -107,6 +110,7 @@ impl VecBuffers {
             rewards: &mut self.rewards,
             terminated: &mut self.terminated,
             truncated: &mut self.truncated,
+            final_obs: None,
         };
         vec_env.step(actions, out)
     }
@@ -186,11 +190,15 @@ impl VecEnv {
         assert_eq!(out.rewards.len(), n * a, "rewards is N x agents");
         assert_eq!(out.terminated.len(), n * a, "terminated is N x agents");
         assert_eq!(out.truncated.len(), n * a, "truncated is N x agents");
+        if let Some(finals) = &out.final_obs {
+            assert_eq!(finals.len(), out.obs.len(), "final_obs is N x agents x obs_len");
+        }
         if n == 0 {
             return Ok(());
         }
         let per = n.div_ceil(self.threads.min(n));
         let (o, m) = (a * self.obs_len, a * self.n_actions);
+        let mut finals = out.final_obs.map(|f| f.chunks_mut(per * o));
         let chunks = self
             .slots
             .chunks_mut(per)
@@ -203,7 +211,14 @@ impl VecEnv {
             .map(|((((((slots, actions), obs), masks), rewards), terminated), truncated)| Chunk {
                 slots,
                 actions,
-                out: StepBuffers { obs, masks, rewards, terminated, truncated },
+                out: StepBuffers {
+                    obs,
+                    masks,
+                    rewards,
+                    terminated,
+                    truncated,
+                    final_obs: finals.as_mut().and_then(Iterator::next),
+                },
             });
         let mut chunks: Vec<Chunk<'_>> = chunks.collect();
         let own = chunks.remove(0);
@@ -230,6 +245,7 @@ impl Chunk<'_> {
     fn step(self, agents: usize) -> Result<(), EnvError> {
         let Chunk { slots, actions, out } = self;
         let o = out.obs.len() / slots.len();
+        let mut finals = out.final_obs.map(|f| f.chunks_mut(o));
         let m = out.masks.len() / slots.len();
         let rows = slots
             .iter_mut()
@@ -243,7 +259,11 @@ impl Chunk<'_> {
             let end = slot.env.step(actions, obs, masks, rewards);
             terminated.fill(end.terminated);
             truncated.fill(end.truncated);
+            let last = finals.as_mut().and_then(Iterator::next);
             if end.done() {
+                if let Some(last) = last {
+                    last.copy_from_slice(obs);
+                }
                 slot.episodes += 1;
                 slot.env.reset(slot.seeds.next_seed(), obs, masks)?;
             }

@@ -1,12 +1,12 @@
 //! A vector of environments equals as many single environments stepped alike, auto-reset
-//! included, whatever the number of threads.
+//! (and the final observations it keeps) included, whatever the number of threads.
 
 use bw4t_agents::Strategy;
 use bw4t_map::SeededRng;
 
 use super::{Buffers, default_map};
 use crate::bench::choose;
-use crate::{Env, EnvConfig, SeedStream, VecBuffers, VecEnv};
+use crate::{Env, EnvConfig, SeedStream, StepBuffers, VecBuffers, VecEnv};
 
 fn check_vector_equals_singles(config: EnvConfig, n: usize, threads: usize, steps: usize) {
     let seed = 42;
@@ -16,6 +16,7 @@ fn check_vector_equals_singles(config: EnvConfig, n: usize, threads: usize, step
     let mut actions = vec![0; n * a];
     let mut out = VecBuffers::for_vec(&vec_env);
     out.reset(&mut vec_env).expect("reset");
+    let mut final_obs = vec![f32::NAN; out.obs.len()];
 
     let mut singles: Vec<(Env, Buffers, SeedStream)> = (0..n)
         .map(|i| {
@@ -39,7 +40,15 @@ fn check_vector_equals_singles(config: EnvConfig, n: usize, threads: usize, step
             assert_eq!(env.digest(), vec_env.env(i).digest(), "env {i} step {step}");
         }
         choose(&mut rng, &out.masks, n_actions, &mut actions);
-        out.step(&mut vec_env, &actions).expect("step");
+        let buffers = StepBuffers {
+            obs: &mut out.obs,
+            masks: &mut out.masks,
+            rewards: &mut out.rewards,
+            terminated: &mut out.terminated,
+            truncated: &mut out.truncated,
+            final_obs: Some(&mut final_obs),
+        };
+        vec_env.step(&actions, buffers).expect("step");
         for (i, (env, b, seeds)) in singles.iter_mut().enumerate() {
             b.actions.copy_from_slice(&actions[i * a..(i + 1) * a]);
             let end = b.step(env);
@@ -49,6 +58,8 @@ fn check_vector_equals_singles(config: EnvConfig, n: usize, threads: usize, step
                 assert_eq!((out.terminated[row], out.truncated[row]), (end.terminated, end.truncated));
             }
             if end.done() {
+                let rows = i * a * obs_len..(i + 1) * a * obs_len;
+                assert_eq!(b.obs[..], final_obs[rows], "env {i} step {step}: the final observation");
                 resets += 1;
                 b.reset(env, seeds.next_seed());
             }

@@ -19,8 +19,8 @@ import pytest
 
 from fake_server import FakeConnection, FakeServer
 
-CLIENT_DIR = Path(__file__).resolve().parents[1]
-REPO = Path(__file__).resolve().parents[4]
+CLIENT_DIR = Path(__file__).resolve().parents[1]  # python/: the package, its examples
+REPO = Path(__file__).resolve().parents[2]
 
 try:  # the installed package, else the one in this directory
     import bw4t  # noqa: F401

@@ -14,7 +14,7 @@ import pytest
 from bw4t import BeliefBase, ProtocolCore
 from bw4t.errors import FatalServerError
 
-EXAMPLES = Path(__file__).resolve().parents[3] / "examples"
+EXAMPLES = Path(__file__).resolve().parents[2] / "protocol" / "examples"
 
 
 def transcript(name: str) -> List[Dict[str, Any]]:

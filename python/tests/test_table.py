@@ -8,7 +8,7 @@ from pathlib import Path
 
 from bw4t import beliefs, core
 
-TABLE = json.loads((Path(__file__).resolve().parents[3] / "schema" / "table.json").read_text("utf-8"))
+TABLE = json.loads((Path(__file__).resolve().parents[2] / "protocol" / "schema" / "table.json").read_text("utf-8"))
 
 
 def names(rows, **where):

@@ -1,4 +1,11 @@
-"""Reference Python client for bw4t, Blocks World for Teams over TCP (protocol version 1).
+"""bw4t, Blocks World for Teams, in Python.
+
+- :mod:`bw4t.env`: PettingZoo (``parallel_env``) and Gymnasium (``single_env``)
+  environments and a vector of matches stepped in Rust (``vector_env``).
+- :mod:`bw4t.sim`: an in-process match driven by the protocol's own actions
+  (:class:`bw4t.sim.Match`), with percepts, beliefs, statistics and the digest.
+- The TCP client (below) for agents that play against ``bw4t serve`` or ``bw4t run``.
+- The ``bw4t`` command itself (``python -m bw4t`` or the ``bw4t`` script).
 
 The blocking client::
 
@@ -28,7 +35,12 @@ from .errors import (
     Timeout,
 )
 
-__version__ = "1.0.0"
+try:  # the wheel's version; the client alone (no native module) still imports
+    from importlib.metadata import version as _version
+
+    __version__ = _version("bw4t")
+except Exception:  # pragma: no cover - running from the source folder
+    __version__ = "0+source"
 
 __all__ = [
     "Ack",

@@ -4,9 +4,9 @@
 Run a team of three on the default map, or one beside two built-in robots, with:
 
     bw4t run --map default --robots 3 \
-        --agent "python3 protocol/clients/python/examples/coop_agent.py"
+        --agent "python3 python/examples/coop_agent.py"
     bw4t run --map default --robots 3 --team builtin \
-        --agent "python3 protocol/clients/python/examples/coop_agent.py"
+        --agent "python3 python/examples/coop_agent.py"
 
 It talks in the shared message language (protocol/PROTOCOL.md, "The message language"),
 so built-in robots and other players understand it and it understands them. The strategy,

@@ -1,0 +1,173 @@
+//! `EnvSpec`: one environment configuration (map, seats, step, limits, rewards), checked
+//! once and shared by single and vector environments, with the spaces it implies.
+
+use bw4t_agents::Strategy;
+use bw4t_env::{EnvConfig, RewardMode, Rewards, Seat, Segment, Spaces};
+use bw4t_map::{Colour, ZoneKind};
+use bw4t_protocol::KINDS;
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+
+/// An environment's configuration and the spaces it implies.
+#[pyclass(module = "bw4t._native", frozen)]
+pub(crate) struct EnvSpec {
+    pub(crate) config: EnvConfig,
+    pub(crate) spaces: Spaces,
+}
+
+/// A seat named as the Python side names it: `learner`, or a built-in strategy's name.
+fn seat(name: &str) -> PyResult<Seat> {
+    if name == "learner" {
+        return Ok(Seat::Learner);
+    }
+    Strategy::named(name).map(Seat::Builtin).ok_or_else(|| {
+        let known: Vec<&str> = Strategy::ALL.iter().map(|s| s.name()).collect();
+        PyValueError::new_err(format!(
+            "unknown seat {name:?}: use \"learner\" or a built-in strategy ({})",
+            known.join(", ")
+        ))
+    })
+}
+
+fn layout(segments: &[Segment]) -> Vec<(&'static str, usize, usize)> {
+    segments.iter().map(|s| (s.name, s.offset, s.len)).collect()
+}
+
+#[pymethods]
+impl EnvSpec {
+    /// `map`: a shipped map's name or a map file; `seats`: one per robot in robot-id order,
+    /// `"learner"` or a built-in strategy; `max_ticks`: `None` for the map's own limit
+    /// (that of `bw4t run`); `reward_mode`: `"team"` or `"individual"`.
+    #[new]
+    #[pyo3(signature = (map, seats, ticks_per_step, max_ticks, slots, delivery, wrong_drop, step_cost, reward_mode))]
+    #[allow(clippy::too_many_arguments)] // The Python constructor's keywords, one each.
+    fn new(
+        map: &str,
+        seats: Vec<String>,
+        ticks_per_step: u32,
+        max_ticks: Option<u64>,
+        slots: usize,
+        delivery: f32,
+        wrong_drop: f32,
+        step_cost: f32,
+        reward_mode: &str,
+    ) -> PyResult<EnvSpec> {
+        let map = bw4t_cli::load_map(map).map_err(|e| PyValueError::new_err(format!("{e:#}")))?;
+        let seats = seats.iter().map(|s| seat(s)).collect::<PyResult<Vec<Seat>>>()?;
+        if !seats.contains(&Seat::Learner) {
+            return Err(PyValueError::new_err("at least one seat must be \"learner\""));
+        }
+        if seats.len() > map.spawns().len() {
+            return Err(PyValueError::new_err(format!(
+                "{} robots asked for, but map {:?} has {} spawn points",
+                seats.len(),
+                map.name(),
+                map.spawns().len()
+            )));
+        }
+        if ticks_per_step == 0 {
+            return Err(PyValueError::new_err("ticks_per_step must be at least 1"));
+        }
+        if !(1..=64).contains(&slots) {
+            return Err(PyValueError::new_err("slots must be from 1 to 64"));
+        }
+        let mode = match reward_mode {
+            "team" => RewardMode::Team,
+            "individual" => RewardMode::Individual,
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "unknown reward_mode {other:?}: use \"team\" or \"individual\""
+                )));
+            }
+        };
+        for (name, value) in [("delivery", delivery), ("wrong_drop", wrong_drop), ("step_cost", step_cost)] {
+            if !value.is_finite() {
+                return Err(PyValueError::new_err(format!("{name} must be a finite number")));
+            }
+        }
+        let mut config = EnvConfig::with_seats(map, seats);
+        config.ticks_per_step = ticks_per_step;
+        config.max_ticks = match max_ticks {
+            Some(0) => return Err(PyValueError::new_err("max_ticks must be at least 1")),
+            Some(ticks) => ticks,
+            None => bw4t_runner::TickLimit::for_map(&config.map, &config.match_config).ticks,
+        };
+        config.slots = slots;
+        config.rewards = Rewards { delivery, wrong_drop, step_cost, mode };
+        let spaces = Spaces::new(bw4t_env::Dims::of(&config.map, slots));
+        Ok(EnvSpec { config, spaces })
+    }
+
+    /// Length of one observation.
+    #[getter]
+    fn obs_len(&self) -> usize {
+        self.spaces.obs_len()
+    }
+
+    /// Number of discrete actions.
+    #[getter]
+    fn n_actions(&self) -> usize {
+        self.spaces.n_actions()
+    }
+
+    /// Learning robots per environment.
+    #[getter]
+    fn agents(&self) -> usize {
+        self.config.learners()
+    }
+
+    /// The tick limit (truncation).
+    #[getter]
+    fn max_ticks(&self) -> u64 {
+        self.config.max_ticks
+    }
+
+    /// Ticks per step.
+    #[getter]
+    fn ticks_per_step(&self) -> u32 {
+        self.config.ticks_per_step
+    }
+
+    /// The map's name.
+    #[getter]
+    fn map_name(&self) -> String {
+        self.config.map.name().to_string()
+    }
+
+    /// The observation's segments: `(name, offset, length)`.
+    #[getter]
+    fn obs_layout(&self) -> Vec<(&'static str, usize, usize)> {
+        layout(self.spaces.obs_layout())
+    }
+
+    /// The action space's segments: `(name, first action, count)`.
+    #[getter]
+    fn action_layout(&self) -> Vec<(&'static str, usize, usize)> {
+        layout(self.spaces.action_layout())
+    }
+
+    /// Every place (zone) of the map, in map order (`P`).
+    #[getter]
+    fn places(&self) -> Vec<String> {
+        self.config.map.zones().iter().map(|z| z.name.to_string()).collect()
+    }
+
+    /// The rooms, the drop zone included, in map order (`R`).
+    #[getter]
+    fn rooms(&self) -> Vec<String> {
+        let rooms = self.config.map.zones().iter().filter(|z| z.kind == ZoneKind::Room);
+        rooms.map(|z| z.name.to_string()).collect()
+    }
+
+    /// The block colours in the observation's order (`C`).
+    #[getter]
+    fn colours(&self) -> Vec<&'static str> {
+        Colour::ALL.iter().map(|c| c.name()).collect()
+    }
+
+    /// The message language's kinds in the observation's order (`M`).
+    #[getter]
+    fn message_kinds(&self) -> Vec<&'static str> {
+        KINDS.iter().map(|k| k.word).collect()
+    }
+}

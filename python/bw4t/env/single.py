@@ -1,0 +1,90 @@
+"""A Gymnasium environment for ad-hoc teamwork: one learning robot among built-in
+teammates (cooperative, baseline, silent or ignoring)."""
+
+from __future__ import annotations
+
+from typing import Any, Dict, Optional, Tuple
+
+import gymnasium
+import numpy as np
+
+from .. import _native
+from . import _spec
+from ._render import Renderer
+from .parallel import _symbolic_infos
+
+
+class Bw4tEnv(gymnasium.Env):
+    """BW4T as a single-agent Gymnasium environment (see :func:`bw4t.env.single_env`)."""
+
+    metadata = {"render_modes": ["rgb_array", "svg"], "render_fps": 2}
+
+    def __init__(
+        self,
+        map: str = "default",
+        teammates: int = 2,
+        strategy: str = "coop",
+        ticks_per_step: int = 10,
+        max_ticks: Optional[int] = None,
+        slots: int = 10,
+        rewards: Optional[_spec.Rewards] = None,
+        render_mode: Optional[str] = None,
+        symbolic: bool = False,
+    ) -> None:
+        self.spec_native = _spec.make_spec(
+            map, _spec.seats(1, teammates, strategy), ticks_per_step, max_ticks, slots, rewards
+        )
+        self._env = _native.Env(self.spec_native)
+        self.observation_space = _spec.observation_space(self.spec_native)
+        self.action_space = _spec.action_space(self.spec_native)
+        self._renderer = Renderer(render_mode, self.metadata["render_modes"])
+        self.render_mode = render_mode
+        self.symbolic = symbolic
+        self._action = np.zeros(1, dtype=np.uint32)
+        self._reward = np.zeros(1, dtype=np.float32)
+
+    def reset(self, *, seed: Optional[int] = None, options: Optional[dict] = None) -> Tuple[Dict, Dict]:
+        """A new episode. ``reset(seed=s)`` plays match seed ``s``; a later ``reset()``
+        the next seed of Gymnasium's ``np_random``, seeded with ``s``."""
+        super().reset(seed=seed)
+        match_seed = int(seed) if seed is not None else _spec.match_seed(self.np_random)
+        obs, masks = self._buffers()
+        self._env.reset(match_seed, obs, masks.view(np.uint8))
+        return {"observation": obs[0], "action_mask": masks[0]}, self._info()
+
+    def step(self, action: Any) -> Tuple[Dict, float, bool, bool, Dict]:
+        self._action[0] = int(action)
+        obs, masks = self._buffers()
+        terminated, truncated = self._env.step(self._action, obs, masks.view(np.uint8), self._reward)
+        observation = {"observation": obs[0], "action_mask": masks[0]}
+        return observation, float(self._reward[0]), terminated, truncated, self._info()
+
+    def _buffers(self) -> Tuple[np.ndarray, np.ndarray]:
+        # Fresh arrays each step: what was returned before is never overwritten.
+        obs = np.empty((1, self.spec_native.obs_len), dtype=np.float32)
+        masks = np.empty((1, self.spec_native.n_actions), dtype=np.int8)
+        return obs, masks
+
+    def _info(self) -> Dict[str, Any]:
+        return _symbolic_infos(self._env, ["me"])["me"] if self.symbolic else {}
+
+    def render(self) -> Any:
+        """``rgb_array``: an RGB image (H × W × 3, uint8); ``svg``: an SVG document."""
+        return self._renderer.render(self._env)
+
+    def render_svg(self) -> str:
+        """The match now as an SVG document, whatever the render mode."""
+        return self._env.render_svg()
+
+    def digest(self) -> int:
+        """The match's digest."""
+        return self._env.digest()
+
+    def stats(self) -> Dict[str, Any]:
+        """The match's statistics and each robot's."""
+        return self._env.stats()
+
+    @property
+    def tick(self) -> int:
+        """Ticks simulated in this episode."""
+        return self._env.tick()
