@@ -5,12 +5,14 @@
 #   ./test.sh
 #
 # Set-up first: checks the tools (a Rust toolchain, Python 3.9+, Node.js 20+, npm) and
-# installs what the suites need: pytest and the Python client into a virtualenv under
-# target/ (the system's Python is left alone), the browser tests' npm packages, and
-# Debian's Chromium (through apt-get, as root or with sudo that needs no password). What
-# it cannot install it names, in one line, with how to get it, and stops.
-# Then: the release binary, the Rust tests, the Python and JavaScript client suites and the
-# browser tests, all against that binary. A failing stage does not stop the later ones;
+# installs what the suites need: a virtualenv under target/ (the system's Python is left
+# alone) with maturin, pytest, NumPy, Gymnasium, PettingZoo, JAX and optax, the browser
+# tests' npm packages, and Debian's Chromium (through apt-get, as root or with sudo that
+# needs no password). What it cannot install it names, in one line, with how to get it,
+# and stops.
+# Then: the release binary, the Python package's wheel (built here and installed into the
+# virtualenv), the Rust tests, the Python suite (against the wheel), the JavaScript client
+# suite and the browser tests. A failing stage does not stop the later ones;
 # the exit status is 0 only when every stage passed.
 #
 # BW4T_ORIGINAL_MAPS=DIR also runs the Rust tests on the original BW4T map files in DIR
@@ -73,7 +75,7 @@ command -v node >/dev/null && node -e 'process.exit(Number(process.versions.node
     missing "Node.js 20 or newer as node: https://nodejs.org (or apt-get install nodejs npm on Debian 13)"
 command -v npm >/dev/null || missing "npm (it comes with Node.js): apt-get install npm, or https://nodejs.org"
 
-# Python: pytest and the client (installed, so its packaging is tested too) in a virtualenv.
+# Python: the tools to build the wheel and the test suite's packages, in a virtualenv.
 venv=$target/test-venv
 python=$venv/bin/python
 # A virtualenv left by a Python that is gone is made anew.
@@ -89,19 +91,14 @@ fi
 pip_log=$target/test-pip.log
 if [ -x "$python" ]; then
     pip=("$python" -m pip install --quiet --disable-pip-version-check --no-input)
-    # The client is reinstalled every time, built offline with the virtualenv's setuptools.
-    if ! { "${pip[@]}" pytest 'setuptools>=61' wheel &&
-        "${pip[@]}" --no-deps --force-reinstall --no-build-isolation ./protocol/clients/python; } \
+    # What the package needs (python/pyproject.toml), its test and training extras, maturin.
+    if ! "${pip[@]}" 'maturin>=1.9,<2' pytest numpy 'gymnasium>=1.1' 'pettingzoo>=1.24' jax optax \
         >"$pip_log" 2>&1; then
-        missing "pytest or the Python client in $venv: pip could not install them from PyPI (see $pip_log)"
+        missing "maturin, pytest, numpy, gymnasium, pettingzoo, jax or optax in $venv: pip could not install them from PyPI (see $pip_log)"
     fi
-    echo "    Python: $("$python" --version), pytest and the client in $venv"
-elif python3 -c 'import pytest' 2>/dev/null; then
-    # No virtualenv here: the system's pytest, with the client from its source folder.
-    python=python3
-    echo "    Python: no virtualenv could be made; using $(python3 --version) with its own pytest"
+    echo "    Python: $("$python" --version), with maturin, pytest, NumPy, Gymnasium, PettingZoo, JAX in $venv"
 else
-    missing "python3 -m venv (apt-get install python3-venv) or pytest (python3 -m pip install pytest)"
+    missing "python3 -m venv: apt-get install python3-venv"
 fi
 
 # Browser tests: Debian's Chromium (where the tests look for it) and playwright-core.
@@ -123,6 +120,14 @@ took
 heading "Build the release binary: cargo build --release --locked"
 cargo build --release --locked
 export BW4T_BIN=$target/release/bw4t
+took
+
+heading "Build and install the Python package: maturin build (python/), pip install the wheel"
+wheels=$target/wheels
+rm -f "$wheels"/bw4t-*.whl
+(cd python && "$venv/bin/maturin" build --release --locked --quiet -o "$wheels")
+"${pip[@]}" --force-reinstall --no-deps "$wheels"/bw4t-*.whl
+echo "    $(basename "$wheels"/bw4t-*.whl) installed in $venv"
 took
 
 passed=()
@@ -148,9 +153,9 @@ else
     echo "    Set it to the folder of the original BW4T map files to run them."
 fi
 
-heading "Python client: pytest (protocol/clients/python)"
-# shellcheck disable=SC2016 # $1 is expanded by the inner shell
-stage python bash -c 'cd protocol/clients/python && "$1" -m pytest -q' _ "$python"
+heading "Python package: pytest python/tests (the installed wheel: environments, match, client, command)"
+# The virtualenv's pytest script (not `python -m`), so `bw4t` is the wheel, not python/bw4t.
+stage python "$venv/bin/pytest" -q -p no:cacheprovider python/tests
 
 heading "JavaScript client: node --test protocol/clients/js/test/"
 stage javascript node --test protocol/clients/js/test/

@@ -7,11 +7,15 @@ use pyo3::prelude::*;
 
 fn check(name: &str, contiguous: bool, len: Option<usize>, want: usize, shape: &str) -> PyResult<()> {
     if !contiguous {
-        return Err(PyValueError::new_err(format!("{name} must be a C-contiguous array (np.ascontiguousarray)")));
+        return Err(PyValueError::new_err(format!(
+            "{name} must be a C-contiguous array (np.ascontiguousarray)"
+        )));
     }
     match len {
         Some(n) if n == want => Ok(()),
-        Some(n) => Err(PyValueError::new_err(format!("{name} holds {n} values; it must hold {want} ({shape})"))),
+        Some(n) => {
+            Err(PyValueError::new_err(format!("{name} holds {n} values; it must hold {want} ({shape})")))
+        }
         None => Err(PyValueError::new_err(format!("{name} is not contiguous or is misaligned"))),
     }
 }

@@ -39,7 +39,8 @@ fn outcome_name(outcome: ActionOutcome) -> String {
 
 /// A percept delta as the protocol's `percepts` message carries it.
 fn delta_json(delta: &PerceptDelta) -> Value {
-    let facts = |ps: &[bw4t_sim::Percept]| ps.iter().map(|p| Value::from(percept_to_fact(p))).collect::<Vec<_>>();
+    let facts =
+        |ps: &[bw4t_sim::Percept]| ps.iter().map(|p| Value::from(percept_to_fact(p))).collect::<Vec<_>>();
     json!({"tick": delta.tick, "full": delta.full, "add": facts(&delta.add), "not": facts(&delta.not)})
 }
 

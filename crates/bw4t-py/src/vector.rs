@@ -8,8 +8,8 @@ use pyo3::prelude::*;
 
 use crate::arrays::{readable, writable};
 use crate::locked;
-use std::sync::{Mutex, MutexGuard};
 use crate::spec::EnvSpec;
+use std::sync::{Mutex, MutexGuard};
 
 /// A vector of environments. Rows are environment after environment, learner after
 /// learner: row `e * agents + a`.

@@ -41,10 +41,15 @@ from __future__ import annotations
 
 from typing import Optional
 
+import gymnasium
+
 from ._spec import Rewards
 from .parallel import Bw4tParallelEnv
 from .single import Bw4tEnv
 from .vector import Bw4tVectorEnv
+
+# `gymnasium.make("bw4t/Bw4t-v0", teammates=2, strategy="coop", ...)`: the single-agent env.
+gymnasium.register("bw4t/Bw4t-v0", entry_point="bw4t.env.single:Bw4tEnv")
 
 __all__ = ["Bw4tEnv", "Bw4tParallelEnv", "Bw4tVectorEnv", "Rewards", "parallel_env", "single_env", "vector_env"]
 
