@@ -1,5 +1,5 @@
-//! `bw4t._native`: the Rust half of the Python package. Environments ([`spec::EnvSpec`],
-//! [`env::Env`], [`vector::VecEnv`]) write into NumPy arrays the caller allocated and step
+//! `bw4t._native`: the Rust half of the Python package. Environments (`EnvSpec`, `Env`,
+//! `VecEnv`) write into NumPy arrays the caller allocated and step
 //! without holding the interpreter; the command line runs as `bw4t` from the wheel.
 //!
 //! The Python half (`python/bw4t`) wraps these in PettingZoo, Gymnasium and vector
