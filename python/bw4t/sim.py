@@ -59,14 +59,19 @@ class Match:
         strategy: str = "coop",
         max_ticks: Optional[int] = None,
     ) -> None:
-        spec = _spec.make_spec(map, _spec.seats(players, teammates, strategy), 1, max_ticks, 10, None)
-        self.seed = int(seed)
-        self.max_ticks = spec.max_ticks
-        self._env = _native.Env(spec)
-        obs = np.empty((players, spec.obs_len), dtype=np.float32)
-        masks = np.empty((players, spec.n_actions), dtype=np.uint8)
-        self._env.reset(self.seed, obs, masks)
+        self._spec = _spec.make_spec(map, _spec.seats(players, teammates, strategy), 1, max_ticks, 10, None)
+        self.max_ticks = self._spec.max_ticks
+        self._env = _native.Env(self._spec)
         self.players: List[str] = list(self._env.agent_names())
+        self.reset(seed)
+
+    def reset(self, seed: int) -> None:
+        """Starts the match anew on ``seed`` (same map and robots); beliefs start empty."""
+        self.seed = int(seed)
+        n = len(self.players)
+        obs = np.empty((n, self._spec.obs_len), dtype=np.float32)
+        masks = np.empty((n, self._spec.n_actions), dtype=np.uint8)
+        self._env.reset(self.seed, obs, masks)
         self._beliefs = {name: BeliefBase() for name in self.players}
         self.over = False
         self._take_deltas()

@@ -84,6 +84,11 @@ def test_the_same_seed_and_actions_give_the_same_match() -> None:
     first = play()
     assert first[1] > 0
     assert play() == first
+    m = Match(seed=1, players=1, teammates=2)
+    m.reset(9)
+    m.step({"Agent1": ("goTo", ["RoomC3"])})
+    m.run(3000)
+    assert (m.digest(), m.tick) == first[:2], "reset(seed) starts the same match as a new one"
     assert "default" in shipped_maps()
 
 
