@@ -39,8 +39,6 @@ observations, rewards and digests for whole episodes, in every process.
 
 from __future__ import annotations
 
-from typing import Optional
-
 import gymnasium
 
 from ._spec import Rewards
@@ -54,63 +52,10 @@ gymnasium.register("bw4t/Bw4t-v0", entry_point="bw4t.env.single:Bw4tEnv")
 __all__ = ["Bw4tEnv", "Bw4tParallelEnv", "Bw4tVectorEnv", "Rewards", "parallel_env", "single_env", "vector_env"]
 
 
-def parallel_env(
-    map: str = "default",
-    robots: int = 3,
-    teammates: int = 0,
-    strategy: str = "coop",
-    ticks_per_step: int = 10,
-    max_ticks: Optional[int] = None,
-    slots: int = 10,
-    rewards: Optional[Rewards] = None,
-    render_mode: Optional[str] = None,
-    symbolic: bool = False,
-) -> Bw4tParallelEnv:
-    """A PettingZoo ``ParallelEnv`` of ``robots`` learning robots (and ``teammates``
-    built-in robots of ``strategy``) on ``map`` (a shipped map's name or a map file).
-    ``symbolic=True`` adds each agent's percepts (in the protocol's own form), its new
-    percepts and its last action's outcome to ``infos``. ``render_mode``: ``"rgb_array"``
-    or ``"svg"``."""
-    return Bw4tParallelEnv(
-        map, robots, teammates, strategy, ticks_per_step, max_ticks, slots, rewards, render_mode, symbolic
-    )
-
-
-def single_env(
-    map: str = "default",
-    teammates: int = 2,
-    strategy: str = "coop",
-    ticks_per_step: int = 10,
-    max_ticks: Optional[int] = None,
-    slots: int = 10,
-    rewards: Optional[Rewards] = None,
-    render_mode: Optional[str] = None,
-    symbolic: bool = False,
-) -> Bw4tEnv:
-    """A Gymnasium ``Env``: one learning robot among ``teammates`` built-in robots of
-    ``strategy`` (``coop``, ``baseline``, ``silent``, ``ignoring``)."""
-    return Bw4tEnv(map, teammates, strategy, ticks_per_step, max_ticks, slots, rewards, render_mode, symbolic)
-
-
-def vector_env(
-    num_matches: int = 64,
-    map: str = "default",
-    robots: int = 3,
-    teammates: int = 0,
-    strategy: str = "coop",
-    ticks_per_step: int = 10,
-    max_ticks: Optional[int] = None,
-    slots: int = 10,
-    rewards: Optional[Rewards] = None,
-    threads: Optional[int] = None,
-    seed: int = 0,
-    copy: bool = True,
-) -> Bw4tVectorEnv:
-    """A Gymnasium ``VectorEnv`` of ``num_matches`` matches of ``robots`` learners (the
-    parallel setting) or of one learner among ``teammates`` (``robots=1``, the single
-    setting); ``num_envs`` is ``num_matches × robots``, one row per learner. ``threads``
-    defaults to the machine's cores; ``copy=False`` returns the vector's own arrays
-    (overwritten by the next step) instead of copies."""
-    return Bw4tVectorEnv(
-        num_matches, map, robots, teammates, strategy, ticks_per_step, max_ticks, slots, rewards, threads, seed, copy
-    )
+#: ``parallel_env(map="default", robots=3, teammates=0, strategy="coop", ...)``: the
+#: PettingZoo ``ParallelEnv`` (PettingZoo's naming for an environment's constructor).
+parallel_env = Bw4tParallelEnv
+#: ``single_env(map="default", teammates=2, strategy="coop", ...)``: the Gymnasium ``Env``.
+single_env = Bw4tEnv
+#: ``vector_env(num_matches=64, map="default", robots=3, ...)``: the ``VectorEnv``.
+vector_env = Bw4tVectorEnv

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+import json
 from typing import Any, Dict, Optional, Tuple
 
 import numpy as np
@@ -11,11 +12,15 @@ from pettingzoo import ParallelEnv
 
 from .. import _native
 from . import _spec
-from ._render import Renderer
+from ._render import MatchViews, Renderer
 
 
-class Bw4tParallelEnv(ParallelEnv):
-    """BW4T as a PettingZoo parallel environment (see :func:`bw4t.env.parallel_env`)."""
+class Bw4tParallelEnv(MatchViews, ParallelEnv):
+    """A PettingZoo ``ParallelEnv`` of ``robots`` learning robots (and ``teammates``
+    built-in robots of ``strategy``) on ``map`` (a shipped map's name or a map file).
+    ``symbolic=True`` adds each agent's percepts (in the protocol's own form), its new
+    percepts and its last action's outcome to ``infos``. ``render_mode``: ``"rgb_array"``
+    or ``"svg"``. The other arguments are described in :mod:`bw4t.env`."""
 
     metadata = {"name": "bw4t_v0", "render_modes": ["rgb_array", "svg"], "is_parallelizable": True, "render_fps": 2}
 
@@ -107,35 +112,9 @@ class Bw4tParallelEnv(ParallelEnv):
             return {name: {} for name in self.possible_agents}
         return _symbolic_infos(self._env, self.possible_agents)
 
-    # ------------------------------------------------------------------ looking
-
-    def render(self) -> Any:
-        """``rgb_array``: the match now as an RGB image (H × W × 3, uint8); ``svg``: as
-        an SVG document (a string)."""
-        return self._renderer.render(self._env)
-
-    def render_svg(self) -> str:
-        """The match now as an SVG document, whatever the render mode."""
-        return self._env.render_svg()
-
-    def digest(self) -> int:
-        """The match's digest: equal digests mean equal matches, bit for bit."""
-        return self._env.digest()
-
-    def stats(self) -> Dict[str, Any]:
-        """The match's statistics (drops, messages, ticks) and each robot's."""
-        return self._env.stats()
-
-    @property
-    def tick(self) -> int:
-        """Ticks simulated in this episode."""
-        return self._env.tick()
-
     def describe(self, agent: str, action: int) -> Optional[list]:
         """Action ``action`` of ``agent`` as the protocol's ``[name, args]``, or ``None``
         (wait, or not allowed now)."""
-        import json
-
         text = self._env.describe(self.possible_agents.index(agent), int(action))
         return None if text is None else json.loads(text)
 
@@ -145,8 +124,6 @@ class Bw4tParallelEnv(ParallelEnv):
 
 def _symbolic_infos(env: "_native.Env", names: list) -> Dict[str, Dict[str, Any]]:
     """Each learner's percepts in the protocol's own form, and its last action's outcome."""
-    import json
-
     outcomes = env.outcomes()
     infos = {}
     for i, name in enumerate(names):

@@ -10,12 +10,14 @@ import numpy as np
 
 from .. import _native
 from . import _spec
-from ._render import Renderer
+from ._render import MatchViews, Renderer
 from .parallel import _symbolic_infos
 
 
-class Bw4tEnv(gymnasium.Env):
-    """BW4T as a single-agent Gymnasium environment (see :func:`bw4t.env.single_env`)."""
+class Bw4tEnv(MatchViews, gymnasium.Env):
+    """A Gymnasium ``Env``: one learning robot among ``teammates`` built-in robots of
+    ``strategy`` (``coop``, ``baseline``, ``silent``, ``ignoring``); also
+    ``gymnasium.make("bw4t/Bw4t-v0", ...)``. Arguments as in :mod:`bw4t.env`."""
 
     metadata = {"render_modes": ["rgb_array", "svg"], "render_fps": 2}
 
@@ -67,24 +69,3 @@ class Bw4tEnv(gymnasium.Env):
 
     def _info(self) -> Dict[str, Any]:
         return _symbolic_infos(self._env, ["me"])["me"] if self.symbolic else {}
-
-    def render(self) -> Any:
-        """``rgb_array``: an RGB image (H × W × 3, uint8); ``svg``: an SVG document."""
-        return self._renderer.render(self._env)
-
-    def render_svg(self) -> str:
-        """The match now as an SVG document, whatever the render mode."""
-        return self._env.render_svg()
-
-    def digest(self) -> int:
-        """The match's digest."""
-        return self._env.digest()
-
-    def stats(self) -> Dict[str, Any]:
-        """The match's statistics and each robot's."""
-        return self._env.stats()
-
-    @property
-    def tick(self) -> int:
-        """Ticks simulated in this episode."""
-        return self._env.tick()

@@ -16,8 +16,11 @@ from . import _spec
 
 
 class Bw4tVectorEnv(gymnasium.vector.VectorEnv):
-    """``num_matches`` matches; one row per learning robot (``num_envs = num_matches ×
-    learners``), match after match (see :func:`bw4t.env.vector_env`)."""
+    """A Gymnasium ``VectorEnv`` of ``num_matches`` matches of ``robots`` learners (the
+    parallel setting) or of one learner among ``teammates`` (``robots=1``, the single
+    setting); ``num_envs`` is ``num_matches × robots``, one row per learner, match after
+    match. ``threads`` defaults to the machine's cores; ``copy=False`` returns the
+    vector's own arrays (overwritten by the next step) instead of copies."""
 
     metadata = {"autoreset_mode": AutoresetMode.SAME_STEP, "render_modes": []}
 
