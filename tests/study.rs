@@ -316,11 +316,8 @@ async fn a_participant_goes_through_the_whole_study_and_the_export_has_every_row
         (status, paused["paused"].as_bool(), paused["name"].as_str()),
         (200, Some(true), Some(name.as_str()))
     );
-    let (status, resumed) = rig.operator("POST", &format!("/api/matches/{name}/resume")).await;
-    assert_eq!((status, resumed["paused"].as_bool()), (200, Some(false)), "{resumed}");
-    let (status, _) = rig.operator("POST", "/api/matches/nothing-here/pause").await;
-    assert_eq!(status, 404);
-    // Unanswered, the lockstep match waits a second on each tick: it is still running.
+    // Paused, the match cannot end: an answer is refused (after the server's short wait
+    // for an end it may not have recorded yet).
     let (status, running) = rig
         .call(
             "POST",
@@ -330,6 +327,10 @@ async fn a_participant_goes_through_the_whole_study_and_the_export_has_every_row
         .await;
     assert_eq!(status, 409, "{running}");
     assert!(running["error"].as_str().is_some_and(|e| e.contains("still running")), "{running}");
+    let (status, resumed) = rig.operator("POST", &format!("/api/matches/{name}/resume")).await;
+    assert_eq!((status, resumed["paused"].as_bool()), (200, Some(false)), "{resumed}");
+    let (status, _) = rig.operator("POST", "/api/matches/nothing-here/pause").await;
+    assert_eq!(status, 404);
     // Bob may not answer his trial with Alice's match.
     let (_, summary) = rig.operator("GET", &format!("/api/matches/{name}")).await;
     let alice_match = summary["id"].as_str().expect("id").to_string();

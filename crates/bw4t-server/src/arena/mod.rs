@@ -564,6 +564,11 @@ impl Arena {
         self.inner.ended_count.send_modify(|n| *n += 1);
     }
 
+    /// How many matches have ended since the server started.
+    pub fn ended_so_far(&self) -> u64 {
+        *self.inner.ended_count.borrow()
+    }
+
     /// Resolves once `n` matches have ended (in all, since the server started).
     pub async fn ended(&self, n: u64) {
         let mut count = self.inner.ended_count.subscribe();

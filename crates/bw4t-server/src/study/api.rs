@@ -44,6 +44,8 @@ const EVENT_KINDS: &[&str] = &[
 
 /// The most events one request may carry.
 const MAX_EVENTS: usize = 1000;
+/// How long a trial's end waits for its match to be recorded as ended (see `is_running`).
+const END_WAIT: std::time::Duration = std::time::Duration::from_secs(3);
 
 /// Answers `method` on `/api/study/REST...`; `body` is the request's (empty for a GET).
 pub(crate) async fn respond(
@@ -316,11 +318,24 @@ impl StudyServer {
         summary["id"].as_str().map(str::to_string)
     }
 
-    /// Whether the live match of `match_id`'s name is that very match.
+    /// Whether the live match of `match_id`'s name is that very match. The page reports a
+    /// trial's end as soon as it sees `match_end`, which can come before the arena has
+    /// recorded the end: a running match is given up to `END_WAIT` to end first.
     async fn is_running(&self, match_id: &str) -> bool {
         let Some((name, _)) = match_id.rsplit_once('.') else { return false };
-        let summary = self.inner.arena.summary(name, true).await;
-        summary.is_some_and(|s| s["id"] == match_id && s["state"] != "finished")
+        let arena = &self.inner.arena;
+        let deadline = tokio::time::Instant::now() + END_WAIT;
+        loop {
+            // Counted before looking, so an end in between is not waited for.
+            let ended = arena.ended_so_far();
+            let summary = arena.summary(name, true).await;
+            if !summary.is_some_and(|s| s["id"] == match_id && s["state"] != "finished") {
+                return false;
+            }
+            if tokio::time::timeout_at(deadline, arena.ended(ended + 1)).await.is_err() {
+                return true;
+            }
+        }
     }
 
     /// `POST .../ID/trial`: the page's word that the trial's match started.

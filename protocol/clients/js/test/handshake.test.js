@@ -20,7 +20,9 @@ async function server(args = []) {
 }
 
 test('handshake: welcome, the first snapshot, ping, bye', { timeout: 20000 }, async () => {
-  const s = await server(['--deadline-ms', '0']);
+  // No tick limit: an idle robot is not waited for, so a limited match could end before
+  // the bye (in milliseconds), and then `finished` would hold its result.
+  const s = await server(['--deadline-ms', '0', '--max-ticks', '0']);
   const client = await connect({ host: s.host, port: s.port, name: 'Ann' });
   try {
     assert.equal(client.name, 'Ann');
