@@ -30,9 +30,6 @@ pub enum EnvError {
     /// A config value is out of range.
     #[error("{0}")]
     Config(&'static str),
-    /// The vector's worker threads could not be started.
-    #[error("cannot start the vector's threads: {0}")]
-    Threads(String),
 }
 
 /// What became of a learner's last action.

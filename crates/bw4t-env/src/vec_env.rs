@@ -4,7 +4,6 @@
 use std::sync::Arc;
 
 use bw4t_map::SeededRng;
-use rayon::iter::{IntoParallelIterator, ParallelIterator};
 
 use crate::config::EnvConfig;
 use crate::encode::Codec;
@@ -46,9 +45,7 @@ struct Slot {
 pub struct VecEnv {
     slots: Vec<Slot>,
     codec: Arc<Codec>,
-    /// Workers kept for the vector's life (none for one thread): starting threads every
-    /// step would cost as much as stepping a few environments.
-    pool: Option<rayon::ThreadPool>,
+    threads: usize,
     agents: usize,
     obs_len: usize,
     n_actions: usize,
@@ -121,7 +118,7 @@ impl VecBuffers {
 
 impl VecEnv {
     /// `n` environments of `config`, seeded from `seed`, stepped on `threads` threads (the
-    /// caller's own for one, else a pool of that many started here). Not reset yet: call
+    /// caller's own and `threads - 1` more, per step). Not reset yet: call
     /// [`VecEnv::reset`] first.
     pub fn new(config: EnvConfig, n: usize, seed: u64, threads: usize) -> Result<VecEnv, EnvError> {
         let first = Env::new(config)?;
@@ -138,17 +135,7 @@ impl VecEnv {
             .map(|(i, env)| Slot { env, seeds: SeedStream::new(seed, i), episodes: 0 })
             .take(n)
             .collect();
-        let pool = match threads {
-            0 | 1 => None,
-            workers => Some(
-                rayon::ThreadPoolBuilder::new()
-                    .num_threads(workers)
-                    .thread_name(|i| format!("bw4t-env-{i}"))
-                    .build()
-                    .map_err(|e| EnvError::Threads(e.to_string()))?,
-            ),
-        };
-        Ok(VecEnv { slots, codec, pool, agents, obs_len, n_actions })
+        Ok(VecEnv { slots, codec, threads: threads.max(1), agents, obs_len, n_actions })
     }
 
     /// The number of environments.
@@ -209,9 +196,7 @@ impl VecEnv {
         if n == 0 {
             return Ok(());
         }
-        // A few chunks per thread, so one slow environment does not hold a thread's whole share.
-        let threads = self.pool.as_ref().map_or(1, rayon::ThreadPool::current_num_threads);
-        let per = n.div_ceil((threads * 4).min(n));
+        let per = n.div_ceil(self.threads.min(n));
         let (o, m) = (a * self.obs_len, a * self.n_actions);
         let mut finals = out.final_obs.map(|f| f.chunks_mut(per * o));
         let chunks = self
@@ -235,13 +220,17 @@ impl VecEnv {
                     final_obs: finals.as_mut().and_then(Iterator::next),
                 },
             });
-        match &self.pool {
-            None => chunks.into_iter().try_for_each(|chunk| chunk.step(a)),
-            Some(pool) => {
-                let chunks: Vec<Chunk<'_>> = chunks.collect();
-                pool.install(|| chunks.into_par_iter().try_for_each(|chunk| chunk.step(a)))
+        let mut chunks: Vec<Chunk<'_>> = chunks.collect();
+        let own = chunks.remove(0);
+        std::thread::scope(|scope| {
+            let others: Vec<_> = chunks.into_iter().map(|chunk| scope.spawn(move || chunk.step(a))).collect();
+            let mut result = own.step(a);
+            for handle in others {
+                let theirs = handle.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+                result = result.and(theirs);
             }
-        }
+            result
+        })
     }
 }
 
