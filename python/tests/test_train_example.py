@@ -1,0 +1,58 @@
+"""The training example (examples/train_ppo.py) runs its smoke run: two tiny PPO updates.
+
+Skipped where JAX or optax is not installed (``pip install "bw4t[train]"``).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("jax")
+pytest.importorskip("optax")
+
+PYTHON_DIR = Path(__file__).resolve().parents[1]
+SCRIPT = PYTHON_DIR / "examples" / "train_ppo.py"
+
+
+def numbers(value):
+    """Every number inside a JSON value."""
+    if isinstance(value, bool):
+        return
+    if isinstance(value, (int, float)):
+        yield value
+    elif isinstance(value, dict):
+        for item in value.values():
+            yield from numbers(item)
+    elif isinstance(value, list):
+        for item in value:
+            yield from numbers(item)
+
+
+def test_smoke_run_prints_finite_json_lines():
+    done = subprocess.run(
+        [sys.executable, str(SCRIPT), "--smoke"],
+        cwd=PYTHON_DIR,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert done.returncode == 0, f"exit {done.returncode}\nstdout:\n{done.stdout}\nstderr:\n{done.stderr}"
+    lines = [json.loads(line) for line in done.stdout.splitlines() if line.strip()]
+    updates = [line for line in lines if "update" in line]
+    summaries = [line for line in lines if line.get("summary")]
+    assert [line["update"] for line in updates] == [1, 2]
+    assert len(summaries) == 1 and lines[-1] is summaries[0]
+    for line in updates:
+        for key in ("global_step", "episodes_ended", "mean_episode_return", "mean_delivered", "sps"):
+            assert key in line, key
+        assert line["global_step"] > 0
+    assert summaries[0]["episodes_ended"] > 0
+    for line in lines:
+        for x in numbers(line):
+            assert math.isfinite(x), line
