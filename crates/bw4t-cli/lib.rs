@@ -12,6 +12,7 @@ mod bench_arena;
 mod bench_net;
 mod map_cmd;
 mod maps;
+mod mcp;
 mod replay;
 mod run;
 mod serve;
@@ -51,6 +52,9 @@ enum Command {
     /// Serve a study (consent, instructions, trials in counterbalanced conditions,
     /// questionnaires) to participants in the browser, recording everything; or export its data.
     Study(study::StudyArgs),
+    /// Drive one robot through the Model Context Protocol (tools, resources, a role
+    /// prompt) over stdio or streamable HTTP, in a match of its own or a served one.
+    Mcp(mcp::McpArgs),
     /// Measure performance; prints one JSON object per line per case.
     Bench(bench::BenchArgs),
 }
@@ -118,6 +122,7 @@ pub fn main(args: impl IntoIterator<Item = OsString>, self_command: Option<Vec<O
         Command::Serve(args) => done(serve::run(&args)),
         Command::Tournament(args) => tournament::run(&args),
         Command::Study(args) => done(study::run(&args)),
+        Command::Mcp(args) => done(mcp::run(&args)),
         Command::Bench(args) => done(bench::run(&args)),
     };
     match result {

@@ -99,7 +99,7 @@ fn serve(args: &StudyArgs, file: &Path) -> Result<()> {
         bw4t_server::study::load(file, &|spec: &str| crate::maps::load(spec).map_err(|e| format!("{e:#}")))
             .map_err(anyhow::Error::msg)?;
     keep_study_file(&args.data, &study, args.changed_study)?;
-    let token = args.operator_token.clone().unwrap_or_else(make_token);
+    let token = args.operator_token.clone().unwrap_or_else(bw4t_server::random_token);
     let mut settings = ArenaConfig::new(study.templates());
     settings.default = None;
     settings.operator_token = Some(token.clone());
@@ -175,18 +175,4 @@ fn keep_study_file(data: &Path, study: &Study, changed: bool) -> Result<()> {
         std::fs::rename(&copy, &kept).with_context(|| format!("cannot keep {}", kept.display()))?;
     }
     std::fs::write(&copy, &study.text).with_context(|| format!("cannot write {}", copy.display()))
-}
-
-/// A secret for the operator: 128 bits from the process's hash keys and the clock.
-fn make_token() -> String {
-    use std::hash::{BuildHasher, Hasher};
-    let half = |salt: u64| {
-        let mut h = std::collections::hash_map::RandomState::new().build_hasher();
-        h.write_u64(salt);
-        h.write_u128(
-            std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos()),
-        );
-        h.finish()
-    };
-    format!("{:016x}{:016x}", half(1), half(2))
 }

@@ -101,7 +101,7 @@ pub fn play_served(run: ServedRun<'_>) -> Result<(MatchResult, Vec<AgentReport>)
         .enable_all()
         .build()
         .map_err(|e| io("runtime", e))?;
-    let token = format!("{:016x}", token_bits());
+    let token = bw4t_server::random_token();
     runtime.block_on(async {
         let listener =
             tokio::net::TcpListener::bind("127.0.0.1:0").await.map_err(|e| io("cannot listen", e))?;
@@ -304,12 +304,4 @@ fn report(seat: &SeatSpec, result: &MatchResult, children: &[Running]) -> AgentR
             }
         }
     }
-}
-
-/// Unpredictable bits for the match token.
-fn token_bits() -> u64 {
-    use std::hash::{BuildHasher, Hasher};
-    let mut h = std::collections::hash_map::RandomState::new().build_hasher();
-    h.write_u64(std::process::id().into());
-    h.finish()
 }

@@ -12,6 +12,7 @@ mod connection;
 mod host;
 mod http;
 mod lateness;
+mod secret;
 pub mod study;
 mod websocket;
 
@@ -23,6 +24,7 @@ pub use connection::{ConnId, LISTEN_BACKLOG, listen};
 pub use host::{HostEvent, HostStatus, MatchHost, QueueRoom, Transmit};
 pub use http::{FrameSource, MAX_REQUESTS, ReplayAsk, Site, serve_site};
 pub use lateness::TickLateness;
+pub use secret::random_token;
 pub use websocket::parse_origin;
 
 use std::future::Future;

@@ -1,0 +1,202 @@
+//! `bw4t mcp`: one robot behind a Model Context Protocol server, over stdio or streamable
+//! HTTP, in a match of its own or in a served one. Standard output belongs to the MCP
+//! client in stdio mode, so everything else goes to standard error.
+
+use std::net::{SocketAddr, ToSocketAddrs};
+use std::path::PathBuf;
+use std::time::Duration;
+
+use anyhow::{Context, Result, bail};
+use bw4t_agents::Strategy;
+use bw4t_mcp::{Docs, Link, LocalMatch, MAX_TOOL_SECONDS, RobotServer};
+use bw4t_protocol::Hello;
+use bw4t_runner::TickLimit;
+use bw4t_sim::MatchConfig;
+use clap::Args;
+
+/// Options of `bw4t mcp`.
+#[derive(Args)]
+pub(crate) struct McpArgs {
+    /// Join the match served at HOST:PORT (default: BW4T_HOST and BW4T_PORT when set, as
+    /// `bw4t run --agent` and tournaments give them; else a match of its own).
+    #[arg(long, value_name = "HOST:PORT")]
+    connect: Option<String>,
+    /// The player name (default: BW4T_NAME, else Model).
+    #[arg(long)]
+    name: Option<String>,
+    /// The player token of the served match (default: BW4T_TOKEN).
+    #[arg(long)]
+    token: Option<String>,
+    /// A served match to join, by name.
+    #[arg(long = "match", value_name = "NAME", conflicts_with = "template")]
+    match_name: Option<String>,
+    /// A template of the server whose next free seat to take.
+    #[arg(long, value_name = "NAME")]
+    template: Option<String>,
+    /// The map: the one to play in a match of its own (default fixed), or, joining a
+    /// served match, the one to describe (default: the match's map, if it is shipped).
+    #[arg(long)]
+    map: Option<String>,
+    /// A match of its own: the seed (a random one is chosen and printed when omitted).
+    #[arg(long)]
+    seed: Option<u64>,
+    /// A match of its own: built-in teammates, by strategy (coop, silent, ignoring,
+    /// baseline), comma-separated; each adds a robot.
+    #[arg(long, value_delimiter = ',', value_name = "STRATEGY,...")]
+    teammates: Vec<String>,
+    /// A match of its own: the last tick (default: derived from the map).
+    #[arg(long)]
+    max_ticks: Option<u64>,
+    /// A match of its own: seconds the match waits for the robot's driver in a tick
+    /// before it goes on without it (0: for ever).
+    #[arg(long, default_value_t = 600)]
+    deadline_s: u64,
+    /// A match of its own: write its replay here.
+    #[arg(long)]
+    replay: Option<PathBuf>,
+    /// A match of its own: write its result (JSON) here when it ends.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Serve MCP over streamable HTTP at this address (endpoint /mcp) instead of stdio.
+    #[arg(long, value_name = "ADDR")]
+    http: Option<SocketAddr>,
+    /// With --http: a Host name to accept besides loopback's (repeat for more).
+    #[arg(long = "allow-host", value_name = "HOST")]
+    allow_hosts: Vec<String>,
+    /// Seconds a tool call may take (wall time) before it returns `timeout`.
+    #[arg(long, default_value_t = 120.0)]
+    tool_timeout_s: f64,
+    /// Seconds to wait for a seat when joining.
+    #[arg(long, default_value_t = 30)]
+    join_timeout_s: u64,
+    /// Write one JSON line per tool call here: tool, arguments, tick, ticks taken, the
+    /// wall time thinking before it and running it, outcome.
+    #[arg(long)]
+    log: Option<PathBuf>,
+}
+
+/// A served match's address, from --connect or the environment.
+fn served_address(args: &McpArgs) -> Result<Option<SocketAddr>> {
+    let given = match &args.connect {
+        Some(address) => address.clone(),
+        None => match (std::env::var("BW4T_HOST"), std::env::var("BW4T_PORT")) {
+            (Ok(host), Ok(port)) => format!("{host}:{port}"),
+            _ => return Ok(None),
+        },
+    };
+    let addr = given
+        .to_socket_addrs()
+        .with_context(|| format!("cannot resolve '{given}' (expected HOST:PORT)"))?
+        .next()
+        .with_context(|| format!("'{given}' resolves to no address"))?;
+    Ok(Some(addr))
+}
+
+/// Runs `bw4t mcp` until the MCP client goes away.
+pub(crate) fn run(args: &McpArgs) -> Result<()> {
+    if !(args.tool_timeout_s > 0.0 && args.tool_timeout_s <= MAX_TOOL_SECONDS) {
+        bail!("--tool-timeout-s must be above 0 and at most {MAX_TOOL_SECONDS}");
+    }
+    let served = served_address(args)?;
+    let own_match_flags = [
+        args.seed.is_some(),
+        !args.teammates.is_empty(),
+        args.max_ticks.is_some(),
+        args.replay.is_some(),
+        args.out.is_some(),
+    ];
+    if served.is_some() && own_match_flags.into_iter().any(|given| given) {
+        bail!(
+            "--seed, --teammates, --max-ticks, --replay and --out are for a match of its own, not with --connect (or BW4T_HOST)"
+        );
+    }
+    if served.is_none() && (args.match_name.is_some() || args.template.is_some()) {
+        bail!("--match and --template name a served match: give --connect HOST:PORT too");
+    }
+    let teammates = args
+        .teammates
+        .iter()
+        .map(|name| {
+            let known: Vec<&str> = Strategy::ALL.iter().map(|s| s.name()).collect();
+            Strategy::named(name).with_context(|| {
+                format!("--teammates: unknown strategy '{name}' (known: {})", known.join(", "))
+            })
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let log: bw4t_mcp::DecisionLog = match &args.log {
+        Some(path) => Some(Box::new(
+            std::fs::File::create(path).with_context(|| format!("cannot write --log {}", path.display()))?,
+        )),
+        None => None,
+    };
+    let name =
+        args.name.clone().or_else(|| std::env::var("BW4T_NAME").ok()).unwrap_or_else(|| "Model".into());
+    let runtime = tokio::runtime::Builder::new_multi_thread().worker_threads(2).enable_all().build()?;
+    runtime.block_on(async {
+        let join_wait = Duration::from_secs(args.join_timeout_s);
+        let (link, map, own) = match served {
+            Some(addr) => {
+                let token = args.token.clone().or_else(|| std::env::var("BW4T_TOKEN").ok());
+                let mut hello = Hello::agent(name, token);
+                hello.match_name = args.match_name.clone();
+                hello.template = args.template.clone();
+                let link = Link::join(addr, hello, join_wait, log).await?;
+                let map = match (&args.map, link.match_info()) {
+                    (Some(spec), _) => Some(crate::maps::load(spec)?),
+                    (None, Some(info)) => crate::maps::load(&info.map).ok(),
+                    (None, None) => None,
+                };
+                eprintln!("bw4t mcp: joined the match at {addr}");
+                (link, map, None)
+            }
+            None => {
+                let map = crate::maps::load(args.map.as_deref().unwrap_or("fixed"))?;
+                if 1 + teammates.len() > map.spawns().len() {
+                    bail!("{} robots but map '{}' has {} spawn points", 1 + teammates.len(), map.name(), map.spawns().len());
+                }
+                let seed = args.seed.unwrap_or_else(crate::random_seed);
+                let game = MatchConfig::default();
+                let max_ticks = args.max_ticks.unwrap_or_else(|| TickLimit::for_map(&map, &game).ticks);
+                eprintln!(
+                    "bw4t mcp: a match of its own on map '{}', seed {seed}, {} built-in teammates, tick limit {max_ticks}",
+                    map.name(),
+                    teammates.len()
+                );
+                let started = LocalMatch {
+                    map: map.clone(),
+                    seed,
+                    game,
+                    player: name,
+                    teammates,
+                    max_ticks,
+                    deadline: (args.deadline_s > 0).then(|| Duration::from_secs(args.deadline_s)),
+                    replay: crate::replay::writer(args.replay.as_deref())?,
+                }
+                .start()
+                .await?;
+                let link = Link::join(started.addr, started.hello, join_wait, log).await?;
+                (link, Some(map), Some(started.result))
+            }
+        };
+        let server = RobotServer::new(link, Docs::new(map), Duration::from_secs_f64(args.tool_timeout_s));
+        match args.http {
+            Some(addr) => {
+                let listener = tokio::net::TcpListener::bind(addr).await.with_context(|| format!("cannot listen on {addr}"))?;
+                let bound = listener.local_addr()?;
+                eprintln!("bw4t mcp: MCP over streamable HTTP at http://{bound}{}", bw4t_mcp::MCP_PATH);
+                bw4t_mcp::serve_http(server, listener, args.allow_hosts.clone()).await?;
+            }
+            None => bw4t_mcp::serve_stdio(server).await.map_err(anyhow::Error::msg)?,
+        }
+        if let (Some(result), Some(path)) = (own, &args.out) {
+            if result.is_finished() {
+                let result = result.await??;
+                std::fs::write(path, serde_json::to_string_pretty(&result)? + "\n")
+                    .with_context(|| format!("cannot write --out {}", path.display()))?;
+            } else {
+                eprintln!("bw4t mcp: the match had not ended when the client left; no result written");
+            }
+        }
+        Ok(())
+    })
+}

@@ -1,0 +1,30 @@
+//! A BW4T robot behind a Model Context Protocol server (`bw4t mcp`): any MCP client (an
+//! agent host, a model's tool loop) drives one robot of a match through tools, reads the
+//! rules, map and goal as resources, and gets a role prompt.
+//!
+//! The robot is a protocol client like any other ([`Link`] owns its TCP connection): it
+//! joins a served match, or a match of its own ([`LocalMatch`]) on loopback. The tools
+//! are answered by a sans-IO robot (`robot.rs`) that turns server messages and tool
+//! commands into client messages and reports.
+
+mod docs;
+mod http;
+mod link;
+mod local;
+mod robot;
+mod server;
+mod view;
+mod words;
+
+pub use docs::Docs;
+pub use http::{MCP_PATH, serve_http};
+pub use link::{DecisionLog, JoinError, Link, Tokens, Usage};
+pub use local::{LocalMatch, Started};
+pub use server::{MAX_TOOL_SECONDS, RobotServer};
+
+/// Serves `server` over standard input and output until the client closes them.
+pub async fn serve_stdio(server: RobotServer) -> Result<(), String> {
+    use rmcp::ServiceExt;
+    let running = server.serve(rmcp::transport::stdio()).await.map_err(|e| format!("MCP over stdio: {e}"))?;
+    running.waiting().await.map(|_| ()).map_err(|e| format!("MCP over stdio: {e}"))
+}

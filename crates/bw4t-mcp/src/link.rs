@@ -1,0 +1,307 @@
+//! The connection to the match: one task owns the socket and the [`Robot`], and tool
+//! calls reach it over a channel, so any number of MCP sessions share one robot.
+
+use std::io::Write;
+use std::net::SocketAddr;
+use std::time::{Duration, Instant};
+
+use bw4t_protocol::{ClientMessage, Hello, MatchInfo, ServerMessage, decode_server, encode};
+use serde_json::{Value, json};
+use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader};
+use tokio::net::TcpStream;
+use tokio::net::tcp::OwnedWriteHalf;
+use tokio::sync::{mpsc, oneshot};
+
+use crate::robot::{Busy, Command, Report, Robot, tool_name};
+use crate::view::View;
+
+/// Token counts an agent reports about itself (cumulative).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Tokens {
+    /// Prompt (input) tokens so far.
+    pub prompt: u64,
+    /// Completion (output) tokens so far.
+    pub completion: u64,
+}
+
+/// How the robot has been driven so far.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Usage {
+    /// Tool calls of every kind (`look` included).
+    pub tool_calls: u64,
+    /// Wall time between a tool's result and the next call (the driver thinking), in ms.
+    pub think_ms_total: u64,
+    /// The longest such time, in ms.
+    pub think_ms_max: u64,
+    /// What the driver last reported of its tokens.
+    pub tokens: Option<Tokens>,
+}
+
+/// A tool call's answer: the report of an action (none for `look`) and the state after.
+#[derive(Debug)]
+pub(crate) struct Reply {
+    pub report: Option<Report>,
+    pub view: View,
+}
+
+enum Request {
+    Run {
+        command: Command,
+        timeout: Duration,
+        tokens: Option<Tokens>,
+        reply: oneshot::Sender<Result<Reply, Busy>>,
+    },
+    Look {
+        tokens: Option<Tokens>,
+        counted: bool,
+        reply: oneshot::Sender<Reply>,
+    },
+    Usage {
+        reply: oneshot::Sender<Usage>,
+    },
+}
+
+/// A handle on the robot's task; cheap to clone.
+#[derive(Clone)]
+pub struct Link {
+    requests: mpsc::Sender<Request>,
+    info: Option<MatchInfo>,
+}
+
+/// Why the robot could not join its match.
+#[derive(Debug, thiserror::Error)]
+pub enum JoinError {
+    /// No connection.
+    #[error("cannot connect to {addr}: {source}")]
+    Connect {
+        /// Where.
+        addr: SocketAddr,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// The server refused the `hello`.
+    #[error("the server refused to seat this player: {0}")]
+    Refused(String),
+    /// The server did not answer the `hello` in time.
+    #[error("no answer to hello from {0} within {1:?}")]
+    Silent(SocketAddr, Duration),
+}
+
+/// Where the per-decision log goes, if anywhere.
+pub type DecisionLog = Option<Box<dyn Write + Send>>;
+
+impl Link {
+    /// Connects, says `hello` and waits for the seat (a `welcome`, or a place in a
+    /// template's queue); then the robot's task runs until the match ends and every
+    /// handle is dropped.
+    pub async fn join(
+        addr: SocketAddr,
+        mut hello: Hello,
+        wait: Duration,
+        log: DecisionLog,
+    ) -> Result<Link, JoinError> {
+        let stream = TcpStream::connect(addr).await.map_err(|source| JoinError::Connect { addr, source })?;
+        let _ = stream.set_nodelay(true);
+        let (reader, mut writer) = stream.into_split();
+        let mut lines = BufReader::new(reader).lines();
+        hello.every_tick = true;
+        let hello_line = encode(&ClientMessage::Hello(hello));
+        writer
+            .write_all(hello_line.as_bytes())
+            .await
+            .map_err(|source| JoinError::Connect { addr, source })?;
+        let mut robot = Robot::new();
+        let seated = async {
+            loop {
+                let line = match lines.next_line().await {
+                    Ok(Some(line)) => line,
+                    Ok(None) => return Err(JoinError::Refused("the server closed the connection".into())),
+                    Err(e) => return Err(JoinError::Refused(format!("the connection failed: {e}"))),
+                };
+                let Ok(message) = decode_server(&line) else { continue };
+                let done = matches!(message, ServerMessage::Welcome(_) | ServerMessage::Lobby(_));
+                if let ServerMessage::Error(error) = &message {
+                    if error.fatal {
+                        return Err(JoinError::Refused(format!("{} ({})", error.message, error.code)));
+                    }
+                }
+                robot.handle(message);
+                if done {
+                    return Ok(());
+                }
+            }
+        };
+        tokio::time::timeout(wait, seated).await.map_err(|_| JoinError::Silent(addr, wait))??;
+        let info = robot.match_info().cloned();
+        let (requests, inbox) = mpsc::channel(16);
+        tokio::spawn(drive(robot, lines, writer, inbox, log));
+        Ok(Link { requests, info })
+    }
+
+    /// The match joined, as its `welcome` described it (`None` while queued for a seat).
+    pub fn match_info(&self) -> Option<&MatchInfo> {
+        self.info.as_ref()
+    }
+
+    /// Runs a command until it ends or `timeout` passes.
+    pub(crate) async fn run(
+        &self,
+        command: Command,
+        timeout: Duration,
+        tokens: Option<Tokens>,
+    ) -> Result<Reply, LinkError> {
+        let (reply, answer) = oneshot::channel();
+        self.send(Request::Run { command, timeout, tokens, reply }).await?;
+        answer.await.map_err(|_| LinkError::Gone)?.map_err(LinkError::Busy)
+    }
+
+    /// The robot's state now; `counted` for the `look` tool (not for a resource read).
+    pub(crate) async fn look(&self, tokens: Option<Tokens>, counted: bool) -> Result<Reply, LinkError> {
+        let (reply, answer) = oneshot::channel();
+        self.send(Request::Look { tokens, counted, reply }).await?;
+        answer.await.map_err(|_| LinkError::Gone)
+    }
+
+    /// How the robot has been driven so far.
+    pub async fn usage(&self) -> Option<Usage> {
+        let (reply, answer) = oneshot::channel();
+        self.send(Request::Usage { reply }).await.ok()?;
+        answer.await.ok()
+    }
+
+    async fn send(&self, request: Request) -> Result<(), LinkError> {
+        self.requests.send(request).await.map_err(|_| LinkError::Gone)
+    }
+}
+
+/// Why a tool call got no answer from the robot.
+#[derive(Debug, thiserror::Error)]
+pub(crate) enum LinkError {
+    /// Another call is in progress.
+    #[error(transparent)]
+    Busy(Busy),
+    /// The robot's task has ended.
+    #[error("the robot's connection is gone")]
+    Gone,
+}
+
+/// The call waiting for the robot's report.
+struct Waiting {
+    reply: oneshot::Sender<Result<Reply, Busy>>,
+    deadline: tokio::time::Instant,
+    tool: &'static str,
+    args: Value,
+    called: Instant,
+    think_ms: u64,
+}
+
+/// The robot's task: lines in, messages out, tool calls answered.
+async fn drive(
+    mut robot: Robot,
+    mut lines: tokio::io::Lines<BufReader<tokio::net::tcp::OwnedReadHalf>>,
+    mut writer: OwnedWriteHalf,
+    mut inbox: mpsc::Receiver<Request>,
+    mut log: DecisionLog,
+) {
+    let mut usage = Usage::default();
+    let mut last_answer = Instant::now();
+    let mut waiting: Option<Waiting> = None;
+    let mut connected = true;
+    loop {
+        let deadline = waiting.as_ref().map(|w| w.deadline);
+        tokio::select! {
+            line = lines.next_line(), if connected => match line {
+                Ok(Some(line)) => {
+                    if let Ok(message) = decode_server(&line) {
+                        robot.handle(message);
+                    }
+                }
+                Ok(None) => { connected = false; robot.disconnected("closed by the server"); }
+                Err(e) => { connected = false; robot.disconnected(&e.to_string()); }
+            },
+            request = inbox.recv() => {
+                let Some(request) = request else { break };
+                let now = Instant::now();
+                let think = |usage: &mut Usage, tokens: Option<Tokens>| {
+                    let ms = now.duration_since(last_answer).as_millis() as u64;
+                    usage.tool_calls += 1;
+                    usage.think_ms_total += ms;
+                    usage.think_ms_max = usage.think_ms_max.max(ms);
+                    if tokens.is_some() { usage.tokens = tokens; }
+                    ms
+                };
+                match request {
+                    Request::Usage { reply } => { let _ = reply.send(usage); }
+                    Request::Look { tokens, counted, reply } => {
+                        if counted {
+                            let think_ms = think(&mut usage, tokens);
+                            write_log(&mut log, json!({"tool": "look", "tick": robot.tick(), "think_ms": think_ms, "run_ms": 0}));
+                            last_answer = Instant::now();
+                        }
+                        let _ = reply.send(Reply { report: None, view: View::of(&robot) });
+                    }
+                    Request::Run { command, timeout, tokens, reply } => {
+                        let think_ms = think(&mut usage, tokens);
+                        let tool = tool_name(&command);
+                        let args = command_args(&command);
+                        match robot.start(command) {
+                            Err(busy) => { let _ = reply.send(Err(busy)); }
+                            Ok(()) => {
+                                let deadline = tokio::time::Instant::now() + timeout;
+                                waiting = Some(Waiting { reply, deadline, tool, args, called: now, think_ms });
+                            }
+                        }
+                    }
+                }
+            },
+            () = sleep_until(deadline) => robot.expire(),
+        }
+        while let Some(message) = robot.poll_transmit() {
+            if connected && writer.write_all(encode(&message).as_bytes()).await.is_err() {
+                connected = false;
+                robot.disconnected("the connection failed");
+            }
+        }
+        while let Some(report) = robot.poll_report() {
+            let Some(w) = waiting.take() else { continue };
+            write_log(
+                &mut log,
+                json!({
+                    "tool": w.tool, "args": w.args, "tick": report.started, "ticks": report.tick.saturating_sub(report.started),
+                    "think_ms": w.think_ms, "run_ms": w.called.elapsed().as_millis() as u64, "outcome": report.outcome.word(),
+                }),
+            );
+            last_answer = Instant::now();
+            let _ = w.reply.send(Ok(Reply { report: Some(report), view: View::of(&robot) }));
+        }
+    }
+    if connected {
+        let _ = writer.write_all(encode(&ClientMessage::Bye(Default::default())).as_bytes()).await;
+    }
+}
+
+async fn sleep_until(deadline: Option<tokio::time::Instant>) {
+    match deadline {
+        Some(deadline) => tokio::time::sleep_until(deadline).await,
+        None => std::future::pending().await,
+    }
+}
+
+fn write_log(log: &mut DecisionLog, line: Value) {
+    if let Some(log) = log {
+        let _ = writeln!(log, "{line}");
+        let _ = log.flush();
+    }
+}
+
+/// A command's arguments, for the decision log.
+fn command_args(command: &Command) -> Value {
+    match command {
+        Command::GoTo(place) => json!({"place": place}),
+        Command::GoToBlock(block) => json!({"block": block}),
+        Command::PickUp(block) => json!({"block": block}),
+        Command::PutDown => json!({}),
+        Command::Say { to, said, text } => json!({"to": to, "said": said, "text": text}),
+        Command::Wait { ticks } => json!({"ticks": ticks}),
+    }
+}

@@ -1,0 +1,451 @@
+//! One robot played through tool calls, sans-IO: server messages and tool commands in,
+//! client messages and finished tool reports out. No socket, no clock.
+//!
+//! The robot asks for a `percepts` message every tick (`every_tick`), so it knows the
+//! time while an action runs. While a tool runs it answers every tick at once; once the
+//! tool's report is out it answers nothing until the next tool call, so in lockstep the
+//! match waits for whoever drives the robot (up to the match's deadline) and a slow
+//! thinker loses no ticks.
+
+use std::collections::VecDeque;
+
+use bw4t_protocol::{
+    AckCode, ActId, ClientMessage, MatchInfo, Mode, Said, Say, ServerMessage, act_message, fact_to_percept,
+};
+use bw4t_sim::{Action, BlockId, PerceptDelta};
+
+use crate::words::{Knowledge, Snapshot};
+
+/// What a tool asks the robot to do.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) enum Command {
+    /// `goTo(place)`.
+    GoTo(String),
+    /// `goToBlock(block)`.
+    GoToBlock(BlockId),
+    /// `pickUp`, of the named block or the one the robot is at.
+    PickUp(Option<BlockId>),
+    /// `putDown`.
+    PutDown,
+    /// A message to a player or to `all`: one of the language, or free text.
+    Say {
+        /// A player's name or `all`.
+        to: String,
+        /// The message of the language, if it is one.
+        said: Option<Said>,
+        /// Free text, if it is not.
+        text: Option<String>,
+    },
+    /// Nothing: until something changes for this robot, or `ticks` pass.
+    Wait {
+        /// Ticks to wait at most.
+        ticks: Option<u64>,
+    },
+}
+
+impl Command {
+    /// The protocol action, for the commands that are one.
+    fn action(&self) -> Option<Action> {
+        match self {
+            Command::GoTo(place) => Some(Action::GoTo(place.clone())),
+            Command::GoToBlock(block) => Some(Action::GoToBlock(*block)),
+            Command::PickUp(block) => Some(Action::PickUp(*block)),
+            Command::PutDown => Some(Action::PutDown),
+            Command::Say { .. } | Command::Wait { .. } => None,
+        }
+    }
+
+    /// Whether it lasts until a `result` rather than one tick.
+    fn durative(&self) -> bool {
+        matches!(self, Command::GoTo(_) | Command::GoToBlock(_))
+    }
+}
+
+/// How a tool call ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Outcome {
+    /// The robot reached its target.
+    Arrived,
+    /// The robot was stopped on its way and dropped its plan.
+    Collided,
+    /// A newer order replaced it (another client of the same robot).
+    Superseded,
+    /// An action of one tick was applied.
+    Done,
+    /// The match refused the action.
+    Rejected,
+    /// `wait`: something changed for the robot.
+    Changed,
+    /// The tool's time ran out first (the robot may still be moving).
+    Timeout,
+    /// The match is over.
+    MatchOver,
+}
+
+impl Outcome {
+    /// The word in tool results.
+    pub(crate) fn word(self) -> &'static str {
+        match self {
+            Outcome::Arrived => "arrived",
+            Outcome::Collided => "collided",
+            Outcome::Superseded => "superseded",
+            Outcome::Done => "done",
+            Outcome::Rejected => "rejected",
+            Outcome::Changed => "changed",
+            Outcome::Timeout => "timeout",
+            Outcome::MatchOver => "match_over",
+        }
+    }
+}
+
+/// A finished tool call: how it ended and what changed meanwhile.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct Report {
+    /// How it ended.
+    pub outcome: Outcome,
+    /// Why, when it was rejected (the match's code and words) or the match ended.
+    pub reason: Option<String>,
+    /// The tick it started at.
+    pub started: u64,
+    /// The tick it ended at.
+    pub tick: u64,
+    /// What changed for the robot meanwhile, in English.
+    pub changes: Vec<String>,
+}
+
+/// The tool call in progress.
+#[derive(Debug)]
+struct Pending {
+    command: Command,
+    /// The `act` id, for commands sent as actions.
+    act: Option<u64>,
+    started: u64,
+    /// `wait`: the tick it gives up at.
+    until: Option<u64>,
+    /// What the robot knew when it started, to say what changed.
+    before: Snapshot,
+    /// How it ended, once known; reported with the next `percepts`, so that the report
+    /// includes that tick's changes.
+    concluded: Option<(Outcome, Option<String>)>,
+}
+
+/// Why a command cannot start.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub(crate) enum Busy {
+    /// Another tool call of this robot has not finished.
+    #[error("another action is still in progress ({0}); wait for its result")]
+    InProgress(&'static str),
+}
+
+/// One robot, driven by tool calls.
+#[derive(Debug, Default)]
+pub(crate) struct Robot {
+    knowledge: Knowledge,
+    info: Option<MatchInfo>,
+    robot: Option<u32>,
+    tick: u64,
+    started: bool,
+    /// The last tick told and not yet answered with `ready` (lockstep).
+    unanswered: Option<u64>,
+    pending: Option<Pending>,
+    /// A command given before the match started.
+    queued: Option<Command>,
+    next_act: u64,
+    ended: Option<String>,
+    transmit: VecDeque<ClientMessage>,
+    finished: VecDeque<Report>,
+}
+
+impl Robot {
+    /// A robot not yet in a match.
+    pub(crate) fn new() -> Robot {
+        Robot::default()
+    }
+
+    /// What the robot knows.
+    pub(crate) fn knowledge(&self) -> &Knowledge {
+        &self.knowledge
+    }
+
+    /// The match, once welcomed.
+    pub(crate) fn match_info(&self) -> Option<&MatchInfo> {
+        self.info.as_ref()
+    }
+
+    /// The robot's id, once welcomed.
+    pub(crate) fn robot_id(&self) -> Option<u32> {
+        self.robot
+    }
+
+    /// The last tick told.
+    pub(crate) fn tick(&self) -> u64 {
+        self.tick
+    }
+
+    /// Whether the first percepts have come.
+    pub(crate) fn started(&self) -> bool {
+        self.started
+    }
+
+    /// Why the match ended for this robot, once it has.
+    pub(crate) fn ended(&self) -> Option<&str> {
+        self.ended.as_deref()
+    }
+
+    /// The tool in progress, by name.
+    pub(crate) fn busy(&self) -> Option<&'static str> {
+        self.pending.as_ref().map(|p| tool_name(&p.command)).or(self.queued.as_ref().map(tool_name))
+    }
+
+    /// Starts a command. Before the match starts it is held until it does; after the
+    /// match is over it ends at once with [`Outcome::MatchOver`].
+    pub(crate) fn start(&mut self, command: Command) -> Result<(), Busy> {
+        if let Some(busy) = self.busy() {
+            return Err(Busy::InProgress(busy));
+        }
+        if let Some(reason) = &self.ended {
+            let report = Report {
+                outcome: Outcome::MatchOver,
+                reason: Some(reason.clone()),
+                started: self.tick,
+                tick: self.tick,
+                changes: Vec::new(),
+            };
+            self.finished.push_back(report);
+            return Ok(());
+        }
+        if !self.started {
+            self.queued = Some(command);
+            return Ok(());
+        }
+        let act = command.action().map(|action| {
+            self.next_act += 1;
+            self.transmit.push_back(act_message(self.next_act, &action));
+            self.next_act
+        });
+        if let Command::Say { to, said, text } = &command {
+            self.next_act += 1;
+            let say = Say {
+                id: Some(ActId::Number(self.next_act)),
+                to: to.clone(),
+                text: text.clone(),
+                said: said.clone(),
+            };
+            self.transmit.push_back(ClientMessage::Say(say));
+        }
+        let act = act.or(matches!(command, Command::Say { .. }).then_some(self.next_act));
+        let until = match command {
+            Command::Wait { ticks } => ticks.map(|t| self.tick.saturating_add(t)),
+            _ => None,
+        };
+        self.pending = Some(Pending {
+            command,
+            act,
+            started: self.tick,
+            until,
+            before: self.knowledge.snapshot(),
+            concluded: None,
+        });
+        self.answer();
+        Ok(())
+    }
+
+    /// Ends the tool in progress because its time ran out. A journey goes on (the
+    /// report says so); the robot stops answering ticks until the next tool call.
+    pub(crate) fn expire(&mut self) {
+        if let Some(pending) = self.pending.take() {
+            let reason = pending
+                .command
+                .durative()
+                .then(|| "the robot is still on its way; call wait, or give a new order".to_string());
+            self.finish(pending, Outcome::Timeout, reason);
+        } else if let Some(command) = self.queued.take() {
+            let reason = format!("the match has not started yet ({} not sent)", tool_name(&command));
+            let report = Report {
+                outcome: Outcome::Timeout,
+                reason: Some(reason),
+                started: 0,
+                tick: 0,
+                changes: Vec::new(),
+            };
+            self.finished.push_back(report);
+        }
+    }
+
+    /// Takes in one message from the server.
+    pub(crate) fn handle(&mut self, message: ServerMessage) {
+        match message {
+            ServerMessage::Welcome(welcome) => {
+                self.robot = welcome.robot;
+                self.info = Some(welcome.match_info);
+            }
+            ServerMessage::Percepts(percepts) => {
+                let delta = PerceptDelta {
+                    tick: percepts.tick,
+                    full: percepts.full,
+                    add: percepts.add.iter().filter_map(|f| fact_to_percept(f).ok()).collect(),
+                    not: percepts.not.iter().filter_map(|f| fact_to_percept(f).ok()).collect(),
+                };
+                self.on_percepts(&delta);
+            }
+            ServerMessage::Ack(ack) => {
+                if !ack.ok {
+                    let reason = match (ack.code, ack.reason) {
+                        (Some(code), Some(words)) => format!("{code}: {words}"),
+                        (Some(code), None) => format!("{code}: {}", explain(code)),
+                        (None, words) => words.unwrap_or_else(|| "refused".into()),
+                    };
+                    self.conclude(ack.id, Outcome::Rejected, Some(reason));
+                } else if self.pending.as_ref().is_some_and(|p| !p.command.durative()) {
+                    self.conclude(ack.id, Outcome::Done, None);
+                }
+            }
+            ServerMessage::Result(result) => {
+                let outcome = match result.outcome {
+                    bw4t_protocol::Outcome::Arrived => Outcome::Arrived,
+                    bw4t_protocol::Outcome::Collided => Outcome::Collided,
+                    bw4t_protocol::Outcome::Superseded => Outcome::Superseded,
+                };
+                self.conclude(Some(result.id), outcome, None);
+            }
+            ServerMessage::MatchEnd(end) => self.end(format!("the match ended: {}", end.reason.as_str())),
+            ServerMessage::Bye(bye) => {
+                self.end(format!("the server closed the connection: {}", bye.reason.as_str()))
+            }
+            ServerMessage::Error(error) if error.fatal => {
+                self.end(format!("the server refused this player: {} ({})", error.message, error.code))
+            }
+            ServerMessage::Error(_)
+            | ServerMessage::Pong(_)
+            | ServerMessage::Frame(_)
+            | ServerMessage::Lobby(_) => {}
+        }
+    }
+
+    /// The connection is gone.
+    pub(crate) fn disconnected(&mut self, why: &str) {
+        self.end(format!("the connection to the match closed ({why})"));
+    }
+
+    /// The next message to send.
+    pub(crate) fn poll_transmit(&mut self) -> Option<ClientMessage> {
+        self.transmit.pop_front()
+    }
+
+    /// The next finished tool call.
+    pub(crate) fn poll_report(&mut self) -> Option<Report> {
+        self.finished.pop_front()
+    }
+
+    fn on_percepts(&mut self, delta: &PerceptDelta) {
+        self.tick = delta.tick;
+        self.knowledge.apply(delta.tick, delta);
+        if self.lockstep() {
+            self.unanswered = Some(delta.tick);
+        }
+        if !self.started {
+            self.started = true;
+            if let Some(command) = self.queued.take() {
+                // Cannot be busy: nothing else ran before the start.
+                let _ = self.start(command);
+                return;
+            }
+        }
+        if let Some(pending) = &mut self.pending {
+            if pending.concluded.is_none() {
+                let changed = matches!(pending.command, Command::Wait { .. }) && !delta.is_empty();
+                if changed {
+                    pending.concluded = Some((Outcome::Changed, None));
+                } else if pending.until.is_some_and(|until| delta.tick >= until) {
+                    pending.concluded = Some((Outcome::Timeout, Some("the ticks given ran out".into())));
+                }
+            }
+            if let Some((outcome, reason)) = pending.concluded.take() {
+                let pending = self.pending.take().expect("pending checked above");
+                self.finish(pending, outcome, reason);
+                return;
+            }
+        }
+        if self.pending.is_some() {
+            self.answer();
+        }
+    }
+
+    /// Notes how the command with act `id` ended (reported with the next percepts).
+    fn conclude(&mut self, id: Option<ActId>, outcome: Outcome, reason: Option<String>) {
+        let Some(pending) = &mut self.pending else { return };
+        let ours = matches!((id, pending.act), (Some(ActId::Number(n)), Some(act)) if n == act);
+        if ours && pending.concluded.is_none() {
+            pending.concluded = Some((outcome, reason));
+        }
+    }
+
+    fn finish(&mut self, pending: Pending, outcome: Outcome, reason: Option<String>) {
+        let changes = self.knowledge.changes_since(&pending.before);
+        let report = Report { outcome, reason, started: pending.started, tick: self.tick, changes };
+        self.finished.push_back(report);
+    }
+
+    fn end(&mut self, reason: String) {
+        if self.ended.is_some() {
+            return;
+        }
+        self.ended = Some(reason.clone());
+        self.unanswered = None;
+        if let Some(pending) = self.pending.take() {
+            self.finish(pending, Outcome::MatchOver, Some(reason));
+        } else if self.queued.take().is_some() {
+            let report = Report {
+                outcome: Outcome::MatchOver,
+                reason: Some(reason),
+                started: 0,
+                tick: 0,
+                changes: Vec::new(),
+            };
+            self.finished.push_back(report);
+        }
+    }
+
+    /// Answers the last tick told, in lockstep.
+    fn answer(&mut self) {
+        if let Some(tick) = self.unanswered.take() {
+            self.transmit.push_back(ClientMessage::ready(tick));
+        }
+    }
+
+    fn lockstep(&self) -> bool {
+        self.info.as_ref().is_some_and(|info| info.mode == Mode::Lockstep)
+    }
+}
+
+/// The tool a command comes from.
+pub(crate) fn tool_name(command: &Command) -> &'static str {
+    match command {
+        Command::GoTo(_) => "go_to",
+        Command::GoToBlock(_) => "go_to_block",
+        Command::PickUp(_) => "pick_up",
+        Command::PutDown => "put_down",
+        Command::Say { .. } => "say",
+        Command::Wait { .. } => "wait",
+    }
+}
+
+/// A rejection's code in words, for acks that carry no reason.
+fn explain(code: AckCode) -> &'static str {
+    match code {
+        AckCode::UnknownAction => "no such action",
+        AckCode::BadArgs => "the arguments do not fit the action",
+        AckCode::RateLimited => "too many actions in one tick",
+        AckCode::NotAllowed => "the match does not allow this",
+        AckCode::UnknownRobot => "no such robot",
+        AckCode::UnknownPlace => "no such place",
+        AckCode::Unreachable => "the place cannot be reached from here",
+        AckCode::UnknownBlock => "no such block",
+        AckCode::BlockNotVisible => "the block is not in sight",
+        AckCode::NotAtBlock => "the robot is not at a block",
+        AckCode::AlreadyHolding => "the robot already holds a block",
+        AckCode::NotHolding => "the robot holds no block",
+        AckCode::NoSpace => "there is no room to put the block down here",
+        AckCode::UnknownReceiver => "no such player",
+    }
+}

@@ -1,0 +1,398 @@
+//! The MCP side: the tools, resources and prompt of one robot, answered through its
+//! [`Link`]. Arguments are checked here, so a bad one is an MCP error naming the problem;
+//! what the match refuses is a tool result with outcome `rejected` and the reason.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use bw4t_protocol::Said;
+use rmcp::model::{
+    CallToolRequestParams, CallToolResponse, CallToolResult, ContentBlock, GetPromptRequestParams,
+    GetPromptResponse, GetPromptResult, Implementation, JsonObject, ListPromptsResult, ListResourcesResult,
+    ListToolsResult, PaginatedRequestParams, Prompt, PromptMessage, ReadResourceRequestParams,
+    ReadResourceResponse, ReadResourceResult, RequestMetaObject, Resource, ResourceContents,
+    ServerCapabilities, ServerConfig, Tool,
+};
+use rmcp::service::RequestContext;
+use rmcp::{ErrorData, RoleServer, ServerHandler};
+use schemars::JsonSchema;
+use serde::Deserialize;
+use serde::de::DeserializeOwned;
+use serde_json::{Value, json};
+
+use crate::docs::{self, Docs};
+use crate::link::{Link, LinkError, Reply, Tokens};
+use crate::robot::{Command, Outcome};
+
+/// The longest a tool may be given (`wait`'s `seconds`, and `--tool-timeout`).
+pub const MAX_TOOL_SECONDS: f64 = 3600.0;
+
+/// The MCP server of one robot; every session (stdio, or each HTTP client) shares it.
+#[derive(Clone)]
+pub struct RobotServer {
+    link: Link,
+    docs: Arc<Docs>,
+    timeout: Duration,
+}
+
+impl RobotServer {
+    /// Serves the robot behind `link`; a tool call gives up after `timeout` (wall time).
+    pub fn new(link: Link, docs: Docs, timeout: Duration) -> RobotServer {
+        RobotServer { link, docs: Arc::new(docs), timeout }
+    }
+}
+
+#[derive(Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+struct NoArgs {}
+
+#[derive(Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+struct GoToArgs {
+    /// A place's name: a room (`RoomC1`), a hall, or `DropZone`.
+    place: String,
+}
+
+#[derive(Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+struct BlockArgs {
+    /// A block's id, as seen in the room the robot is in.
+    block: u32,
+}
+
+#[derive(Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+struct PickUpArgs {
+    /// The block to take (within reach); without it, the block the robot is at.
+    #[serde(default)]
+    block: Option<u32>,
+}
+
+#[derive(Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+struct SayArgs {
+    /// A kind of message of the language (see the `bw4t://rules` resource), e.g.
+    /// `contains`, `going_to`, `have`, `who_has`; with its arguments below.
+    #[serde(default)]
+    kind: Option<String>,
+    /// A place's name, for kinds about a room.
+    #[serde(default)]
+    room: Option<String>,
+    /// A colour's name, for kinds about a colour.
+    #[serde(default)]
+    colour: Option<String>,
+    /// A player's name, for requests to one player (`go_to`, `get`).
+    #[serde(default)]
+    player: Option<String>,
+    /// A number of blocks (`contains_many`).
+    #[serde(default)]
+    count: Option<u32>,
+    /// A position in the goal sequence, 0 for the first colour.
+    #[serde(default)]
+    position: Option<u32>,
+    /// Free text instead of a kind, where the match allows it.
+    #[serde(default)]
+    text: Option<String>,
+    /// A player's name, or `all` (the default).
+    #[serde(default)]
+    to: Option<String>,
+}
+
+#[derive(Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+struct WaitArgs {
+    /// Give up after this many ticks (20 ticks are one simulated second).
+    #[serde(default)]
+    ticks: Option<u64>,
+    /// Give up after this many seconds of wall time.
+    #[serde(default)]
+    seconds: Option<f64>,
+}
+
+/// One tool: its name, what it does, and its arguments' type.
+struct ToolRow {
+    name: &'static str,
+    description: &'static str,
+    schema: fn() -> schemars::Schema,
+}
+
+/// Every tool, in the order they are listed.
+const TOOLS: &[ToolRow] = &[
+    ToolRow {
+        name: "look",
+        description: "Describe the robot's situation now: where it is, what it holds and sees, what it knows of each room, what teammates said, what is needed next.",
+        schema: || schemars::schema_for!(NoArgs),
+    },
+    ToolRow {
+        name: "go_to",
+        description: "Travel to a place (a room, a hall or DropZone). Returns when the robot arrives, collides or is stopped, with what changed on the way.",
+        schema: || schemars::schema_for!(GoToArgs),
+    },
+    ToolRow {
+        name: "go_to_block",
+        description: "Travel to a block seen in the room the robot is in, so that it can pick it up.",
+        schema: || schemars::schema_for!(BlockArgs),
+    },
+    ToolRow {
+        name: "pick_up",
+        description: "Pick up the block the robot is at (or the named block within reach). A robot holds one block at a time.",
+        schema: || schemars::schema_for!(PickUpArgs),
+    },
+    ToolRow {
+        name: "put_down",
+        description: "Put the held block down. In the drop zone it is delivered if it is the colour needed next; in a room it stays there; outside rooms it leaves the world.",
+        schema: || schemars::schema_for!(NoArgs),
+    },
+    ToolRow {
+        name: "say",
+        description: "Send a message to a teammate or to all: a kind of the message language with its arguments (e.g. kind=contains, room=RoomA1, colour=Red), or free text.",
+        schema: || schemars::schema_for!(SayArgs),
+    },
+    ToolRow {
+        name: "wait",
+        description: "Wait until something changes for this robot (a message, a delivery, a room occupied or freed), or until the ticks or seconds given pass.",
+        schema: || schemars::schema_for!(WaitArgs),
+    },
+];
+
+fn tool_list() -> Vec<Tool> {
+    TOOLS
+        .iter()
+        .map(|row| {
+            let schema = serde_json::to_value((row.schema)()).unwrap_or_default();
+            let object: JsonObject = match schema {
+                Value::Object(map) => map,
+                _ => JsonObject::new(),
+            };
+            Tool::new(row.name, row.description, Arc::new(object))
+        })
+        .collect()
+}
+
+/// Arguments as `T`, or an MCP error naming the tool and the problem.
+fn parse<T: DeserializeOwned>(tool: &str, arguments: Option<JsonObject>) -> Result<T, ErrorData> {
+    let value = Value::Object(arguments.unwrap_or_default());
+    serde_json::from_value(value).map_err(|e| ErrorData::invalid_params(format!("{tool}: {e}"), None))
+}
+
+fn invalid(tool: &str, problem: impl std::fmt::Display) -> ErrorData {
+    ErrorData::invalid_params(format!("{tool}: {problem}"), None)
+}
+
+/// The token counts a client put in the request's `_meta` (`bw4t/usage`).
+fn reported_tokens(metas: [Option<&RequestMetaObject>; 2]) -> Option<Tokens> {
+    metas.into_iter().flatten().find_map(|meta| {
+        let usage = meta.0.0.get("bw4t/usage")?;
+        let count = |key: &str| usage.get(key).and_then(Value::as_u64);
+        Some(Tokens { prompt: count("prompt_tokens")?, completion: count("completion_tokens").unwrap_or(0) })
+    })
+}
+
+impl RobotServer {
+    /// The command a tool call asks for, with the wall time it may take.
+    fn command(&self, name: &str, arguments: Option<JsonObject>) -> Result<(Command, Duration), ErrorData> {
+        let command = match name {
+            "go_to" => {
+                let args: GoToArgs = parse(name, arguments)?;
+                self.docs.check_place(&args.place).map_err(|e| invalid(name, e))?;
+                Command::GoTo(args.place)
+            }
+            "go_to_block" => Command::GoToBlock(parse::<BlockArgs>(name, arguments)?.block),
+            "pick_up" => Command::PickUp(parse::<PickUpArgs>(name, arguments)?.block),
+            "put_down" => {
+                parse::<NoArgs>(name, arguments)?;
+                Command::PutDown
+            }
+            "say" => say_command(parse(name, arguments)?)?,
+            "wait" => {
+                let args: WaitArgs = parse(name, arguments)?;
+                if args.ticks == Some(0) {
+                    return Err(invalid(name, "ticks must be at least 1"));
+                }
+                if let Some(seconds) = args.seconds {
+                    if !(seconds > 0.0 && seconds <= MAX_TOOL_SECONDS) {
+                        return Err(invalid(
+                            name,
+                            format!("seconds must be above 0 and at most {MAX_TOOL_SECONDS}"),
+                        ));
+                    }
+                    return Ok((Command::Wait { ticks: args.ticks }, Duration::from_secs_f64(seconds)));
+                }
+                Command::Wait { ticks: args.ticks }
+            }
+            other => {
+                let names: Vec<&str> = TOOLS.iter().map(|t| t.name).collect();
+                return Err(ErrorData::invalid_params(
+                    format!("no tool named '{other}'; the tools are {}", names.join(", ")),
+                    None,
+                ));
+            }
+        };
+        Ok((command, self.timeout))
+    }
+}
+
+fn say_command(args: SayArgs) -> Result<Command, ErrorData> {
+    let to = args.to.unwrap_or_else(|| "all".into());
+    match (args.kind, args.text) {
+        (Some(_), Some(_)) => Err(invalid("say", "give a kind (with its arguments) or text, not both")),
+        (None, None) => Err(invalid("say", "give a kind (with its arguments) or text")),
+        (None, Some(text)) => {
+            let stray =
+                [args.room.is_some(), args.colour.is_some(), args.player.is_some()].into_iter().any(|x| x)
+                    || args.count.is_some()
+                    || args.position.is_some();
+            if stray {
+                return Err(invalid("say", "free text takes no room, colour, player, count or position"));
+            }
+            if text.trim().is_empty() {
+                return Err(invalid("say", "the text is empty"));
+            }
+            Ok(Command::Say { to, said: None, text: Some(text) })
+        }
+        (Some(kind), None) => {
+            let said = Said {
+                kind,
+                room: args.room,
+                colour: args.colour,
+                player: args.player,
+                count: args.count,
+                position: args.position,
+            };
+            said.check().map_err(|e| invalid("say", e))?;
+            Ok(Command::Say { to, said: Some(said), text: None })
+        }
+    }
+}
+
+/// A tool result: the outcome and changes in words, then the state; the same as data.
+fn tool_result(reply: Reply) -> CallToolResult {
+    let mut structured = json!({ "state": reply.view.state });
+    let mut text = String::new();
+    if let Some(report) = &reply.report {
+        text.push_str(&docs::outcome_sentence(report));
+        for line in &report.changes {
+            text.push('\n');
+            text.push_str(line);
+        }
+        text.push_str("\n\n");
+        structured["outcome"] = json!(report.outcome.word());
+        structured["reason"] = json!(report.reason);
+        structured["tick"] = json!(report.tick);
+        structured["ticks"] = json!(report.tick.saturating_sub(report.started));
+        structured["changes"] = json!(report.changes);
+        structured["ended"] = json!(report.outcome == Outcome::MatchOver);
+    } else {
+        structured["outcome"] = json!("looked");
+        structured["tick"] = reply.view.state["tick"].clone();
+        structured["changes"] = json!([]);
+        structured["ended"] = reply.view.state["ended"].clone();
+    }
+    text.push_str(&reply.view.words);
+    let mut result = CallToolResult::success(vec![ContentBlock::text(text)]);
+    result.structured_content = Some(structured);
+    result
+}
+
+impl ServerHandler for RobotServer {
+    fn get_info(&self) -> ServerConfig {
+        let capabilities =
+            ServerCapabilities::builder().enable_tools().enable_resources().enable_prompts().build();
+        ServerConfig::new(capabilities)
+            .with_server_info(Implementation::new("bw4t", env!("CARGO_PKG_VERSION")))
+            .with_instructions(docs::INSTRUCTIONS)
+    }
+
+    async fn list_tools(
+        &self,
+        _request: Option<PaginatedRequestParams>,
+        _context: RequestContext<RoleServer>,
+    ) -> Result<ListToolsResult, ErrorData> {
+        Ok(ListToolsResult::with_all_items(tool_list()))
+    }
+
+    fn get_tool(&self, name: &str) -> Option<Tool> {
+        tool_list().into_iter().find(|t| t.name == name)
+    }
+
+    async fn call_tool(
+        &self,
+        request: CallToolRequestParams,
+        context: RequestContext<RoleServer>,
+    ) -> Result<CallToolResponse, ErrorData> {
+        let tokens = reported_tokens([request.meta.as_ref(), Some(&context.meta)]);
+        let reply = if request.name == "look" {
+            parse::<NoArgs>("look", request.arguments)?;
+            self.link.look(tokens, true).await
+        } else {
+            let (command, timeout) = self.command(&request.name, request.arguments)?;
+            self.link.run(command, timeout, tokens).await
+        };
+        match reply {
+            Ok(reply) => Ok(tool_result(reply).into()),
+            Err(LinkError::Busy(busy)) => {
+                Err(ErrorData::invalid_request(format!("{}: {busy}", request.name), None))
+            }
+            Err(LinkError::Gone) => {
+                Err(ErrorData::internal_error("the robot's connection to the match is gone", None))
+            }
+        }
+    }
+
+    async fn list_resources(
+        &self,
+        _request: Option<PaginatedRequestParams>,
+        _context: RequestContext<RoleServer>,
+    ) -> Result<ListResourcesResult, ErrorData> {
+        let resources = docs::RESOURCES
+            .iter()
+            .map(|r| Resource::new(r.uri, r.name).with_description(r.description).with_mime_type(r.mime))
+            .collect();
+        Ok(ListResourcesResult::with_all_items(resources))
+    }
+
+    async fn read_resource(
+        &self,
+        request: ReadResourceRequestParams,
+        _context: RequestContext<RoleServer>,
+    ) -> Result<ReadResourceResponse, ErrorData> {
+        let Some(row) = docs::RESOURCES.iter().find(|r| r.uri == request.uri) else {
+            let uris: Vec<&str> = docs::RESOURCES.iter().map(|r| r.uri).collect();
+            return Err(ErrorData::resource_not_found(
+                format!("no resource '{}'; there are {}", request.uri, uris.join(", ")),
+                None,
+            ));
+        };
+        let goal = self.link.look(None, false).await.ok().map(|reply| reply.view.state);
+        let text = self.docs.resource(row.uri, goal.as_ref());
+        let contents = ResourceContents::text(text, row.uri).with_mime_type(row.mime);
+        Ok(ReadResourceResult::new(vec![contents]).into())
+    }
+
+    async fn list_prompts(
+        &self,
+        _request: Option<PaginatedRequestParams>,
+        _context: RequestContext<RoleServer>,
+    ) -> Result<ListPromptsResult, ErrorData> {
+        let prompt = Prompt::new(docs::PROMPT_NAME, Some(docs::PROMPT_DESCRIPTION), None);
+        Ok(ListPromptsResult::with_all_items(vec![prompt]))
+    }
+
+    async fn get_prompt(
+        &self,
+        request: GetPromptRequestParams,
+        _context: RequestContext<RoleServer>,
+    ) -> Result<GetPromptResponse, ErrorData> {
+        if request.name != docs::PROMPT_NAME {
+            return Err(ErrorData::invalid_params(
+                format!("no prompt '{}'; the prompt is '{}'", request.name, docs::PROMPT_NAME),
+                None,
+            ));
+        }
+        let view = self.link.look(None, false).await.ok().map(|reply| reply.view);
+        let text = self.docs.role_prompt(view.as_ref().map(|v| &v.state));
+        let result = GetPromptResult::new(vec![PromptMessage::new_text(rmcp::model::Role::User, text)])
+            .with_description(docs::PROMPT_DESCRIPTION);
+        Ok(result.into())
+    }
+}
