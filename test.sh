@@ -92,7 +92,7 @@ pip_log=$target/test-pip.log
 if [ -x "$python" ]; then
     pip=("$python" -m pip install --quiet --disable-pip-version-check --no-input)
     # What the package needs (python/pyproject.toml), its test and training extras, maturin.
-    if ! "${pip[@]}" 'maturin>=1.9,<2' pytest numpy 'gymnasium>=1.1' 'pettingzoo>=1.24' jax optax \
+    if ! "${pip[@]}" 'maturin>=1.9,<2' pytest numpy 'gymnasium>=1.1' 'pettingzoo>=1.24' jax optax 'mcp>=2.3; python_version >= "3.10"' \
         >"$pip_log" 2>&1; then
         missing "maturin, pytest, numpy, gymnasium, pettingzoo, jax or optax in $venv: pip could not install them from PyPI (see $pip_log)"
     fi
