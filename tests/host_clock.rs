@@ -398,3 +398,59 @@ fn a_paused_match_makes_no_ticks_and_resumes_a_full_period_later() {
     sim.run_until(Duration::from_millis(60_350));
     assert_eq!(sim.host.tick(), 5, "ticks on the period again, with none made up");
 }
+
+#[test]
+fn a_player_that_asks_for_words_gets_its_situation_in_english_with_each_percepts() {
+    let mut config = ServerConfig::new(shipped_map("fixed"));
+    config.mode = Mode::Realtime;
+    config.robots = 2;
+    let mut sim = Sim::new(config);
+    sim.open(1);
+    sim.say(1, json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": "Ann", "words": true}));
+    sim.join(2, "Bob");
+    sim.say(1, json!({"type": "act", "id": 1, "action": "goTo", "args": ["RoomC1"]}));
+    sim.run_until(Duration::from_secs(60));
+    let ann = sim.percepts(1);
+    // The first snapshot names where Ann stands, as its `at` fact does.
+    let at = ann[0].add.iter().find(|f| f[0] == "at").map(|f| f[1].as_str().unwrap_or_default().to_string());
+    let first = ann[0].words.as_deref().expect("words with the first percepts");
+    assert!(
+        first.starts_with(&format!("I am Ann (robot 0), at {}, not in a room.", at.expect("an at fact"))),
+        "{first}"
+    );
+    assert!(ann.iter().all(|p| p.words.is_some()), "words with every percepts");
+    let last = ann.last().and_then(|p| p.words.as_deref()).unwrap_or_default();
+    assert!(
+        last.starts_with("I am Ann (robot 0), in RoomC1. I hold nothing. I am standing still.\n"),
+        "{last}"
+    );
+    assert!(last.contains("\nOther players: Bob.\n"), "{last}");
+    let bob = sim.percepts(2);
+    assert!(
+        !bob.is_empty() && bob.iter().all(|p| p.words.is_none()),
+        "no words for a player that did not ask"
+    );
+}
+
+#[test]
+fn the_last_report_of_each_player_is_in_the_result_even_after_it_left() {
+    let mut config = ServerConfig::new(shipped_map("fixed"));
+    config.mode = Mode::Realtime;
+    config.robots = 2;
+    let mut sim = Sim::new(config);
+    sim.join(1, "Ann");
+    sim.join(2, "Bob");
+    sim.say(1, json!({"type": "report", "tool_calls": 1, "think_ms": 40}));
+    sim.say(1, json!({"type": "report", "tool_calls": 2, "think_ms": 90, "think_ms_max": 50, "prompt_tokens": 700, "completion_tokens": 30}));
+    sim.run_until(Duration::from_secs(1));
+    sim.say(1, json!({"type": "bye"}));
+    sim.run_until(Duration::from_secs(2));
+    let result = sim.finish();
+    let usage = |name: &str| result.per_robot.iter().find(|r| r.name == name).and_then(|r| r.usage);
+    let ann = usage("Ann").expect("Ann's report");
+    assert_eq!(
+        (ann.tool_calls, ann.think_ms, ann.think_ms_max, ann.prompt_tokens, ann.completion_tokens),
+        (2, 90, 50, 700, 30)
+    );
+    assert_eq!(usage("Bob"), None, "no report, no usage");
+}

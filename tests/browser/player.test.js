@@ -98,6 +98,10 @@ test('a human joins from the page and delivers a block beside a built-in agent',
     await page.waitForFunction(() => document.querySelector('#at').textContent.trim() === 'Hall');
     assert.equal(await text(page, '#holding'), 'nothing');
     assert.equal(await text(page, '#sequence-index'), '0');
+    // What the robot knows, in the server's words (`percepts.words`): who and where it is.
+    await page.waitForFunction(() => /^I am Hugo \(robot 1\), at Hall, not in a room\./.test(document.querySelector('#words').textContent));
+    assert.equal(await page.isVisible('#words-box'), true);
+    assert.equal(await text(page, '#words-title'), 'What I know');
     assert.equal(await page.isVisible('#robots-box'), false, 'a player does not see the other robots');
     assert.equal(await page.isVisible('#join-form'), false);
     // The built-in agent is a player it can talk to: a message to it is accepted and shown.
@@ -122,6 +126,11 @@ test('a human joins from the page and delivers a block beside a built-in agent',
     const scale = box.width / bw;
     await page.mouse.click(box.x + (32 - bx) * scale, box.y + (5 - by) * scale);
     await page.waitForFunction(() => document.querySelector('#in').textContent.trim() === 'RoomB', null, { timeout: 30_000 });
+    // The words follow each percepts: inside RoomB, seeing its Red block.
+    await page.waitForFunction(() => {
+      const words = document.querySelector('#words').textContent;
+      return /^I am Hugo \(robot 1\), in RoomB[.,]/.test(words) && /\nHere I see block \d+ \(Red\)/.test(words);
+    });
 
     // The Red block shows as a chip: click it to go to it, then pick it up with the key.
     const chip = page.locator('#blocks [data-block-id][data-color="Red"]');

@@ -9,7 +9,7 @@ use crate::vocabulary::ErrorCode;
 /// The longest line accepted, in bytes, without its newline.
 pub const MAX_LINE: usize = 64 * 1024;
 
-const CLIENT_TYPES: &[&str] = &["hello", "act", "say", "ready", "resync", "ping", "bye"];
+const CLIENT_TYPES: &[&str] = &["hello", "act", "say", "ready", "resync", "ping", "bye", "report"];
 const SERVER_TYPES: &[&str] =
     &["welcome", "percepts", "ack", "result", "error", "pong", "match_end", "bye", "frame", "lobby"];
 

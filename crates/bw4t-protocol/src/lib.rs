@@ -13,6 +13,7 @@ mod schema;
 mod table;
 mod view;
 mod vocabulary;
+mod words;
 
 pub use codec::{DecodeError, LineBuffer, MAX_LINE, decode_client, decode_server, encode};
 pub use convert::{
@@ -22,13 +23,14 @@ pub use convert::{
 pub use language::{Group, KINDS, KindRow, MessagePolicy, Said, SaidError, Slot, kind_row, language_json};
 pub use messages::*;
 pub use replay::{REPLAY_FORMAT, Recorder, ReplayEvent, ReplayHeader, ReplayLine, ReplayMeta};
-pub use result::{MatchResult, RobotExtra, RobotResult};
+pub use result::{MatchResult, PlayerUsage, RobotExtra, RobotResult};
 pub use schema::schemas;
 pub use table::{
     ACTIONS, ActionRow, PERCEPTS, PerceptRow, Scope, SendType, action_row, percept_row, table_json,
 };
 pub use view::map_layout;
 pub use vocabulary::{AckCode, AgentStatus, ByeReason, EndReason, ErrorCode, Leaving, MoveState, Outcome};
+pub use words::{Heard, Knowledge, RoomSeen, RoomTold, Snapshot, is_room};
 
 /// The protocol's name, as sent in `hello`.
 pub const PROTOCOL: &str = "bw4t";

@@ -38,6 +38,9 @@ pub enum ClientMessage {
     Ping(Ping),
     /// The client leaves.
     Bye(ClientBye),
+    /// How the player is driven (tool calls, thinking time, model tokens), cumulative;
+    /// the last one is in the result.
+    Report(crate::PlayerUsage),
 }
 
 /// Whether a client plays or watches, and with which credential.
@@ -76,6 +79,9 @@ pub struct Hello {
     /// Send a `percepts` message every tick, even an empty one (lockstep waits for each).
     #[serde(default, skip_serializing_if = "is_false")]
     pub every_tick: bool,
+    /// Agents: add `words` to every `percepts`, the robot's situation in plain English.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub words: bool,
     /// The live match to join, by name (any role). Without it and `template`: the server's
     /// default match. A reconnecting player names the match its session belongs to.
     #[serde(default, rename = "match", skip_serializing_if = "Option::is_none")]
@@ -96,6 +102,7 @@ impl Hello {
             token,
             session: None,
             every_tick: false,
+            words: false,
             match_name: None,
             template: None,
         }
@@ -311,6 +318,10 @@ pub struct Percepts {
     /// A full snapshot: forget everything held before.
     #[serde(default, skip_serializing_if = "is_false")]
     pub full: bool,
+    /// For a player whose `hello` asked for `words`: what its robot knows after these
+    /// percepts, in a few short lines of English.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub words: Option<String>,
 }
 
 /// `ack`.

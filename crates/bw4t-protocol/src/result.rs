@@ -80,6 +80,31 @@ pub struct RobotResult {
     pub connected: bool,
     /// Whether the robot was still in the match at the end.
     pub present: bool,
+    /// How its player says it was driven (its last `report`), if it sent one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub usage: Option<PlayerUsage>,
+}
+
+/// How a player says it was driven: tool calls, thinking time and model tokens. Reported
+/// by the player itself (`bw4t mcp` does), so it is as true as the player is.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct PlayerUsage {
+    /// Decisions made: tool calls, for a player driven through MCP.
+    #[serde(default)]
+    pub tool_calls: u64,
+    /// Wall milliseconds spent deciding, in all (between an answer and the next call).
+    #[serde(default)]
+    pub think_ms: u64,
+    /// The longest single decision, in wall milliseconds.
+    #[serde(default)]
+    pub think_ms_max: u64,
+    /// Model input tokens, where the driver reports them.
+    #[serde(default)]
+    pub prompt_tokens: u64,
+    /// Model output tokens, where the driver reports them.
+    #[serde(default)]
+    pub completion_tokens: u64,
 }
 
 fn yes() -> bool {
@@ -95,11 +120,13 @@ pub struct RobotExtra {
     pub errors: u64,
     /// Whether anyone ever played the robot.
     pub connected: bool,
+    /// What its player last reported of how it was driven.
+    pub usage: Option<PlayerUsage>,
 }
 
 impl RobotExtra {
     /// A robot played in-process: never late, never wrong.
-    pub const LOCAL: RobotExtra = RobotExtra { late_ticks: 0, errors: 0, connected: true };
+    pub const LOCAL: RobotExtra = RobotExtra { late_ticks: 0, errors: 0, connected: true, usage: None };
 }
 
 impl MatchResult {
@@ -128,6 +155,7 @@ impl MatchResult {
                 errors: extra.errors,
                 connected: extra.connected,
                 present,
+                usage: extra.usage,
             })
             .collect();
         MatchResult {

@@ -7,6 +7,10 @@
 // only these beliefs and the colours of blocks seen earlier, which the player was told
 // and may remember (Beliefs.colourOf).
 //
+// The hello asks for `words` (not when embedded, unless the embedding page's hello does):
+// each `percepts` then carries the robot's situation in English, the same text language
+// models get, shown as "What I know".
+//
 // Messages are composed with the menu (menu.js) in the shared language, or typed when the
 // match allows free text. The time from a key or click to the `ack` of the action it made
 // is kept in `window.bw4tLatency` (samples in ms, and their percentiles), for tests and
@@ -79,6 +83,7 @@ export function joinAsPlayer(name, template = null, extra = {}) {
   $('#join-error').hidden = true;
   $('#log').replaceChildren();
   $('#messages').replaceChildren();
+  showWords(null);
   setWatchNote('');
   hideWaiting();
   player.template = template;
@@ -101,7 +106,8 @@ function connectPlayer(identity) {
   stopOverview();
   // Messages from a socket that was replaced (its trailing `bye`) are not this player's.
   const onMessage = (message) => player.socket === socket && onPlayerMessage(message);
-  const socket = openSocket(helloFor({ ...identity, ...destination() }), onMessage, () => {
+  const hello = helloFor({ words: !embedded, ...identity, ...destination() });
+  const socket = openSocket(hello, onMessage, () => {
     if (player.socket !== socket) return; // replaced on purpose (a new join, a retry)
     if (!page.ended && $('#status').dataset.status !== 'error') setStatus('disconnected');
     if (!page.ended) log('error', 'connection closed');
@@ -250,8 +256,18 @@ function onPercepts(percepts) {
   // In lockstep the match waits for this; in realtime it is accepted and ignored.
   player.socket.send({ type: 'ready', tick: percepts.tick });
   setTick(percepts.tick, page.match ? percepts.tick / page.match.tick_hz : undefined);
+  if (typeof percepts.words === 'string') showWords(percepts);
   showPlayerPanel();
   page.dirty = true;
+}
+
+/** The latest `words` (`percepts`, or null to clear the panel), with its tick in `data-tick`. */
+function showWords(percepts) {
+  const box = $('#words-box');
+  box.dataset.words = percepts ? 'some' : 'none';
+  const node = $('#words');
+  node.dataset.tick = percepts ? String(percepts.tick) : '';
+  setText(node, percepts ? percepts.words : '');
 }
 
 /** The visible blocks: id and colour from `color` facts, in id order. */

@@ -103,6 +103,11 @@ impl MatchHost {
             player.late_in_row = 0;
             player.dropped_at = None;
             player.every_tick = every_tick;
+            // A player taking its robot back with `words` keeps what the robot remembers.
+            player.knowledge = match (hello.words, player.knowledge.take()) {
+                (false, _) => None,
+                (true, kept) => Some(kept.unwrap_or_default()),
+            };
             player.full_since = None;
         }
         if let Some(c) = self.conns.get_mut(&conn) {

@@ -19,8 +19,8 @@ use std::time::{Duration, Instant};
 
 use bw4t_agents::Driver;
 use bw4t_protocol::{
-    Ack, ActId, ActResult, ClientMessage, Frame, FrameMessage, Lobby, MatchEnd, MatchResult, Mode, Percepts,
-    ServerMessage, action_from_act, encode, percept_to_fact,
+    Ack, ActId, ActResult, ClientMessage, Frame, FrameMessage, Knowledge, Lobby, MatchEnd, MatchResult, Mode,
+    Percepts, ServerMessage, action_from_act, encode, percept_to_fact,
 };
 use bw4t_protocol::{AckCode, ByeReason, EndReason, ErrorCode, Leaving, Recorder, RobotExtra};
 use bw4t_sim::{Accepted, Action, Intent, Match, OrderEnd, OrderId, Receiver, Rejection, RobotId, Seats};
@@ -246,6 +246,8 @@ struct Player {
     conn: Option<ConnId>,
     dropped_at: Option<Instant>,
     every_tick: bool,
+    /// What its robot knows, kept only for a player whose `hello` asked for `words`.
+    knowledge: Option<Box<Knowledge>>,
     pending: Vec<Pending>,
     actions_this_tick: u32,
     orders: BTreeMap<OrderId, ActId>,
@@ -272,6 +274,7 @@ impl Player {
             conn: None,
             dropped_at: None,
             every_tick: false,
+            knowledge: None,
             pending: Vec::new(),
             actions_this_tick: 0,
             orders: BTreeMap::new(),
@@ -303,6 +306,8 @@ pub struct MatchHost {
     conns: BTreeMap<ConnId, Conn>,
     players: BTreeMap<RobotId, Player>,
     late: BTreeMap<RobotId, u64>,
+    /// Each robot's player's last `report` (kept after it leaves, for the result).
+    usage: BTreeMap<RobotId, bw4t_protocol::PlayerUsage>,
     phase: Phase,
     /// The latest time the host was given.
     now: Instant,
@@ -380,6 +385,7 @@ impl MatchHost {
             conns: BTreeMap::new(),
             players: BTreeMap::new(),
             late: BTreeMap::new(),
+            usage: BTreeMap::new(),
             phase: Phase::Waiting { start_by },
             now,
             tick_sent_at: now,
@@ -662,7 +668,12 @@ impl MatchHost {
                 Some(p) => (p.errors, p.connected_ever || p.local.is_some()),
                 None => self.gone.get(&id).copied().unwrap_or((0, false)),
             };
-            RobotExtra { late_ticks: self.late.get(&id).copied().unwrap_or(0), errors, connected }
+            RobotExtra {
+                late_ticks: self.late.get(&id).copied().unwrap_or(0),
+                errors,
+                connected,
+                usage: self.usage.get(&id).copied(),
+            }
         };
         let result = MatchResult::of(&self.game, Some(self.config.mode), reason, wall_ms, extra);
         if let Some(recorder) = self.recorder.take() {
@@ -813,11 +824,17 @@ impl MatchHost {
             return false;
         }
         player.awaiting = true;
+        // Fed exactly what the player is sent, so the words say what the player was told.
+        let words = player.knowledge.as_mut().map(|knowledge| {
+            knowledge.apply(delta.tick, &delta);
+            knowledge.describe()
+        });
         let message = ServerMessage::Percepts(Percepts {
             tick: delta.tick,
             add: delta.add.iter().map(percept_to_fact).collect(),
             not: delta.not.iter().map(percept_to_fact).collect(),
             full: delta.full,
+            words,
         });
         self.send(conn_id, &message);
         true
@@ -936,6 +953,9 @@ impl MatchHost {
             ClientMessage::Bye(_) => {
                 self.remove_player(robot);
                 self.disconnect(conn, Leaving::Goodbye.into());
+            }
+            ClientMessage::Report(usage) => {
+                self.usage.insert(robot, usage);
             }
             ClientMessage::Hello(_) | ClientMessage::Ping(_) => {}
         }
