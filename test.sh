@@ -114,7 +114,7 @@ if [ ! "$browser/node_modules/.package-lock.json" -nt "$browser/package-lock.jso
     (cd "$browser" && PLAYWRIGHT_SKIP_BROWSER_DOWNLOAD=1 npm ci --no-audit --no-fund --silent) ||
         missing "the browser tests' npm packages: (cd $browser && npm ci) failed; the npm registry must be reachable"
 fi
-echo "    Node.js $(node --version), playwright-core in $browser/node_modules"
+echo "    Node.js $(node --version), playwright-core and the MCP Inspector in $browser/node_modules"
 took
 
 heading "Build the release binary: cargo build --release --locked"

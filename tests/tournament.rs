@@ -522,3 +522,55 @@ fn ctrl_c_keeps_the_rows_and_prints_the_command_that_resumes() {
     assert!(all.iter().all(|r| r["completed"] == true), "{all:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_match_past_its_wall_budget_is_ended_and_its_row_says_so() {
+    let dir = temp("budget");
+    // A player that takes its seat and then never answers a tick: with no deadline, only
+    // the budget ends its match.
+    let silent = dir.join("silent.py");
+    std::fs::write(
+        &silent,
+        "import json, os, socket, time\n\
+         s = socket.create_connection((os.environ['BW4T_HOST'], int(os.environ['BW4T_PORT'])))\n\
+         hello = {'type': 'hello', 'protocol': 'bw4t', 'versions': [1], 'name': os.environ['BW4T_NAME'], 'token': os.environ['BW4T_TOKEN']}\n\
+         s.sendall((json.dumps(hello) + '\\n').encode())\n\
+         time.sleep(600)\n",
+    )
+    .expect("agent");
+    let config = write_config(
+        &dir,
+        &format!(
+            "maps = [\"fixed\"]\nseeds = [2]\ndeadline_ms = 0\nwall_budget_s = 1\n\n[[team]]\nname = \"slow\"\nagents = [\"builtin\", \"python3 {}\"]\n",
+            silent.display()
+        ),
+    );
+    let out_dir = dir.join("out");
+    run_to(&config, &out_dir, &["--replays", "none"]);
+    let all = rows(&out_dir);
+    assert_eq!(
+        (all[0]["out_of_time"].as_bool(), all[0]["end_reason"].as_str(), all[0]["completed"].as_bool()),
+        (Some(true), Some("interrupted"), Some(false)),
+        "{}",
+        all[0]
+    );
+    let csv = std::fs::read_to_string(out_dir.join("matches.csv")).expect("matches.csv");
+    let header: Vec<&str> = csv.lines().next().expect("a header").split(',').collect();
+    for column in ["out_of_time", "tool_calls", "think_ms", "prompt_tokens", "completion_tokens"] {
+        assert!(header.contains(&column), "{column} in {header:?}");
+    }
+    let bad = write_config(
+        &dir,
+        "maps = [\"fixed\"]\nseeds = [2]\nwall_budget_s = 0\n\n[[team]]\nname = \"a\"\nagents = \"builtin\"\n",
+    );
+    let refused = crate::util::bw4t_within(
+        &["tournament", &bad, "--out", dir.join("x").to_str().expect("utf-8")],
+        LIMIT,
+    );
+    assert!(
+        !refused.status.success() && String::from_utf8_lossy(&refused.stderr).contains("wall_budget_s"),
+        "{}",
+        String::from_utf8_lossy(&refused.stderr)
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

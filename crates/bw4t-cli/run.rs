@@ -44,6 +44,10 @@ pub(crate) struct RunArgs {
     /// Seconds external agents have to connect.
     #[arg(long, default_value_t = 10)]
     connect_timeout_s: u64,
+    /// With external agents: end the match as `interrupted` after this many seconds of
+    /// wall time (for agents that think slowly, such as language models; 0: no limit).
+    #[arg(long, default_value_t = 0)]
+    wall_budget_s: u64,
     /// Print the result as JSON instead of the summary.
     #[arg(long)]
     json: bool,
@@ -92,12 +96,13 @@ pub(crate) fn run(args: &RunArgs) -> Result<u8> {
     }
     let replay = crate::replay::writer(args.replay.as_deref())?;
     let external = seats.iter().any(|s| matches!(s, SeatSpec::External { .. }));
+    let mut out_of_time = false;
     let (result, agents) = if external {
         let log_dir = args
             .log_dir
             .clone()
             .unwrap_or_else(|| std::env::temp_dir().join(format!("bw4t-run-{}-{seed}", std::process::id())));
-        play_served(ServedRun {
+        let served = play_served(ServedRun {
             map: &map,
             game: MatchConfig::default(),
             seed,
@@ -108,7 +113,10 @@ pub(crate) fn run(args: &RunArgs) -> Result<u8> {
             log_dir: &log_dir,
             replay,
             stop: None,
-        })?
+            wall_budget: (args.wall_budget_s > 0).then(|| Duration::from_secs(args.wall_budget_s)),
+        })?;
+        out_of_time = served.out_of_time;
+        (served.result, served.agents)
     } else {
         play_builtin(&map, seed, &seats, limit.ticks, replay)?
     };
@@ -116,6 +124,10 @@ pub(crate) fn run(args: &RunArgs) -> Result<u8> {
     json["agents"] = serde_json::to_value(&agents)?;
     json["max_ticks"] = limit.ticks.into();
     json["max_ticks_from"] = limit.from.into();
+    if out_of_time {
+        json["out_of_time"] = true.into();
+        eprintln!("bw4t: the match used up its wall-time budget of {} s and was ended", args.wall_budget_s);
+    }
     if let Some(path) = &args.out {
         let text = serde_json::to_string_pretty(&json)? + "\n";
         std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))?;

@@ -52,6 +52,10 @@ pub(crate) struct TournamentArgs {
     /// External agents' lockstep deadline in milliseconds (0: forever).
     #[arg(long)]
     deadline_ms: Option<u64>,
+    /// Wall seconds a match with external agents may take before it is ended (its row
+    /// says out_of_time); none by default.
+    #[arg(long)]
+    wall_budget_s: Option<u64>,
     /// Matches played at once (default: the number of cores).
     #[arg(long)]
     concurrency: Option<usize>,
@@ -293,6 +297,7 @@ fn config(args: &TournamentArgs) -> Result<TournamentConfig> {
             max_ticks: None,
             repetitions: 1,
             deadline_ms: 1000,
+            wall_budget_s: None,
             teams: Vec::new(),
         },
     };
@@ -327,6 +332,9 @@ fn config(args: &TournamentArgs) -> Result<TournamentConfig> {
     }
     if let Some(d) = args.deadline_ms {
         config.deadline_ms = d;
+    }
+    if args.wall_budget_s.is_some() {
+        config.wall_budget_s = args.wall_budget_s;
     }
     if config.maps.is_empty() && config.teams.is_empty() && args.config.is_none() {
         bail!("give a configuration file, or --map and --team (see bw4t tournament --help)");

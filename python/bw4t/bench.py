@@ -12,17 +12,29 @@ as agent-steps (robots × steps):
 
 each at 1 tick per step (a step per simulated tick, as the simulation counts) and at the
 environments' default 10. Then ``vector_memory``: resident memory per match of a vector.
+
+``mcp`` (only when asked for: it needs the MCP SDK, Python 3.10 or newer) measures
+``bw4t mcp`` through the SDK's client: ``mcp_round_trip``, the round trip of a ``look``
+and of a ``wait(ticks=1)`` (which crosses one tick) over stdio and over streamable HTTP on
+loopback (milliseconds, p50 and p99); and ``mcp_match``, ticks per second of a lockstep
+match on the fixed map in which one robot goes back and forth between two places, driven
+by a scripted MCP client that answers at once, and the same work done by the TCP client
+(``AsyncClient``) on ``bw4t serve --mode lockstep``.
 """
 
 from __future__ import annotations
 
 import argparse
 import asyncio
+import importlib.util
 import json
+import logging
+import re
 import subprocess
 import sys
 import time
-from typing import Dict, List, Optional
+from contextlib import asynccontextmanager
+from typing import Any, AsyncIterator, Dict, List, Optional, Tuple
 
 import numpy as np
 
@@ -194,21 +206,188 @@ def bench_memory(matches: int, seed: int) -> Dict:
     }
 
 
+#: The two places the robot of ``mcp_match`` goes between, on the fixed map.
+SHUTTLE = ("RoomA1", "DropZone")
+#: Seconds any one await of the ``mcp`` case may take (a hang fails the bench).
+MCP_BOUND = 120.0
+
+
+def bw4t_command(*args: str) -> List[str]:
+    """The ``bw4t`` command of this package (the wheel's), as the ``tcp`` case runs it."""
+    return [sys.executable, "-m", "bw4t", *args]
+
+
+async def _bounded(awaitable: Any) -> Any:
+    return await asyncio.wait_for(awaitable, MCP_BOUND)
+
+
+@asynccontextmanager
+async def _mcp_session(transport: str, args: List[str]) -> AsyncIterator[Any]:
+    """An initialized MCP session of ``bw4t mcp ARGS`` over ``transport``."""
+    from mcp import ClientSession, StdioServerParameters
+    from mcp.client.stdio import stdio_client
+    from mcp.client.streamable_http import streamable_http_client
+
+    command = bw4t_command("mcp", *args)
+    if transport == "stdio":
+        params = StdioServerParameters(command=command[0], args=command[1:])
+        async with stdio_client(params, errlog=subprocess.DEVNULL) as (read, write):  # type: ignore[arg-type]
+            async with ClientSession(read, write) as session:
+                await _bounded(session.initialize())
+                yield session
+        return
+    proc = await asyncio.create_subprocess_exec(
+        *command, "--http", "127.0.0.1:0",
+        stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+    )
+    try:
+        assert proc.stderr is not None
+        url = None
+        while url is None:
+            line = (await _bounded(proc.stderr.readline())).decode()
+            if not line:
+                raise RuntimeError("bw4t mcp --http ended without printing its address")
+            found = re.search(r"(http://\S+/mcp)", line)
+            url = found.group(1) if found else None
+        drain = asyncio.ensure_future(proc.stderr.read())
+        async with streamable_http_client(url) as (read, write):
+            async with ClientSession(read, write) as session:
+                await _bounded(session.initialize())
+                yield session
+        drain.cancel()
+    finally:
+        if proc.returncode is None:
+            proc.kill()
+        await _bounded(proc.wait())
+
+
+def _ms_percentiles(seconds: List[float]) -> Tuple[float, float]:
+    p50, p99 = np.percentile(np.array(seconds) * 1000.0, [50, 99])
+    return round(float(p50), 3), round(float(p99), 3)
+
+
+async def _round_trip(transport: str, calls: int, seed: int) -> Dict:
+    """``calls`` looks, then ``calls`` waits of one tick, each timed alone."""
+    args = ["--map", "fixed", "--seed", str(seed), "--max-ticks", "100000000"]
+    async with _mcp_session(transport, args) as session:
+        times: Dict[str, List[float]] = {"look": [], "wait": []}
+        for tool, arguments in (("look", {}), ("wait", {"ticks": 1})):
+            for i in range(calls + 10):
+                start = time.perf_counter()
+                await _bounded(session.call_tool(tool, arguments))
+                if i >= 10:  # the first few warm the path up
+                    times[tool].append(time.perf_counter() - start)
+    look, wait = _ms_percentiles(times["look"]), _ms_percentiles(times["wait"])
+    return {
+        "case": "mcp_round_trip",
+        "transport": "stdio" if transport == "stdio" else "streamable HTTP on loopback",
+        "calls": calls,
+        "look_p50_ms": look[0],
+        "look_p99_ms": look[1],
+        "wait_tick_p50_ms": wait[0],
+        "wait_tick_p99_ms": wait[1],
+    }
+
+
+async def _mcp_shuttle(ticks: int, seed: int) -> Dict:
+    """A scripted MCP client: go_to between the two places until ``ticks`` have passed."""
+    args = ["--map", "fixed", "--seed", str(seed), "--max-ticks", str(2 * ticks + 10000)]
+    async with _mcp_session("stdio", args) as session:
+        state = (await _bounded(session.call_tool("look", {}))).structured_content["state"]
+        first, calls, leg = state["tick"], 1, 0
+        start = time.perf_counter()
+        while state["tick"] - first < ticks:
+            res = await _bounded(session.call_tool("go_to", {"place": SHUTTLE[leg % 2]}))
+            state, calls, leg = res.structured_content["state"], calls + 1, leg + 1
+        seconds = time.perf_counter() - start
+    done = state["tick"] - first
+    return {
+        "case": "mcp_match",
+        "client": "mcp",
+        "path": "bw4t mcp over stdio (its own lockstep match), a scripted MCP client",
+        "ticks": done,
+        "seconds": round(seconds, 3),
+        "ticks_per_s": round(done / seconds),
+        "tool_calls": calls,
+    }
+
+
+def _tcp_shuttle(ticks: int, seed: int) -> Dict:
+    """The same work with the TCP client on ``bw4t serve --mode lockstep``."""
+    from . import AsyncClient
+
+    server = subprocess.Popen(
+        bw4t_command("serve", "--once", "--mode", "lockstep", "--port", "0", "--robots", "1", "--map", "fixed")
+        + ["--seed", str(seed), "--deadline-ms", "0", "--max-ticks", str(2 * ticks + 10000)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        text=True,
+    )
+    try:
+        assert server.stdout is not None
+        first = server.stdout.readline().strip()
+        if not first.startswith("listening on "):
+            raise RuntimeError(f"bw4t serve did not start: {first!r}")
+        host, port = first[len("listening on "):].rsplit(":", 1)
+
+        async def shuttle() -> Tuple[int, int, float]:
+            client = await _bounded(AsyncClient.connect(host, int(port), "P0"))
+            tick, orders, leg = 0, 0, 0
+            start = time.perf_counter()
+            while tick < ticks:
+                result = await _bounded(client.go_to(SHUTTLE[leg % 2]))
+                tick, orders, leg = result.tick, orders + 1, leg + 1
+            seconds = time.perf_counter() - start
+            await client.close()
+            return tick, orders, seconds
+
+        done, orders, seconds = asyncio.run(shuttle())
+    finally:
+        server.kill()
+        server.wait(timeout=30)
+    return {
+        "case": "mcp_match",
+        "client": "tcp",
+        "path": "bw4t serve --mode lockstep, one AsyncClient on loopback",
+        "ticks": done,
+        "seconds": round(seconds, 3),
+        "ticks_per_s": round(done / seconds),
+        "actions": orders,
+    }
+
+
+def bench_mcp(calls: int, ticks: int, seed: int) -> List[Dict]:
+    """The ``mcp`` case's rows: round trips per transport, then the two clients' matches."""
+    rows = [asyncio.run(_round_trip(transport, calls, seed)) for transport in ("stdio", "http")]
+    rows.append(asyncio.run(_mcp_shuttle(ticks, seed)))
+    rows.append(_tcp_shuttle(ticks, seed))
+    return rows
+
+
 def main(argv: Optional[List[str]] = None) -> None:
     parser = argparse.ArgumentParser(prog="python -m bw4t.bench", description=__doc__.split("\n\n")[0])
     parser.add_argument("--steps", type=int, default=20000, help="steps of the single env per setting")
     parser.add_argument("--vector-steps", type=int, default=400, help="steps of each vector per setting")
     parser.add_argument("--tcp-ticks", type=int, default=3000, help="ticks of the TCP client path")
+    parser.add_argument("--mcp-calls", type=int, default=1000, help="timed calls per tool and transport (mcp)")
+    parser.add_argument("--mcp-ticks", type=int, default=200000, help="ticks of each client's match (mcp)")
     parser.add_argument("--threads", type=int, default=None, help="threads of the vector (default: cores)")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument(
-        "--cases", default="single,vector,tcp,memory", help="comma-separated: single, vector, tcp, memory"
+        "--cases",
+        default="single,vector,tcp,memory",
+        help="comma-separated: single, vector, tcp, memory, mcp (not run unless named; needs the mcp package)",
     )
     args = parser.parse_args(argv)
     cases = set(args.cases.split(","))
-    unknown = cases - {"single", "vector", "tcp", "memory"}
+    unknown = cases - {"single", "vector", "tcp", "memory", "mcp"}
     if unknown:
         parser.error(f"unknown case(s): {', '.join(sorted(unknown))}")
+    if "mcp" in cases:
+        if importlib.util.find_spec("mcp") is None:
+            parser.error("the mcp case needs the MCP SDK: pip install 'mcp>=2.3' (Python 3.10 or newer)")
+        # The SDK warns when the server answers the session's closing DELETE with 202.
+        logging.getLogger("mcp.client.streamable_http").setLevel(logging.ERROR)
     for ticks_per_step in (1, 10):
         if "single" in cases:
             emit(bench_single(ticks_per_step, args.steps // ticks_per_step, args.seed))
@@ -219,6 +398,9 @@ def main(argv: Optional[List[str]] = None) -> None:
         emit(bench_tcp(args.tcp_ticks, args.seed))
     if "memory" in cases:
         emit(bench_memory(256, args.seed))
+    if "mcp" in cases:
+        for row in bench_mcp(args.mcp_calls, args.mcp_ticks, args.seed):
+            emit(row)
 
 
 if __name__ == "__main__":

@@ -14,11 +14,10 @@ mod local;
 mod robot;
 mod server;
 mod view;
-mod words;
 
 pub use docs::Docs;
 pub use http::{MCP_PATH, serve_http};
-pub use link::{DecisionLog, JoinError, Link, Tokens, Usage};
+pub use link::{DecisionLog, JoinError, Link, Tokens};
 pub use local::{LocalMatch, Started};
 pub use server::{MAX_TOOL_SECONDS, RobotServer};
 

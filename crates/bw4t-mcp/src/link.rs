@@ -5,7 +5,7 @@ use std::io::Write;
 use std::net::SocketAddr;
 use std::time::{Duration, Instant};
 
-use bw4t_protocol::{ClientMessage, Hello, MatchInfo, ServerMessage, decode_server, encode};
+use bw4t_protocol::{ClientMessage, Hello, MatchInfo, PlayerUsage, ServerMessage, decode_server, encode};
 use serde_json::{Value, json};
 use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader};
 use tokio::net::TcpStream;
@@ -22,19 +22,6 @@ pub struct Tokens {
     pub prompt: u64,
     /// Completion (output) tokens so far.
     pub completion: u64,
-}
-
-/// How the robot has been driven so far.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Usage {
-    /// Tool calls of every kind (`look` included).
-    pub tool_calls: u64,
-    /// Wall time between a tool's result and the next call (the driver thinking), in ms.
-    pub think_ms_total: u64,
-    /// The longest such time, in ms.
-    pub think_ms_max: u64,
-    /// What the driver last reported of its tokens.
-    pub tokens: Option<Tokens>,
 }
 
 /// A tool call's answer: the report of an action (none for `look`) and the state after.
@@ -57,7 +44,7 @@ enum Request {
         reply: oneshot::Sender<Reply>,
     },
     Usage {
-        reply: oneshot::Sender<Usage>,
+        reply: oneshot::Sender<PlayerUsage>,
     },
 }
 
@@ -162,8 +149,9 @@ impl Link {
         answer.await.map_err(|_| LinkError::Gone)
     }
 
-    /// How the robot has been driven so far.
-    pub async fn usage(&self) -> Option<Usage> {
+    /// How the robot has been driven so far: every tool call counts (`look` too), and
+    /// the thinking time is the wall time between a result and the next call.
+    pub async fn usage(&self) -> Option<PlayerUsage> {
         let (reply, answer) = oneshot::channel();
         self.send(Request::Usage { reply }).await.ok()?;
         answer.await.ok()
@@ -203,7 +191,7 @@ async fn drive(
     mut inbox: mpsc::Receiver<Request>,
     mut log: DecisionLog,
 ) {
-    let mut usage = Usage::default();
+    let mut usage = PlayerUsage::default();
     let mut last_answer = Instant::now();
     let mut waiting: Option<Waiting> = None;
     let mut connected = true;
@@ -222,26 +210,34 @@ async fn drive(
             request = inbox.recv() => {
                 let Some(request) = request else { break };
                 let now = Instant::now();
-                let think = |usage: &mut Usage, tokens: Option<Tokens>| {
+                // Counted and reported before the call's own messages, so that the match
+                // cannot end on this call's `ready` without its report.
+                let mut think = |robot: &mut Robot, tokens: Option<Tokens>| {
                     let ms = now.duration_since(last_answer).as_millis() as u64;
                     usage.tool_calls += 1;
-                    usage.think_ms_total += ms;
+                    usage.think_ms += ms;
                     usage.think_ms_max = usage.think_ms_max.max(ms);
-                    if tokens.is_some() { usage.tokens = tokens; }
+                    if let Some(tokens) = tokens {
+                        usage.prompt_tokens = tokens.prompt;
+                        usage.completion_tokens = tokens.completion;
+                    }
+                    if robot.ended().is_none() {
+                        robot.push(ClientMessage::Report(usage));
+                    }
                     ms
                 };
                 match request {
                     Request::Usage { reply } => { let _ = reply.send(usage); }
                     Request::Look { tokens, counted, reply } => {
                         if counted {
-                            let think_ms = think(&mut usage, tokens);
+                            let think_ms = think(&mut robot, tokens);
                             write_log(&mut log, json!({"tool": "look", "tick": robot.tick(), "think_ms": think_ms, "run_ms": 0}));
                             last_answer = Instant::now();
                         }
                         let _ = reply.send(Reply { report: None, view: View::of(&robot) });
                     }
                     Request::Run { command, timeout, tokens, reply } => {
-                        let think_ms = think(&mut usage, tokens);
+                        let think_ms = think(&mut robot, tokens);
                         let tool = tool_name(&command);
                         let args = command_args(&command);
                         match robot.start(command) {

@@ -14,7 +14,7 @@ use bw4t_protocol::{
 };
 use bw4t_sim::{Action, BlockId, PerceptDelta};
 
-use crate::words::{Knowledge, Snapshot};
+use bw4t_protocol::{Knowledge, Snapshot};
 
 /// What a tool asks the robot to do.
 #[derive(Clone, Debug, PartialEq)]
@@ -327,6 +327,11 @@ impl Robot {
         self.end(format!("the connection to the match closed ({why})"));
     }
 
+    /// Queues a message of the driver's own (a `report`).
+    pub(crate) fn push(&mut self, message: ClientMessage) {
+        self.transmit.push_back(message);
+    }
+
     /// The next message to send.
     pub(crate) fn poll_transmit(&mut self) -> Option<ClientMessage> {
         self.transmit.pop_front()
@@ -449,3 +454,6 @@ fn explain(code: AckCode) -> &'static str {
         AckCode::UnknownReceiver => "no such player",
     }
 }
+
+#[cfg(test)]
+mod tests;

@@ -65,6 +65,7 @@ struct BlockArgs {
 struct PickUpArgs {
     /// The block to take (within reach); without it, the block the robot is at.
     #[serde(default)]
+    #[schemars(with = "u32")]
     block: Option<u32>,
 }
 
@@ -74,27 +75,35 @@ struct SayArgs {
     /// A kind of message of the language (see the `bw4t://rules` resource), e.g.
     /// `contains`, `going_to`, `have`, `who_has`; with its arguments below.
     #[serde(default)]
+    #[schemars(with = "String")]
     kind: Option<String>,
     /// A place's name, for kinds about a room.
     #[serde(default)]
+    #[schemars(with = "String")]
     room: Option<String>,
     /// A colour's name, for kinds about a colour.
     #[serde(default)]
+    #[schemars(with = "String")]
     colour: Option<String>,
     /// A player's name, for requests to one player (`go_to`, `get`).
     #[serde(default)]
+    #[schemars(with = "String")]
     player: Option<String>,
     /// A number of blocks (`contains_many`).
     #[serde(default)]
+    #[schemars(with = "u32")]
     count: Option<u32>,
     /// A position in the goal sequence, 0 for the first colour.
     #[serde(default)]
+    #[schemars(with = "u32")]
     position: Option<u32>,
     /// Free text instead of a kind, where the match allows it.
     #[serde(default)]
+    #[schemars(with = "String")]
     text: Option<String>,
     /// A player's name, or `all` (the default).
     #[serde(default)]
+    #[schemars(with = "String")]
     to: Option<String>,
 }
 
@@ -103,9 +112,11 @@ struct SayArgs {
 struct WaitArgs {
     /// Give up after this many ticks (20 ticks are one simulated second).
     #[serde(default)]
+    #[schemars(with = "u64")]
     ticks: Option<u64>,
     /// Give up after this many seconds of wall time.
     #[serde(default)]
+    #[schemars(with = "f64")]
     seconds: Option<f64>,
 }
 
@@ -160,10 +171,19 @@ fn tool_list() -> Vec<Tool> {
         .iter()
         .map(|row| {
             let schema = serde_json::to_value((row.schema)()).unwrap_or_default();
-            let object: JsonObject = match schema {
+            let mut object: JsonObject = match schema {
                 Value::Object(map) => map,
                 _ => JsonObject::new(),
             };
+            // An optional argument is simply left out: a `null` default would contradict
+            // its type for strict schema checkers.
+            if let Some(Value::Object(properties)) = object.get_mut("properties") {
+                for property in properties.values_mut().filter_map(Value::as_object_mut) {
+                    if property.get("default") == Some(&Value::Null) {
+                        property.remove("default");
+                    }
+                }
+            }
             Tool::new(row.name, row.description, Arc::new(object))
         })
         .collect()

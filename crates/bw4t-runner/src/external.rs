@@ -74,6 +74,19 @@ pub struct ServedRun<'a> {
     pub replay: Option<Box<dyn std::io::Write + Send>>,
     /// When set, the match ends early (`interrupted`) and its agents are stopped.
     pub stop: Option<Arc<AtomicBool>>,
+    /// Wall time the match may take from its start (agents connecting included); past
+    /// it the match ends as `interrupted` and [`Served::out_of_time`] says so.
+    pub wall_budget: Option<Duration>,
+}
+
+/// A served run's outcome.
+pub struct Served {
+    /// The match's result.
+    pub result: MatchResult,
+    /// How each seat's agent fared.
+    pub agents: Vec<AgentReport>,
+    /// Whether the match was ended because its wall-time budget ran out.
+    pub out_of_time: bool,
 }
 
 /// Why a served run failed to start.
@@ -92,7 +105,7 @@ const MAX_LATE_IN_ROW: u32 = 3;
 
 /// Plays a match with external agent processes; every child (and its children) is gone
 /// when this returns.
-pub fn play_served(run: ServedRun<'_>) -> Result<(MatchResult, Vec<AgentReport>), ServedError> {
+pub fn play_served(run: ServedRun<'_>) -> Result<Served, ServedError> {
     let io = |what: &str, e: std::io::Error| ServedError::Io(format!("{what}: {e}"));
     std::fs::create_dir_all(run.log_dir)
         .map_err(|e| io(&format!("cannot create {}", run.log_dir.display()), e))?;
@@ -153,11 +166,17 @@ pub fn play_served(run: ServedRun<'_>) -> Result<(MatchResult, Vec<AgentReport>)
         }
         // Watch the children: one that dies before connecting must not hold up the start.
         tokio::pin!(server);
+        let out_of_time_at = run.wall_budget.map(|budget| tokio::time::Instant::now() + budget);
+        let mut out_of_time = false;
         let outcome = loop {
             tokio::select! {
                 outcome = &mut server => break outcome,
                 () = tokio::time::sleep(Duration::from_millis(50)) => {
-                    if run.stop.as_ref().is_some_and(|s| s.load(Ordering::SeqCst)) {
+                    let over = out_of_time_at.is_some_and(|at| tokio::time::Instant::now() >= at);
+                    if over && interrupt.is_some() {
+                        out_of_time = true;
+                    }
+                    if over || run.stop.as_ref().is_some_and(|s| s.load(Ordering::SeqCst)) {
                         if let Some(interrupt) = interrupt.take() {
                             let _ = interrupt.send(());
                         }
@@ -179,8 +198,8 @@ pub fn play_served(run: ServedRun<'_>) -> Result<(MatchResult, Vec<AgentReport>)
             Ok(Err(e)) => return Err(ServedError::Server(e)),
             Err(e) => return Err(ServedError::Io(format!("the server task failed: {e}"))),
         };
-        let reports = run.seats.iter().map(|seat| report(seat, &result, &children)).collect();
-        Ok((result, reports))
+        let agents = run.seats.iter().map(|seat| report(seat, &result, &children)).collect();
+        Ok(Served { result, agents, out_of_time })
     })
 }
 

@@ -415,7 +415,7 @@ fn play_one(
     let map = &maps[p.map];
     let buffer = SharedBuffer::default();
     let want_replay = options.replays != ReplayPolicy::None;
-    let played: Result<(MatchResult, Vec<AgentReport>), String> = seats(team).and_then(|seats| {
+    let played: Result<(MatchResult, Vec<AgentReport>, bool), String> = seats(team).and_then(|seats| {
         let external = seats.iter().any(|s| matches!(s, SeatSpec::External { .. }));
         if external {
             let log_dir = options.out.join("logs").join(file_safe(&p.key));
@@ -432,11 +432,14 @@ fn play_one(
                 log_dir: &log_dir,
                 replay,
                 stop: Some(options.stop.clone()),
+                wall_budget: resolved.wall_budget_s.map(Duration::from_secs),
             })
+            .map(|served| (served.result, served.agents, served.out_of_time))
             .map_err(|e| e.to_string())
         } else {
             let replay = want_replay.then(|| Box::new(buffer.clone()) as Box<dyn Write + Send>);
-            play_builtin(map, p.seed, &seats, max_ticks, replay).map_err(|e| e.to_string())
+            let played = play_builtin(map, p.seed, &seats, max_ticks, replay).map_err(|e| e.to_string())?;
+            Ok((played.0, played.1, false))
         }
     });
     // A match that could not run is a row too, with end reason `error`.
@@ -450,8 +453,9 @@ fn play_one(
     );
     row.repetition = p.repetition;
     match played {
-        Ok((result, agents)) => {
+        Ok((result, agents, out_of_time)) => {
             row.record(&result);
+            row.out_of_time = out_of_time;
             row.crashed_agents = agents.iter().filter(|a| a.status != AgentStatus::Ok).count() as u32;
         }
         Err(message) => row.error = Some(message),

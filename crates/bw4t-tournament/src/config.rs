@@ -77,6 +77,10 @@ pub struct TournamentConfig {
     /// External agents' lockstep deadline in milliseconds (0: forever).
     #[serde(default = "deadline")]
     pub deadline_ms: u64,
+    /// Wall seconds a match with external agents may take before it is ended as
+    /// `interrupted` (its row says `out_of_time`); none by default.
+    #[serde(default)]
+    pub wall_budget_s: Option<u64>,
     /// The teams.
     #[serde(rename = "team", default)]
     pub teams: Vec<TeamConfig>,
@@ -110,6 +114,9 @@ pub struct Resolved {
     pub repetitions: u32,
     /// Deadline for external agents.
     pub deadline_ms: u64,
+    /// Wall-time budget of a match with external agents, in seconds.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wall_budget_s: Option<u64>,
     /// The teams.
     pub teams: Vec<Team>,
 }
@@ -199,6 +206,9 @@ impl TournamentConfig {
         if seeds.is_empty() {
             return bad("zero seeds".into());
         }
+        if self.wall_budget_s == Some(0) {
+            return bad("wall_budget_s must be at least 1 (leave it out for no budget)".into());
+        }
         Ok(Resolved {
             maps: self.maps.clone(),
             seeds,
@@ -206,6 +216,7 @@ impl TournamentConfig {
             max_ticks: self.max_ticks,
             repetitions: self.repetitions,
             deadline_ms: self.deadline_ms,
+            wall_budget_s: self.wall_budget_s,
             teams,
         })
     }

@@ -39,6 +39,21 @@ pub struct Row {
     pub late_agents: u32,
     /// Agents that crashed, never connected, hung or talked garbage.
     pub crashed_agents: u32,
+    /// Whether the match was ended because its wall-time budget ran out.
+    #[serde(default)]
+    pub out_of_time: bool,
+    /// Tool calls of the team's players that report them (`bw4t mcp` does).
+    #[serde(default)]
+    pub tool_calls: u64,
+    /// Wall milliseconds those players spent deciding, summed over the team.
+    #[serde(default)]
+    pub think_ms: u64,
+    /// Model input tokens, summed over the players that report them.
+    #[serde(default)]
+    pub prompt_tokens: u64,
+    /// Model output tokens, summed over the players that report them.
+    #[serde(default)]
+    pub completion_tokens: u64,
     /// Why the match ended; `error` when it could not be played.
     pub end_reason: EndReason,
     /// Why the match could not be played, when `end_reason` is `error`.
@@ -70,6 +85,11 @@ pub const CSV_COLUMNS: &[(&str, CsvField)] = &[
     ("messages", |r| r.messages.to_string()),
     ("late_agents", |r| r.late_agents.to_string()),
     ("crashed_agents", |r| r.crashed_agents.to_string()),
+    ("out_of_time", |r| r.out_of_time.to_string()),
+    ("tool_calls", |r| r.tool_calls.to_string()),
+    ("think_ms", |r| r.think_ms.to_string()),
+    ("prompt_tokens", |r| r.prompt_tokens.to_string()),
+    ("completion_tokens", |r| r.completion_tokens.to_string()),
     ("end_reason", |r| r.end_reason.to_string()),
     ("error", |r| csv_field(r.error.as_deref().unwrap_or(""))),
     ("digest", |r| r.digest.clone()),
@@ -97,6 +117,11 @@ impl Row {
             messages: 0,
             late_agents: 0,
             crashed_agents: 0,
+            out_of_time: false,
+            tool_calls: 0,
+            think_ms: 0,
+            prompt_tokens: 0,
+            completion_tokens: 0,
             end_reason: EndReason::Error,
             error: None,
             digest: String::new(),
@@ -115,6 +140,13 @@ impl Row {
         self.wrong_drops = result.wrong_drops;
         self.messages = result.messages;
         self.late_agents = result.per_robot.iter().filter(|r| r.late_ticks > 0).count() as u32;
+        let usage = result.per_robot.iter().filter_map(|r| r.usage);
+        for u in usage {
+            self.tool_calls += u.tool_calls;
+            self.think_ms += u.think_ms;
+            self.prompt_tokens += u.prompt_tokens;
+            self.completion_tokens += u.completion_tokens;
+        }
         self.end_reason = result.end_reason;
         self.digest = result.digest.clone();
     }

@@ -565,28 +565,16 @@ pub(super) mod tests {
 
     /// A row of `team` on `map`; completed at `done` ticks, or ran out at 5000.
     pub(crate) fn row(team: &str, map: &str, seed: u64, done: Option<u64>) -> Row {
-        Row {
-            key: format!("{team}/{map}/{seed}/0"),
-            index: seed,
-            team: team.to_string(),
-            map: map.to_string(),
-            seed,
-            repetition: 0,
-            robots: 3,
-            completed: done.is_some(),
-            ticks: done.unwrap_or(5000),
-            completed_tick: done,
-            wall_ms: 100,
-            good_drops: if done.is_some() { 6 } else { 2 },
-            wrong_drops: 0,
-            messages: 30,
-            late_agents: 0,
-            crashed_agents: 0,
-            end_reason: if done.is_some() { EndReason::Completed } else { EndReason::MaxTicks },
-            error: None,
-            digest: "0".to_string(),
-            replay: None,
-        }
+        let mut row = Row::unplayed(format!("{team}/{map}/{seed}/0"), seed, team.into(), map.into(), seed, 3);
+        row.completed = done.is_some();
+        row.ticks = done.unwrap_or(5000);
+        row.completed_tick = done;
+        row.wall_ms = 100;
+        row.good_drops = if done.is_some() { 6 } else { 2 };
+        row.messages = 30;
+        row.end_reason = if done.is_some() { EndReason::Completed } else { EndReason::MaxTicks };
+        row.digest = "0".to_string();
+        row
     }
 
     /// A small hand-made tournament: two teams, two maps, four seeds.

@@ -1,0 +1,141 @@
+//! The robot's rules, driven by hand-written server lines: what it sends, when it answers
+//! a tick, and how each kind of tool call ends.
+
+use bw4t_protocol::decode_server;
+
+use super::{Busy, Command, Outcome, Robot};
+
+fn feed(robot: &mut Robot, line: &str) {
+    robot.handle(decode_server(line).expect("a server line"));
+}
+
+fn sent(robot: &mut Robot) -> Vec<String> {
+    std::iter::from_fn(|| robot.poll_transmit()).map(|m| serde_json::to_string(&m).expect("json")).collect()
+}
+
+const WELCOME: &str = r#"{"type":"welcome","version":1,"name":"Ann","robot":0,"session":"s","match":{"name":"default","map":"fixed","seed":1,"mode":"lockstep","tick_hz":20,"deadline_ms":0,"players_needed":1,"max_ticks":2000,"every_tick":true}}"#;
+const SNAPSHOT: &str = r#"{"type":"percepts","tick":0,"add":[["place","RoomA1"],["place","DropZone"],["ownName","Ann"],["bot",0],["sequence",["Red"]],["at","DropZone"],["in","DropZone"],["sequenceIndex",0],["state","arrived"]],"not":[],"full":true}"#;
+
+fn playing() -> Robot {
+    let mut robot = Robot::new();
+    feed(&mut robot, WELCOME);
+    feed(&mut robot, SNAPSHOT);
+    assert!(sent(&mut robot).is_empty(), "nothing is answered before a tool call");
+    robot
+}
+
+fn tick(robot: &mut Robot, tick: u64, add: &str, not: &str) {
+    feed(robot, &format!(r#"{{"type":"percepts","tick":{tick},"add":[{add}],"not":[{not}]}}"#));
+}
+
+#[test]
+fn a_journey_answers_every_tick_until_it_ends_and_then_holds_the_tick() {
+    let mut robot = playing();
+    robot.start(Command::GoTo("RoomA1".into())).expect("idle");
+    assert_eq!(
+        sent(&mut robot),
+        [r#"{"type":"act","id":1,"action":"goTo","args":["RoomA1"]}"#, r#"{"type":"ready","tick":0}"#]
+    );
+    feed(&mut robot, r#"{"type":"ack","id":1,"ok":true,"tick":0}"#);
+    tick(&mut robot, 1, r#"["state","traveling"]"#, "");
+    assert_eq!(sent(&mut robot), [r#"{"type":"ready","tick":1}"#]);
+    assert_eq!(robot.busy(), Some("go_to"));
+    feed(&mut robot, r#"{"type":"result","id":1,"outcome":"arrived","tick":40}"#);
+    assert!(robot.poll_report().is_none(), "the report waits for the tick's percepts");
+    tick(
+        &mut robot,
+        40,
+        r#"["at","RoomA1"],["in","RoomA1"],["state","arrived"],["color",7,"Red"],["block",7]"#,
+        "",
+    );
+    let report = robot.poll_report().expect("a report");
+    assert_eq!((report.outcome, report.started, report.tick), (Outcome::Arrived, 0, 40));
+    assert!(report.changes.iter().any(|line| line.contains("RoomA1")), "{:?}", report.changes);
+    assert!(report.changes.iter().any(|line| line.contains("block 7 (Red)")), "{:?}", report.changes);
+    assert!(sent(&mut robot).is_empty(), "tick 40 is held while the driver thinks");
+    robot.start(Command::PickUp(Some(7))).expect("idle again");
+    assert_eq!(
+        sent(&mut robot),
+        [r#"{"type":"act","id":2,"action":"pickUp","args":[7]}"#, r#"{"type":"ready","tick":40}"#]
+    );
+}
+
+#[test]
+fn a_refused_action_is_rejected_with_the_code_and_the_reason() {
+    let mut robot = playing();
+    robot.start(Command::PickUp(None)).expect("idle");
+    sent(&mut robot);
+    feed(
+        &mut robot,
+        r#"{"type":"ack","id":1,"ok":false,"tick":0,"code":"not_at_block","reason":"not at a block"}"#,
+    );
+    tick(&mut robot, 1, "", "");
+    let report = robot.poll_report().expect("a report");
+    assert_eq!(
+        (report.outcome, report.reason.as_deref()),
+        (Outcome::Rejected, Some("not_at_block: not at a block"))
+    );
+}
+
+#[test]
+fn a_second_call_while_one_runs_is_refused() {
+    let mut robot = playing();
+    robot.start(Command::Wait { ticks: None }).expect("idle");
+    assert_eq!(robot.start(Command::PutDown), Err(Busy::InProgress("wait")));
+}
+
+#[test]
+fn wait_ends_on_a_change_or_when_its_ticks_run_out() {
+    let mut robot = playing();
+    robot.start(Command::Wait { ticks: None }).expect("idle");
+    tick(&mut robot, 1, "", "");
+    tick(&mut robot, 2, "", "");
+    assert!(robot.poll_report().is_none(), "empty ticks are no change");
+    tick(&mut robot, 3, r#"["message","Bob","{\"kind\":\"have\",\"colour\":\"Red\"}"]"#, "");
+    let report = robot.poll_report().expect("a report");
+    assert_eq!((report.outcome, report.tick), (Outcome::Changed, 3));
+    assert!(report.changes.iter().any(|l| l.contains("I have Red.")), "{:?}", report.changes);
+
+    robot.start(Command::Wait { ticks: Some(2) }).expect("idle");
+    tick(&mut robot, 4, "", "");
+    assert!(robot.poll_report().is_none());
+    tick(&mut robot, 5, "", "");
+    assert_eq!(robot.poll_report().map(|r| r.outcome), Some(Outcome::Timeout));
+}
+
+#[test]
+fn a_call_before_the_start_waits_for_it_and_one_out_of_time_says_so() {
+    let mut robot = Robot::new();
+    feed(&mut robot, WELCOME);
+    robot.start(Command::GoTo("RoomA1".into())).expect("held");
+    assert!(sent(&mut robot).is_empty(), "nothing to send before the first percepts");
+    feed(&mut robot, SNAPSHOT);
+    assert_eq!(sent(&mut robot).len(), 2, "act and ready once the match starts");
+    robot.expire();
+    let report = robot.poll_report().expect("a report");
+    assert_eq!(report.outcome, Outcome::Timeout);
+    assert!(report.reason.as_deref().is_some_and(|r| r.contains("still on its way")), "{report:?}");
+}
+
+#[test]
+fn the_match_end_ends_the_call_in_progress_and_every_later_one() {
+    let mut robot = playing();
+    robot.start(Command::Wait { ticks: None }).expect("idle");
+    assert_eq!(sent(&mut robot), [r#"{"type":"ready","tick":0}"#]);
+    feed(&mut robot, r#"{"type":"bye","reason":"match_over"}"#);
+    assert_eq!(robot.poll_report().map(|r| r.outcome), Some(Outcome::MatchOver));
+    robot.start(Command::PutDown).expect("answered at once");
+    let report = robot.poll_report().expect("a report");
+    assert_eq!(report.outcome, Outcome::MatchOver);
+    assert!(sent(&mut robot).is_empty(), "nothing is sent into an ended match");
+    assert!(robot.ended().is_some());
+}
+
+#[test]
+fn realtime_matches_are_never_answered_with_ready() {
+    let mut robot = Robot::new();
+    feed(&mut robot, &WELCOME.replace("lockstep", "realtime"));
+    feed(&mut robot, SNAPSHOT);
+    robot.start(Command::GoTo("RoomA1".into())).expect("idle");
+    assert_eq!(sent(&mut robot), [r#"{"type":"act","id":1,"action":"goTo","args":["RoomA1"]}"#]);
+}
