@@ -371,3 +371,38 @@ def test_a_tournament_team_of_mcp_driven_agents_records_their_usage(bw4t_bin: st
         assert row["completed"] is True and row["out_of_time"] is False, row
         assert row["tool_calls"] > 0 and row["prompt_tokens"] == 10 * row["tool_calls"], row
         assert row["completion_tokens"] == row["tool_calls"] and row["think_ms"] >= 0, row
+
+
+def test_a_robot_joins_a_served_match_by_address_and_name(bw4t_bin: str) -> None:
+    """`--connect HOST:PORT --match NAME --name N` joins a `bw4t serve` match like any
+    player, and the map resources come from the match's map name."""
+
+    async def main() -> Play:
+        serve = await asyncio.create_subprocess_exec(
+            bw4t_bin, "serve", "--once", "--port", "0", "--map", "fixed", "--seed", "1", "--mode", "lockstep",
+            "--deadline-ms", "0", "--max-ticks", "5000",
+            stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+        )
+        assert serve.stdout is not None
+        try:
+            address = None
+            while address is None:
+                line = (await bounded(serve.stdout.readline(), 30)).decode()
+                assert line, "bw4t serve ended without an address"
+                found = re.search(r"listening on (\S+:\d+)", line)
+                address = found and found.group(1)
+            drain = asyncio.ensure_future(serve.stdout.read())
+            command = [bw4t_bin, "mcp", "--connect", address, "--match", "default", "--name", "Ann"]
+            async with stdio_session(command) as session:
+                record = await play(session, deliveries=1)
+                rules = await bounded(session.read_resource("bw4t://map"))
+                assert "Map 'fixed'" in rules.contents[0].text
+            drain.cancel()
+            return record
+        finally:
+            if serve.returncode is None:
+                serve.kill()
+            await bounded(serve.wait(), 30)
+
+    record = run(main())
+    assert record.delivered == 1 and record.calls[0].result["state"]["robot"] == 0

@@ -59,7 +59,7 @@ pub struct Link {
 #[derive(Debug, thiserror::Error)]
 pub enum JoinError {
     /// No connection.
-    #[error("cannot connect to {addr}: {source}")]
+    #[error("cannot connect to {addr}")]
     Connect {
         /// Where.
         addr: SocketAddr,
