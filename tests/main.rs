@@ -57,6 +57,10 @@ mod study;
 /// `bw4t tournament`: files, statistics, resume, shards, failing agents.
 mod tournament;
 
+/// Tournaments on a cluster: shards from Slurm and Kubernetes variables, merge checks,
+/// resuming the missing matches, and the job files written.
+mod cluster;
+
 /// The `bw4t` binary, run as a child process.
 mod cli;
 

@@ -10,6 +10,7 @@ mod arena_config;
 mod bench;
 mod bench_arena;
 mod bench_net;
+mod cluster;
 mod map_cmd;
 mod maps;
 mod mcp;

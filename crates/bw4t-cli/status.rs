@@ -15,6 +15,8 @@ pub(crate) const NOT_COMPLETED: u8 = 3;
 /// protocol or stopped answering). `tournament`: a team's external agents played in none of
 /// its matches.
 pub(crate) const NO_AGENT_PLAYED: u8 = 4;
+/// `tournament merge`: the merged directories lack matches of their configuration.
+pub(crate) const MERGE_INCOMPLETE: u8 = 3;
 /// `replay verify`: the re-simulation differs from the recording.
 pub(crate) const REPLAY_DIFFERS: u8 = 3;
 /// `replay verify`: the replay has no end record (everything up to its last tick matched).
@@ -39,6 +41,12 @@ pub(crate) const TOURNAMENT_HELP: &str = "Exit status: 0 every match was played 
      SIGINT/SIGTERM (the rows so far are kept; the message says how to resume); 141 \
      standard output closed early.";
 
+/// The exit statuses of `bw4t tournament merge`, for its `--help`.
+pub(crate) const MERGE_HELP: &str = "Exit status: 0 every match of the configuration is in the merged directory; 1 an \
+     error (a directory that is not a tournament, configurations that differ, a file that \
+     cannot be read or written); 3 matches are missing (named; `tournament resume DIR` or \
+     --play-missing plays them); with --play-missing, the statuses of the tournament run.";
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -50,6 +58,9 @@ mod tests {
         }
         for code in [SUCCESS, ERROR, NO_AGENT_PLAYED] {
             assert!(TOURNAMENT_HELP.contains(&format!("{code} ")), "tournament help lacks {code}");
+        }
+        for code in [SUCCESS, ERROR, MERGE_INCOMPLETE] {
+            assert!(MERGE_HELP.contains(&format!("{code} ")), "merge help lacks {code}");
         }
         for help in [RUN_HELP, TOURNAMENT_HELP] {
             assert!(help.contains(&format!("{}/{}", SIGNAL_BASE + 2, SIGNAL_BASE + 15)));

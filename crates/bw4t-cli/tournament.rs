@@ -1,7 +1,7 @@
 //! `bw4t tournament`: many matches over teams, maps and seeds, with a statistical summary.
 
 use std::io::{IsTerminal, Write};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
@@ -68,9 +68,11 @@ pub(crate) struct TournamentArgs {
     /// Skip the matches already in the output directory's matches.jsonl.
     #[arg(long)]
     resume: bool,
-    /// Run only every n-th match, as i/n (1 <= i <= n), for spreading over machines.
-    #[arg(long, value_parser = str::parse::<Shard>)]
-    shard: Option<Shard>,
+    /// Run only every n-th match, as i/n (1 <= i <= n), for spreading over machines; or
+    /// `auto`: the task's share of a Slurm job array or a Kubernetes Indexed Job (from
+    /// their variables), written to OUT/shard-I-of-N, which `merge OUT` finds.
+    #[arg(long, value_parser = parse_shard, value_name = "i/n|auto")]
+    shard: Option<ShardArg>,
     /// Seconds external agents have to connect.
     #[arg(long, default_value_t = 10)]
     connect_timeout_s: u64,
@@ -78,7 +80,10 @@ pub(crate) struct TournamentArgs {
 
 #[derive(Subcommand)]
 enum TournamentCommand {
-    /// Join the output directories of shards (or of separate runs of one configuration).
+    /// Join the output directories of shards (or of separate runs of one configuration):
+    /// a directory without a manifest stands for its shard-I-of-N subdirectories. The
+    /// configurations must be the same (by hash); missing and duplicated matches are named.
+    #[command(after_help = status::MERGE_HELP)]
     Merge {
         /// The directories to join.
         #[arg(required = true)]
@@ -86,7 +91,26 @@ enum TournamentCommand {
         /// The merged directory (default: a new folder under runs/).
         #[arg(short, long)]
         out: Option<PathBuf>,
+        /// Then play the matches no directory has, into the merged one.
+        #[arg(long)]
+        play_missing: bool,
     },
+    /// Play what a tournament directory still lacks, from the configuration its manifest
+    /// records (no configuration file needed): an interrupted run, or a merge with
+    /// missing matches.
+    Resume {
+        /// The tournament directory.
+        dir: PathBuf,
+        /// Matches played at once (default: the number of cores).
+        #[arg(long)]
+        concurrency: Option<usize>,
+    },
+    /// Write a Slurm job array for a tournament (one shard per task, then a merge job
+    /// that waits for them) and say how to submit it.
+    Slurm(crate::cluster::SlurmArgs),
+    /// Write a Kubernetes Indexed Job for a tournament (one shard per completion index),
+    /// a merge Job and the ConfigMap of its configuration, and say how to run them.
+    K8s(crate::cluster::K8sArgs),
     /// Summarise the rows of a `matches.jsonl` (a tournament's, or the index of a
     /// server's results, `bw4t serve --results-dir`): completion rates, ticks, ranking.
     Summary {
@@ -105,33 +129,87 @@ enum KeepReplays {
     None,
 }
 
+/// `--shard`: a fixed share, or the job array's.
+#[derive(Clone, Copy)]
+enum ShardArg {
+    Fixed(Shard),
+    Auto,
+}
+
+fn parse_shard(text: &str) -> Result<ShardArg, String> {
+    match text {
+        "auto" => Ok(ShardArg::Auto),
+        _ => text.parse().map(ShardArg::Fixed).map_err(|e| format!("{e}, or auto")),
+    }
+}
+
 /// Runs a tournament command; returns the exit status (see `status`).
 pub(crate) fn run(args: &TournamentArgs) -> Result<u8> {
-    if let Some(TournamentCommand::Merge { dirs, out }) = &args.command {
-        let out = out.clone().unwrap_or_else(|| default_out("merged"));
-        let outcome = merge(dirs, &out)?;
-        out!("{}", outcome.summary.terminal_table());
-        outln!("merged {} into {}", plural(outcome.rows.len(), "match"), out.display());
-        return Ok(status::SUCCESS);
-    }
-    if let Some(TournamentCommand::Summary { path, json }) = &args.command {
-        let file = if path.is_dir() { path.join("matches.jsonl") } else { path.clone() };
-        let rows = tournament::read_rows(&file)?;
-        if rows.is_empty() {
-            bail!("{} holds no finished matches", file.display());
+    match &args.command {
+        Some(TournamentCommand::Merge { dirs, out, play_missing }) => {
+            return merge_command(dirs, out.as_deref(), *play_missing);
         }
-        let summary = bw4t_tournament::summarize(&rows, 0.0);
-        if *json {
-            outln!("{}", summary.to_json());
-        } else {
-            out!("{}", summary.terminal_table());
-            outln!("{} in {}", plural(rows.len(), "match"), file.display());
+        Some(TournamentCommand::Resume { dir, concurrency }) => return resume(dir, *concurrency),
+        Some(TournamentCommand::Slurm(cluster)) => {
+            return crate::cluster::slurm(cluster).map(|()| status::SUCCESS);
         }
-        return Ok(status::SUCCESS);
+        Some(TournamentCommand::K8s(cluster)) => {
+            return crate::cluster::k8s(cluster).map(|()| status::SUCCESS);
+        }
+        Some(TournamentCommand::Summary { path, json }) => return summary(path, *json),
+        None => {}
     }
     let config = config(args)?;
     let resolved = config.resolve().context("invalid tournament configuration")?;
-    check_agents(&resolved)?;
+    let (shard, out) = match args.shard {
+        Some(ShardArg::Auto) => {
+            let auto = bw4t_tournament::shard_from_env(|name| std::env::var(name).ok())
+                .map_err(anyhow::Error::msg)?;
+            let Some(out) = &args.out else {
+                bail!(
+                    "--shard auto needs --out DIR: every task writes under it (DIR/{}), where merge finds them",
+                    auto.shard.dir_name()
+                );
+            };
+            eprintln!("bw4t: shard {} of this job array (from {})", auto.shard, auto.from);
+            (Some(auto.shard), out.join(auto.shard.dir_name()))
+        }
+        Some(ShardArg::Fixed(shard)) => {
+            (Some(shard), args.out.clone().unwrap_or_else(|| default_out("tournament")))
+        }
+        None => (None, args.out.clone().unwrap_or_else(|| default_out("tournament"))),
+    };
+    let replays = match args.replays {
+        KeepReplays::All => ReplayPolicy::All,
+        KeepReplays::Failed => ReplayPolicy::Failed,
+        KeepReplays::None => ReplayPolicy::None,
+    };
+    let how = How {
+        out,
+        shard,
+        resume: args.resume,
+        replays,
+        concurrency: args.concurrency,
+        connect_timeout: Duration::from_secs(args.connect_timeout_s),
+    };
+    let resume_hint = |out: &Path| resume_command(args, out);
+    play(&resolved, how, &resume_hint)
+}
+
+/// How to play a resolved tournament.
+struct How {
+    out: PathBuf,
+    shard: Option<Shard>,
+    resume: bool,
+    replays: ReplayPolicy,
+    concurrency: Option<usize>,
+    connect_timeout: Duration,
+}
+
+/// Plays (or finishes) `resolved` into `how.out` and reports it; `resume_hint` is the
+/// command that finishes it after a stop.
+fn play(resolved: &Resolved, how: How, resume_hint: &dyn Fn(&Path) -> String) -> Result<u8> {
+    check_agents(resolved)?;
     let maps = resolved.maps.iter().map(|spec| crate::maps::load(spec)).collect::<Result<Vec<_>>>()?;
     for team in &resolved.teams {
         for (spec, map) in resolved.maps.iter().zip(&maps) {
@@ -145,32 +223,28 @@ pub(crate) fn run(args: &TournamentArgs) -> Result<u8> {
             }
         }
     }
-    let setup = tournament::setup(&resolved, &maps);
+    let setup = tournament::setup(resolved, &maps);
     describe_limits(&setup);
     if let Some(warning) = setup.fixed_content_warning() {
         eprintln!("bw4t: warning: {warning}");
     }
     let concurrency =
-        args.concurrency.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    let out = args.out.clone().unwrap_or_else(|| default_out("tournament"));
+        how.concurrency.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let out = how.out;
     let stop = Arc::new(AtomicBool::new(false));
     let signal = crate::signals::watch(stop.clone());
     let options = Options {
         out: out.clone(),
         concurrency,
-        replays: match args.replays {
-            KeepReplays::All => ReplayPolicy::All,
-            KeepReplays::Failed => ReplayPolicy::Failed,
-            KeepReplays::None => ReplayPolicy::None,
-        },
-        resume: args.resume,
-        shard: args.shard,
-        connect_timeout: Duration::from_secs(args.connect_timeout_s),
+        replays: how.replays,
+        resume: how.resume,
+        shard: how.shard,
+        connect_timeout: how.connect_timeout,
         stop,
     };
     let terminal = std::io::stderr().is_terminal();
     let mut show = |p: &Progress| progress(p, terminal);
-    let outcome = run_tournament(&resolved, &maps, &options, &mut show)?;
+    let outcome = run_tournament(resolved, &maps, &options, &mut show)?;
     if terminal {
         eprintln!();
     }
@@ -190,11 +264,11 @@ pub(crate) fn run(args: &TournamentArgs) -> Result<u8> {
         eprintln!(
             "bw4t: stopped with {} recorded; to play the rest, run:\n  {}",
             plural(left, "match"),
-            resume_command(args, &out)
+            resume_hint(&out)
         );
         return Ok(status::SIGNAL_BASE + signal.number().unwrap_or(2));
     }
-    let silent = teams_without_play(&resolved, &outcome.rows);
+    let silent = teams_without_play(resolved, &outcome.rows);
     if !silent.is_empty() {
         for (team, matches) in &silent {
             eprintln!(
@@ -206,6 +280,99 @@ pub(crate) fn run(args: &TournamentArgs) -> Result<u8> {
         return Ok(status::NO_AGENT_PLAYED);
     }
     Ok(status::SUCCESS)
+}
+
+/// `tournament merge`: joins, names what is missing or doubled, and plays the missing
+/// matches when asked.
+fn merge_command(dirs: &[PathBuf], out: Option<&Path>, play_missing: bool) -> Result<u8> {
+    let out = out.map(Path::to_path_buf).unwrap_or_else(|| default_out("merged"));
+    let started = std::time::Instant::now();
+    let (outcome, report) = merge(dirs, &out)?;
+    out!("{}", outcome.summary.terminal_table());
+    outln!(
+        "merged {} from {} (configuration {}) into {} in {:.2} s",
+        plural(outcome.rows.len(), "match"),
+        plural(report.sources.len(), "directory"),
+        report.config_hash,
+        out.display(),
+        started.elapsed().as_secs_f64()
+    );
+    let some = |keys: &[String]| {
+        let shown: Vec<&str> = keys.iter().take(5).map(String::as_str).collect();
+        let more = keys.len().saturating_sub(shown.len());
+        if more > 0 { format!("{} and {more} more", shown.join(", ")) } else { shown.join(", ") }
+    };
+    if !report.duplicates.is_empty() {
+        eprintln!(
+            "bw4t: {} played more than once, alike (one kept): {}",
+            plural(report.duplicates.len(), "match"),
+            some(&report.duplicates)
+        );
+    }
+    if !report.conflicting.is_empty() {
+        eprintln!(
+            "bw4t: warning: {} played more than once with different results (the first kept): {}",
+            plural(report.conflicting.len(), "match"),
+            some(&report.conflicting)
+        );
+    }
+    if report.missing.is_empty() {
+        return Ok(status::SUCCESS);
+    }
+    eprintln!(
+        "bw4t: {} of the configuration missing: {}",
+        plural(report.missing.len(), "match"),
+        some(&report.missing)
+    );
+    if play_missing {
+        return resume(&out, None);
+    }
+    eprintln!(
+        "bw4t: to play them: {} tournament resume {}",
+        program_name(),
+        shell_quote(&out.display().to_string())
+    );
+    Ok(status::MERGE_INCOMPLETE)
+}
+
+/// `tournament resume DIR`: plays what the directory lacks of its manifest's configuration.
+fn resume(dir: &Path, concurrency: Option<usize>) -> Result<u8> {
+    let manifest = tournament::read_manifest(dir)?;
+    eprintln!("bw4t: resuming {} (configuration {})", dir.display(), manifest.config.config_hash());
+    let how = How {
+        out: dir.to_path_buf(),
+        shard: manifest.shard,
+        resume: true,
+        replays: manifest.replays,
+        concurrency,
+        connect_timeout: Duration::from_secs(10),
+    };
+    let hint = |out: &Path| {
+        format!("{} tournament resume {}", program_name(), shell_quote(&out.display().to_string()))
+    };
+    play(&manifest.config, how, &hint)
+}
+
+/// `tournament summary`.
+fn summary(path: &Path, json: bool) -> Result<u8> {
+    let file = if path.is_dir() { path.join("matches.jsonl") } else { path.to_path_buf() };
+    let rows = tournament::read_rows(&file)?;
+    if rows.is_empty() {
+        bail!("{} holds no finished matches", file.display());
+    }
+    let summary = bw4t_tournament::summarize(&rows, 0.0);
+    if json {
+        outln!("{}", summary.to_json());
+    } else {
+        out!("{}", summary.terminal_table());
+        outln!("{} in {}", plural(rows.len(), "match"), file.display());
+    }
+    Ok(status::SUCCESS)
+}
+
+/// How this program was started, for commands it prints (`bw4t` when unknown).
+fn program_name() -> String {
+    std::env::args().next().map(|p| shell_quote(&p)).unwrap_or_else(|| "bw4t".into())
 }
 
 /// Refuses, before anything runs, a team whose agent command cannot start: a misspelt
@@ -259,7 +426,7 @@ fn teams_without_play(resolved: &Resolved, rows: &[Row]) -> Vec<(String, usize)>
 }
 
 /// The command that finishes this tournament: the one given, with `--out` and `--resume`.
-fn resume_command(args: &TournamentArgs, out: &std::path::Path) -> String {
+fn resume_command(args: &TournamentArgs, out: &Path) -> String {
     let mut words: Vec<String> = std::env::args().collect();
     if args.out.is_none() {
         words.extend(["--out".to_string(), out.display().to_string()]);
@@ -271,7 +438,7 @@ fn resume_command(args: &TournamentArgs, out: &std::path::Path) -> String {
 }
 
 /// `word` as `sh` reads it back: bare when safe, else in single quotes.
-fn shell_quote(word: &str) -> String {
+pub(crate) fn shell_quote(word: &str) -> String {
     let safe = |c: char| c.is_ascii_alphanumeric() || "_-./:=@%+,".contains(c);
     if !word.is_empty() && word.chars().all(safe) {
         word.to_string()
@@ -342,7 +509,7 @@ fn config(args: &TournamentArgs) -> Result<TournamentConfig> {
     Ok(config)
 }
 
-fn default_out(what: &str) -> PathBuf {
+pub(crate) fn default_out(what: &str) -> PathBuf {
     let secs = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_secs());
     PathBuf::from("runs").join(format!("{what}-{secs}"))
 }

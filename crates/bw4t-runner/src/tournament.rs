@@ -2,7 +2,7 @@
 //! rows appended and flushed as each match ends, resumable, shardable, and shards merged
 //! back into one.
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
@@ -134,6 +134,7 @@ pub fn run_tournament(
             .duration_since(std::time::UNIX_EPOCH)
             .map_or(0, |d| d.as_secs()),
         machine: machine(options.concurrency),
+        config_hash: resolved.config_hash(),
         config: resolved.clone(),
         setup: setup.clone(),
         shard: options.shard,
@@ -264,55 +265,119 @@ pub fn setup(resolved: &Resolved, maps: &[Map]) -> Setup {
     Setup { tick_limits, fixed_content_maps }
 }
 
-/// Joins shard directories into `out`: the union of their rows (one per match), with
-/// their replays, and a new summary.
-pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Outcome, TournamentError> {
-    let mut first: Option<Manifest> = None;
-    let (mut rows, mut keys, mut elapsed) = (Vec::new(), BTreeSet::new(), 0.0);
-    std::fs::create_dir_all(out).map_err(|e| io(format!("cannot create {}", out.display()), e))?;
+/// What a merge found beside the rows.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct MergeReport {
+    /// The tournament directories joined (a directory of shards stands for its shards).
+    pub sources: Vec<PathBuf>,
+    /// The configuration's hash (every source's).
+    pub config_hash: String,
+    /// Matches of the configuration no source has, by key, in match order.
+    pub missing: Vec<String>,
+    /// Matches more than one source has with the same digest (one is kept).
+    pub duplicates: Vec<String>,
+    /// Matches two sources have with different digests (the first source's is kept):
+    /// they were not played alike, which a deterministic team never does.
+    pub conflicting: Vec<String>,
+}
+
+/// The tournament directories `dirs` stand for: each directory with a `manifest.json`,
+/// and for a directory without one, its `shard-I-of-N` subdirectories (what
+/// `--shard auto` writes), in order.
+pub fn tournament_dirs(dirs: &[PathBuf]) -> Result<Vec<PathBuf>, TournamentError> {
+    let mut found = Vec::new();
+    for dir in dirs {
+        if dir.join("manifest.json").exists() {
+            found.push(dir.clone());
+            continue;
+        }
+        let entries = std::fs::read_dir(dir).map_err(|e| io(format!("cannot read {}", dir.display()), e))?;
+        let mut shards: Vec<(Shard, PathBuf)> = entries
+            .filter_map(|e| e.ok())
+            .filter_map(|e| Some((Shard::from_dir_name(e.file_name().to_str()?)?, e.path())))
+            .filter(|(_, path)| path.join("manifest.json").exists())
+            .collect();
+        if shards.is_empty() {
+            return Err(TournamentError::Directory(format!(
+                "{} is neither a tournament directory (no manifest.json) nor holds shard directories (shard-I-of-N)",
+                dir.display()
+            )));
+        }
+        shards.sort_by_key(|(shard, _)| (shard.count, shard.index));
+        found.extend(shards.into_iter().map(|(_, path)| path));
+    }
+    Ok(found)
+}
+
+/// Joins tournament directories (shards, or separate runs of one configuration) into
+/// `out`: one row per match, with its replay, and a new summary. Every source must hold
+/// the same configuration (its hash is compared); matches none holds, and matches
+/// several hold, are reported.
+pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(Outcome, MergeReport), TournamentError> {
+    let sources = tournament_dirs(dirs)?;
     if out.join("matches.jsonl").exists() {
         return Err(TournamentError::Directory(format!("{} already holds a tournament", out.display())));
     }
-    for dir in dirs {
-        let m = read_manifest(dir)?;
-        elapsed += m.elapsed_seconds;
+    let mut first: Option<(Manifest, &PathBuf)> = None;
+    let mut report = MergeReport { sources: sources.clone(), ..MergeReport::default() };
+    let (mut rows, mut digests, mut elapsed) = (Vec::new(), BTreeMap::new(), 0.0);
+    let mut reads = Vec::new();
+    for dir in &sources {
+        let mut m = read_manifest(dir)?;
+        if m.config_hash.is_empty() {
+            m.config_hash = m.config.config_hash();
+        }
         match &first {
-            None => first = Some(m),
-            Some(f) if m.config != f.config => {
+            Some((f, fdir)) if m.config_hash != f.config_hash || m.config != f.config => {
                 return Err(TournamentError::Directory(format!(
-                    "{} holds a tournament with another configuration",
-                    dir.display()
+                    "{} holds configuration {} but {} holds {}: they are not shards of one tournament",
+                    dir.display(),
+                    m.config_hash,
+                    fdir.display(),
+                    f.config_hash
                 )));
             }
             Some(_) => {}
+            None => first = Some((m.clone(), dir)),
         }
-        for mut row in read_rows(&dir.join("matches.jsonl"))? {
-            if !keys.insert(row.key.clone()) {
-                continue;
+        elapsed += m.elapsed_seconds;
+        reads.push((dir, read_rows(&dir.join("matches.jsonl"))?));
+    }
+    let Some((first, _)) = first else {
+        return Err(TournamentError::Directory("no directories to merge".into()));
+    };
+    std::fs::create_dir_all(out).map_err(|e| io(format!("cannot create {}", out.display()), e))?;
+    for (dir, read) in reads {
+        for mut row in read {
+            match digests.get(&row.key) {
+                Some(digest) if *digest == row.digest => report.duplicates.push(row.key.clone()),
+                Some(_) => report.conflicting.push(row.key.clone()),
+                None => {
+                    digests.insert(row.key.clone(), row.digest.clone());
+                    if let Some(rel) = row.replay.take() {
+                        let copied = std::fs::create_dir_all(out.join("replays"))
+                            .and_then(|()| std::fs::copy(dir.join(&rel), out.join(&rel)));
+                        row.replay = copied.ok().map(|_| rel);
+                    }
+                    rows.push(row);
+                }
             }
-            if let Some(rel) = row.replay.take() {
-                let target = out.join(&rel);
-                let copied = std::fs::create_dir_all(out.join("replays"))
-                    .and_then(|()| std::fs::copy(dir.join(&rel), &target));
-                row.replay = copied.ok().map(|_| rel);
-            }
-            rows.push(row);
         }
     }
     rows.sort_by_key(|r| r.index);
-    let Some(first) = first else {
-        return Err(TournamentError::Directory("no directories to merge".into()));
-    };
+    report.config_hash = first.config_hash.clone();
+    report.missing =
+        first.config.plan().into_iter().map(|p| p.key).filter(|k| !digests.contains_key(k)).collect();
     let manifest = Manifest {
         shard: None,
-        merged_from: Some(dirs.iter().map(|d| d.display().to_string()).collect()),
+        merged_from: Some(sources.iter().map(|d| d.display().to_string()).collect()),
         elapsed_seconds: elapsed,
         ..first
     };
     write_manifest(out, &manifest)?;
     rewrite_rows(out, &rows)?;
     let summary = write_summary(out, &rows, elapsed, manifest.setup)?;
-    Ok(Outcome { played: 0, skipped: rows.len(), rows, summary, stopped: false })
+    Ok((Outcome { played: 0, skipped: rows.len(), rows, summary, stopped: false }, report))
 }
 
 fn write_summary(out: &Path, rows: &[Row], elapsed: f64, setup: Setup) -> Result<Summary, TournamentError> {
@@ -338,7 +403,8 @@ fn machine(concurrency: usize) -> Machine {
     }
 }
 
-fn read_manifest(dir: &Path) -> Result<Manifest, TournamentError> {
+/// The manifest of tournament directory `dir`.
+pub fn read_manifest(dir: &Path) -> Result<Manifest, TournamentError> {
     let path = dir.join("manifest.json");
     let text =
         std::fs::read_to_string(&path).map_err(|e| io(format!("cannot read {}", path.display()), e))?;
@@ -542,8 +608,11 @@ mod tests {
             run_tournament(&resolved("[3]"), &maps, &resume, &mut |_| {}).expect_err("another config");
         assert!(other.to_string().contains("another configuration"), "{other}");
 
-        let outcome = merge(std::slice::from_ref(&run), &merged).expect("merges");
-        assert_eq!(outcome.rows.len(), 2);
+        let (outcome, report) = merge(std::slice::from_ref(&run), &merged).expect("merges");
+        assert_eq!(
+            (outcome.rows.len(), report.missing.len(), report.config_hash),
+            (2, 0, config.config_hash())
+        );
         let joined =
             Manifest::parse(&std::fs::read_to_string(merged.join("manifest.json")).expect("manifest"))
                 .expect("a manifest");

@@ -7,6 +7,7 @@
 //! matches and writes the directory.
 
 mod chart;
+mod cluster;
 mod config;
 mod manifest;
 mod report;
@@ -14,6 +15,7 @@ mod row;
 mod stats;
 mod words;
 
+pub use cluster::{AutoShard, SHARDS_VAR, shard_from_env};
 pub use config::{
     Agents, ConfigError, Planned, Resolved, Seeds, Shard, ShardError, Team, TeamConfig, TournamentConfig,
     builtin_strategy, derive_seeds, seats,

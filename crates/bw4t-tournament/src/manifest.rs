@@ -44,6 +44,10 @@ pub struct Manifest {
     pub machine: Machine,
     /// The resolved configuration: a resume or merge must have the same.
     pub config: Resolved,
+    /// [`Resolved::config_hash`] of `config`, so that shards of one configuration are
+    /// known at a glance (empty in manifests written before it was recorded).
+    #[serde(default)]
+    pub config_hash: String,
     /// Each map's tick limit and the maps whose content ignores the seed.
     pub setup: Setup,
     /// The share of the matches this directory plays; none for the whole tournament (and
@@ -104,6 +108,7 @@ mod tests {
                 concurrency: 4,
                 host: "lab".into(),
             },
+            config_hash: config.config_hash(),
             config,
             setup: Setup {
                 tick_limits: vec![MapLimit {
