@@ -12,7 +12,9 @@
 # and stops.
 # Then: the release binary, the Python package's wheel (built here and installed into the
 # virtualenv), the Rust tests, the Python suite (against the wheel), the JavaScript client
-# suite and the browser tests. A failing stage does not stop the later ones;
+# suite, the browser tests, and a tournament as a Slurm job array on a one-node cluster
+# it starts (Debian's Slurm and munge, as root or with sudo). A failing stage does not
+# stop the later ones;
 # the exit status is 0 only when every stage passed.
 #
 # BW4T_ORIGINAL_MAPS=DIR also runs the Rust tests on the original BW4T map files in DIR
@@ -162,6 +164,11 @@ stage javascript node --test protocol/clients/js/test/
 
 heading "Browser tests: node --test tests/browser/ (screenshots in test-output/browser/)"
 stage browser node --test "$browser/"
+
+heading "Slurm: a tournament as a job array on a one-node cluster (tests/cluster/slurm-tournament.sh)"
+# Installs Debian's Slurm and munge and starts them (as root or with sudo; skipped, and
+# said so, without), and stops them again.
+stage slurm bash tests/cluster/slurm-tournament.sh
 
 printf '\n==> Done in %d s\n' $((SECONDS - started))
 if [ ${#passed[@]} -gt 0 ]; then echo "    passed: ${passed[*]}"; fi

@@ -508,3 +508,17 @@ fn the_connection_limit_comes_from_the_file_unless_the_command_line_gives_one() 
     assert!(from_flag.contains("\"pong\""), "{from_flag}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn bench_merge_merges_every_made_up_row_with_none_missing() {
+    let out = bw4t(&["bench", "merge", "--merge-rows", "301", "--merge-shards", "4"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let lines = json_lines(&out);
+    assert_eq!(
+        (lines[0]["case"].as_str(), lines[0]["rows"].as_u64(), lines[0]["missing"].as_u64()),
+        (Some("merge"), Some(302), Some(0)),
+        "{}",
+        lines[0]
+    );
+    assert!(lines[0]["seconds"].as_f64().is_some_and(|s| s >= 0.0));
+}

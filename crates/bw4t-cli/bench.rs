@@ -35,6 +35,12 @@ pub(crate) struct BenchArgs {
     /// 20 times as many).
     #[arg(long, default_value_t = 200)]
     env_steps: u64,
+    /// Rows the `merge` case merges.
+    #[arg(long, default_value_t = 100_000)]
+    merge_rows: u64,
+    /// Shard directories the `merge` case's rows are in.
+    #[arg(long, default_value_t = 10)]
+    merge_shards: u64,
     /// Wall-clock seconds the `realtime` case measures for.
     #[arg(long, default_value_t = 5.0)]
     realtime_seconds: f64,
@@ -65,6 +71,10 @@ enum Case {
     /// environments of 3 learners on 1 and 2 threads, every learner taking a random allowed
     /// action, and the resident memory per environment.
     Env,
+    /// `tournament merge` of `--merge-rows` made-up rows (100,000) in `--merge-shards`
+    /// shard directories (10): the configuration checks, the missing and doubled matches,
+    /// and the merged files written.
+    Merge,
     /// Many matches in one arena server: realtime matches of 3 TCP players (tick lateness,
     /// CPU, memory and descriptors per match), lockstep matches of built-in agents on 1 and
     /// 2 worker threads, and a churn soak (`--soak-seconds`, 10 minutes by default).
@@ -104,6 +114,7 @@ pub(crate) fn run(args: &BenchArgs) -> Result<()> {
                 }
             }
             Case::Env => env(args)?,
+            Case::Merge => outln!("{}", crate::bench_merge::run(args.merge_rows, args.merge_shards.max(1))?),
             Case::Arena => crate::bench_arena::run(&args.arena, &args.map, args.seed)?,
         }
     }

@@ -9,6 +9,7 @@ mod output;
 mod arena_config;
 mod bench;
 mod bench_arena;
+mod bench_merge;
 mod bench_net;
 mod cluster;
 mod map_cmd;
