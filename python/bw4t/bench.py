@@ -114,23 +114,35 @@ def bench_vector(matches: int, ticks_per_step: int, steps: int, seed: int, threa
     }
 
 
-def bench_tcp(ticks: int, seed: int) -> Dict:
-    """3 TCP-client players in lockstep on a `bw4t serve` child, one step per tick."""
-    from . import AsyncClient
+def bw4t_command(*args: str) -> List[str]:
+    """The ``bw4t`` command of this package (the wheel's)."""
+    return [sys.executable, "-m", "bw4t", *args]
 
+
+def lockstep_server(*args: str) -> Tuple[subprocess.Popen, str, int]:
+    """A ``bw4t serve --once --mode lockstep`` child on a free port, with ``args``; its
+    process and the address it listens on. The caller kills it."""
     server = subprocess.Popen(
-        [sys.executable, "-m", "bw4t", "serve", "--once", "--mode", "lockstep", "--port", "0"]
-        + ["--robots", str(ROBOTS), "--seed", str(seed), "--max-ticks", str(ticks + 10)],
+        bw4t_command("serve", "--once", "--mode", "lockstep", "--port", "0", *args),
         stdout=subprocess.PIPE,
         stderr=subprocess.DEVNULL,
         text=True,
     )
+    assert server.stdout is not None
+    first = server.stdout.readline().strip()
+    if not first.startswith("listening on "):
+        server.kill()
+        raise RuntimeError(f"bw4t serve did not start: {first!r}")
+    host, port = first[len("listening on "):].rsplit(":", 1)
+    return server, host, int(port)
+
+
+def bench_tcp(ticks: int, seed: int) -> Dict:
+    """3 TCP-client players in lockstep on a `bw4t serve` child, one step per tick."""
+    from . import AsyncClient
+
+    server, host, port = lockstep_server("--robots", str(ROBOTS), "--seed", str(seed), "--max-ticks", str(ticks + 10))
     try:
-        assert server.stdout is not None
-        first = server.stdout.readline().strip()
-        if not first.startswith("listening on "):
-            raise RuntimeError(f"bw4t serve did not start: {first!r}")
-        host, port = first.removeprefix("listening on ").rsplit(":", 1)
 
         async def player(name: str, rng: np.random.Generator, counts: List[int]) -> None:
             client = await AsyncClient.connect(host, int(port), name, every_tick=True)
@@ -212,9 +224,6 @@ SHUTTLE = ("RoomA1", "DropZone")
 MCP_BOUND = 120.0
 
 
-def bw4t_command(*args: str) -> List[str]:
-    """The ``bw4t`` command of this package (the wheel's), as the ``tcp`` case runs it."""
-    return [sys.executable, "-m", "bw4t", *args]
 
 
 async def _bounded(awaitable: Any) -> Any:
@@ -316,19 +325,10 @@ def _tcp_shuttle(ticks: int, seed: int) -> Dict:
     """The same work with the TCP client on ``bw4t serve --mode lockstep``."""
     from . import AsyncClient
 
-    server = subprocess.Popen(
-        bw4t_command("serve", "--once", "--mode", "lockstep", "--port", "0", "--robots", "1", "--map", "fixed")
-        + ["--seed", str(seed), "--deadline-ms", "0", "--max-ticks", str(2 * ticks + 10000)],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.DEVNULL,
-        text=True,
+    server, host, port = lockstep_server(
+        "--robots", "1", "--map", "fixed", "--seed", str(seed), "--deadline-ms", "0", "--max-ticks", str(2 * ticks + 10000)
     )
     try:
-        assert server.stdout is not None
-        first = server.stdout.readline().strip()
-        if not first.startswith("listening on "):
-            raise RuntimeError(f"bw4t serve did not start: {first!r}")
-        host, port = first[len("listening on "):].rsplit(":", 1)
 
         async def shuttle() -> Tuple[int, int, float]:
             client = await _bounded(AsyncClient.connect(host, int(port), "P0"))

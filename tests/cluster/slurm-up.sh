@@ -153,17 +153,8 @@ EOF
 printf 'export SLURM_CONF=%q\n' "$conf" >"$dir/env.sh"
 export SLURM_CONF=$conf
 
-# The pid in $dir/run/NAME.pid, if that process is alive and is NAME.
-alive() {
-    local pid stat
-    pid=$(cat "$dir/run/$1.pid" 2>/dev/null) || return 1
-    case $pid in '' | *[!0-9]*) return 1 ;; esac
-    [ "$(cat "/proc/$pid/comm" 2>/dev/null)" = "$1" ] || return 1
-    stat=$(cat "/proc/$pid/stat" 2>/dev/null) || return 1
-    stat=${stat##*) }
-    [ "${stat%% *}" != Z ] || return 1 # exited, not yet reaped
-    echo "$pid"
-}
+# shellcheck source=tests/cluster/lib.sh
+source "$here/lib.sh"
 running=0
 for d in munged slurmctld slurmd; do alive "$d" >/dev/null && running=$((running + 1)); done
 
