@@ -65,7 +65,7 @@ pub(crate) fn run(rows: u64, shards: u64) -> Result<serde_json::Value> {
     }
     let merged = dir.join("merged");
     let started = Instant::now();
-    let (outcome, report) = merge(&[dir.clone()], &merged).context("the merge failed")?;
+    let (outcome, report) = merge(std::slice::from_ref(&dir), &merged).context("the merge failed")?;
     let seconds = started.elapsed().as_secs_f64();
     let _ = std::fs::remove_dir_all(&dir);
     Ok(json!({
