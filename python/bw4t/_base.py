@@ -79,12 +79,14 @@ class ClientBase(Generic[A]):
         match: Optional[str] = None,
         template: Optional[str] = None,
         on_lobby: Optional[Callable[[Lobby], None]] = None,
+        words: bool = False,
     ) -> None:
         self.host = host
         self.port = port
         self._name = name
         self._token = token
         self._every_tick = every_tick
+        self._words = words
         self._match = match
         self._template = template
         self._core = ProtocolCore()
@@ -119,7 +121,7 @@ class ClientBase(Generic[A]):
         else:
             match, template = self._match, self._template
         hello, joined = self._core.begin_handshake(
-            self._name, self._token, session, self._every_tick, match, template
+            self._name, self._token, session, self._every_tick, match, template, self._words
         )
         self._send(hello)
         return joined
@@ -182,6 +184,15 @@ class ClientBase(Generic[A]):
     def beliefs(self) -> BeliefBase:
         """The belief base, updated as ``percepts`` arrive (latest state received)."""
         return self._core.beliefs
+
+    @property
+    def words(self) -> Optional[str]:
+        """The robot's situation in a few short lines of English (``I am Ann (robot 0),
+        in RoomC1. ...``), from the latest ``percepts``; ``None`` unless connected with
+        ``words=True``. The same as ``beliefs.words``; each update has its own
+        (``update.words``). Meant for people and language models: the wording may
+        change between server releases."""
+        return self._core.beliefs.words
 
     @property
     def errors(self) -> List[ServerError]:

@@ -88,8 +88,9 @@ class AsyncClient(ClientBase[AsyncAction]):
         match: Optional[str] = None,
         template: Optional[str] = None,
         on_lobby: Optional[Callable[[Lobby], None]] = None,
+        words: bool = False,
     ) -> None:
-        super().__init__(host, port, name, token, every_tick, match, template, on_lobby)
+        super().__init__(host, port, name, token, every_tick, match, template, on_lobby, words)
         self._reader: Optional[asyncio.StreamReader] = None
         self._writer: Optional[asyncio.StreamWriter] = None
         self._task: Optional["asyncio.Task[None]"] = None
@@ -109,6 +110,7 @@ class AsyncClient(ClientBase[AsyncAction]):
         token: Optional[str] = None,
         every_tick: bool = False,
         *,
+        words: bool = False,
         session: Optional[str] = None,
         timeout: Optional[float] = 30.0,
         match: Optional[str] = None,
@@ -119,7 +121,7 @@ class AsyncClient(ClientBase[AsyncAction]):
         plain function, called from the task that reads the connection)."""
         check_join(match, template)
         host, port, name, token = resolve_address(host, port, name, token)
-        client = cls(host, port, name, token, every_tick, match, template, on_lobby)
+        client = cls(host, port, name, token, every_tick, match, template, on_lobby, words)
         await client._handshake(session, timeout)
         return client
 

@@ -56,6 +56,10 @@ class BeliefBase:
         self.messages: List[Message] = []
         #: The tick of the last ``percepts`` applied, or ``None`` before the first.
         self.tick: Optional[int] = None
+        #: The ``words`` of the last ``percepts`` applied: the robot's situation in a few
+        #: short lines of English (sent only to a client that connected with
+        #: ``words=True``), else ``None``.
+        self.words: Optional[str] = None
 
     # ----------------------------------------------------------------- updating
 
@@ -69,8 +73,10 @@ class BeliefBase:
         add: Iterable[Sequence[Any]],
         remove: Iterable[Sequence[Any]],
         full: bool = False,
+        words: Optional[str] = None,
     ) -> Tuple[List[Fact], List[Fact], List[Message]]:
-        """Apply one ``percepts`` message.
+        """Apply one ``percepts`` message; ``words`` is its ``words`` (kept as
+        :attr:`words`), ``None`` if it had none.
 
         Returns ``(added, removed, messages)``: the state facts of ``add``, the facts of
         ``not`` and the new messages, in the order received.
@@ -104,6 +110,7 @@ class BeliefBase:
                 self._facts.setdefault(name, {})[fact[1:]] = None
         self.messages.extend(messages)
         self.tick = tick
+        self.words = words
         return added, removed, messages
 
     # ----------------------------------------------------------------- queries

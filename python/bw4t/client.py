@@ -91,8 +91,9 @@ class Client(ClientBase[Action]):
         match: Optional[str] = None,
         template: Optional[str] = None,
         on_lobby: Optional[Callable[[Lobby], None]] = None,
+        words: bool = False,
     ) -> None:
-        super().__init__(host, port, name, token, every_tick, match, template, on_lobby)
+        super().__init__(host, port, name, token, every_tick, match, template, on_lobby, words)
         self._timeout = timeout
         self._sock: Optional[socket.socket] = None
         self._buffer = b""
@@ -108,6 +109,7 @@ class Client(ClientBase[Action]):
         token: Optional[str] = None,
         every_tick: bool = False,
         *,
+        words: bool = False,
         session: Optional[str] = None,
         timeout: Optional[float] = 30.0,
         match: Optional[str] = None,
@@ -119,10 +121,12 @@ class Client(ClientBase[Action]):
         Missing ``host``/``port``/``name``/``token`` come from ``BW4T_HOST``,
         ``BW4T_PORT``, ``BW4T_NAME`` and ``BW4T_TOKEN`` (set by ``bw4t run``), else
         ``127.0.0.1:12300`` and no name (the server picks ``PlayerN``). ``session``
-        takes back the robot of an earlier connection. Returns after ``welcome`` and the
-        first full snapshot (the first update of ``updates()``). ``timeout`` bounds the
-        handshake, except the time spent waiting in a template's queue; raises
-        :class:`~bw4t.errors.FatalServerError` when refused.
+        takes back the robot of an earlier connection. ``every_tick`` asks for a
+        ``percepts`` (so an update) every tick; ``words`` asks for the robot's situation
+        in English with each one (``update.words``, ``client.words``). Returns after
+        ``welcome`` and the first full snapshot (the first update of ``updates()``).
+        ``timeout`` bounds the handshake, except the time spent waiting in a template's
+        queue; raises :class:`~bw4t.errors.FatalServerError` when refused.
 
         ``match`` joins the live match of that name; ``template`` queues for the next
         match of that template with a free seat; neither joins the server's default
@@ -132,7 +136,7 @@ class Client(ClientBase[Action]):
         """
         check_join(match, template)
         host, port, name, token = resolve_address(host, port, name, token)
-        client = cls(host, port, name, token, every_tick, timeout, match, template, on_lobby)
+        client = cls(host, port, name, token, every_tick, timeout, match, template, on_lobby, words)
         client._handshake(session, timeout)
         return client
 

@@ -209,9 +209,11 @@ class ProtocolCore:
         every_tick: bool = False,
         match: Optional[str] = None,
         template: Optional[str] = None,
+        words: bool = False,
     ) -> Dict[str, Any]:
         """The ``hello`` message (a player's), joining the live match ``match``, queued
         for the template ``template``, or (neither) the server's default match.
+        ``words`` asks for the robot's situation in English with every ``percepts``.
 
         Raises :class:`ValueError` if both ``match`` and ``template`` are given.
         """
@@ -225,6 +227,8 @@ class ProtocolCore:
             msg["session"] = session
         if every_tick:
             msg["every_tick"] = True
+        if words:
+            msg["words"] = True
         if match:
             msg["match"] = match
         if template:
@@ -239,10 +243,11 @@ class ProtocolCore:
         every_tick: bool = False,
         match: Optional[str] = None,
         template: Optional[str] = None,
+        words: bool = False,
     ) -> Tuple[Dict[str, Any], Callable[[], bool]]:
         """Start over on a new connection: the ``hello`` to send, and the condition the
         handshake waits for (``welcome`` and the first full snapshot received)."""
-        hello = self.hello(name, token, session, every_tick, match, template)
+        hello = self.hello(name, token, session, every_tick, match, template, words)
         self.welcome = None
         self.fatal = None
         self.in_queue = False
@@ -381,8 +386,11 @@ class ProtocolCore:
     def _percepts(self, msg: Dict[str, Any]) -> Optional[Update]:
         tick = int(msg.get("tick", 0))
         full = bool(msg.get("full", False))
+        words = msg.get("words")
+        if not isinstance(words, str):
+            words = None
         added, removed, messages = self.beliefs.apply(
-            tick, msg.get("add") or [], msg.get("not") or [], full
+            tick, msg.get("add") or [], msg.get("not") or [], full, words
         )
         if self.lockstep:
             self.pending_ready = tick
@@ -391,7 +399,7 @@ class ProtocolCore:
             # were undelivered) are handed over with the next update.
             self.awaiting_snapshot = False
             self.last_snapshot = Update(
-                tick, True, added, removed, messages=messages, answered=not self.lockstep
+                tick, True, added, removed, messages=messages, answered=not self.lockstep, words=words
             )
             self._carried.extend(messages)
             return None
@@ -405,6 +413,7 @@ class ProtocolCore:
             messages=self._carried + messages,
             errors=self._errors,
             answered=not self.lockstep,
+            words=words,
         )
         for result in self._results:
             record = self._actions.get(result.id)

@@ -235,6 +235,10 @@ class Update:
             outside lockstep). Updates that arrived while the agent was blocked in
             ``ack()``/``result()`` are answered at once and still delivered afterwards,
             in order; then acting on them lands at a later tick boundary.
+        words: the ``words`` of the ``percepts``: the robot's situation after it, in a
+            few short lines of English, for people and language models (its wording
+            may change between releases). ``None`` unless the client connected with
+            ``words=True``.
     """
 
     tick: int
@@ -246,6 +250,7 @@ class Update:
     messages: List[Message] = field(default_factory=list)
     errors: List[ServerError] = field(default_factory=list)
     answered: bool = False
+    words: Optional[str] = None
 
     def result_of(self, action_id: ActId) -> Optional[Result]:
         """The result with this id in this update, if any."""

@@ -17,6 +17,8 @@ import { BW4TError, ActionRejected } from './errors.js';
  * @property {string} [name] the player name wanted; default: `BW4T_NAME`, else the server picks `PlayerN`
  * @property {string} [token] the shared secret; default: `BW4T_TOKEN` (when set and not empty)
  * @property {boolean} [everyTick] ask for a `percepts` every tick (`every_tick`); default false
+ * @property {boolean} [words] ask for the robot's situation in English with every
+ *   `percepts` (`hello.words`): `update.words`, `client.words`; default false
  * @property {string} [session] the `session` of an earlier `welcome`, to take a robot back
  *   (with `match`: the match it belongs to, `welcome.match.name`)
  * @property {string} [match] the name of a live match to join (`hello.match`)
@@ -136,6 +138,9 @@ import { BW4TError, ActionRejected } from './errors.js';
  * @property {Ack[]} acks acks received since the previous update
  * @property {ActResult[]} results results received since the previous update
  * @property {ServerErrorMessage[]} errors non-fatal errors received since the previous update
+ * @property {string|null} words the `percepts`' `words`: the robot's situation after it in
+ *   a few short lines of English, for people and language models (the wording may change
+ *   between releases); `null` unless connected with `words: true`
  * @property {Beliefs} beliefs the client's belief base (live: the state after this update
  *   unless later updates are already queued)
  */
@@ -333,6 +338,11 @@ export class Client extends EventEmitter {
   lobby = null;
   /** The tick of the last `percepts` received. @type {number|null} */
   tick = null;
+  /**
+   * The robot's situation in words from the last `percepts` received (`I am Ann (robot 0),
+   * in RoomC1. ...`), or `null` (not connected with `words: true`). @type {string|null}
+   */
+  words = null;
   /** The match result, once `match_end` arrived. @type {MatchResult|null} */
   result = null;
   /** `match_end.reason`: `completed`, `max_ticks` or `interrupted`. @type {string|null} */
@@ -384,6 +394,7 @@ export class Client extends EventEmitter {
       token,
       session: options.session,
       every_tick: options.everyTick ? true : undefined,
+      words: options.words ? true : undefined,
       match: options.match || undefined,
       template: options.template || undefined,
     });
@@ -826,6 +837,7 @@ export class Client extends EventEmitter {
   #onPercepts(message) {
     const messages = this.beliefs.apply(message);
     this.tick = message.tick;
+    this.words = typeof message.words === 'string' ? message.words : null;
     this.#lastTick = message.tick;
     this.#unanswered = true;
     /** @type {Update} */
@@ -838,6 +850,7 @@ export class Client extends EventEmitter {
       acks: this.#group.acks,
       results: this.#group.results,
       errors: this.#group.errors,
+      words: this.words,
       beliefs: this.beliefs,
     };
     this.#group = { acks: [], results: [], errors: [] };
