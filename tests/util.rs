@@ -243,7 +243,7 @@ use std::net::SocketAddr;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use bw4t_protocol::{ActId, MatchResult, ServerMessage, decode_server, fact_to_percept};
+use bw4t_protocol::{ActId, MatchResult, ServerMessage, decode_server};
 use bw4t_server::ServerConfig;
 use bw4t_sim::PerceptDelta;
 use serde_json::{Value, json};
@@ -438,8 +438,7 @@ pub async fn well_behaved_stream(good: &mut Client) -> Vec<String> {
 
 /// A percepts message as a simulation delta.
 pub fn delta_of(p: &bw4t_protocol::Percepts) -> PerceptDelta {
-    let facts = |list: &[Vec<Value>]| list.iter().map(|f| fact_to_percept(f).expect("a percept")).collect();
-    PerceptDelta { tick: p.tick, full: p.full, add: facts(&p.add), not: facts(&p.not) }
+    bw4t_protocol::percepts_delta(p).expect("percepts of this protocol")
 }
 
 /// What an auto-playing client has seen so far.

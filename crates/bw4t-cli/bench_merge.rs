@@ -6,7 +6,7 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use bw4t_protocol::EndReason;
 use bw4t_runner::tournament::{merge, setup};
-use bw4t_tournament::{Machine, Manifest, ReplayPolicy, Row, Seeds, Shard, TournamentConfig};
+use bw4t_tournament::{Machine, Manifest, ReplayPolicy, Row, Shard, TournamentConfig};
 use serde_json::json;
 
 /// Writes `shards` shard directories holding `rows` rows in all of a two-team tournament
@@ -16,9 +16,7 @@ pub(crate) fn run(rows: u64, shards: u64) -> Result<serde_json::Value> {
         "maps = [\"fixed\"]\nseeds = {}\n\n[[team]]\nname = \"coop\"\nagents = \"builtin\"\n\n[[team]]\nname = \"solo\"\nagents = \"builtin:baseline\"\n",
         rows.div_ceil(2)
     );
-    let mut config = TournamentConfig::parse(&text)?;
-    config.seeds = Some(Seeds::Count(rows.div_ceil(2)));
-    let resolved = config.resolve()?;
+    let resolved = TournamentConfig::parse(&text)?.resolve()?;
     let maps = [crate::maps::load("fixed")?];
     let dir = std::env::temp_dir().join(format!("bw4t-bench-merge-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);

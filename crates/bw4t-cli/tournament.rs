@@ -74,7 +74,7 @@ pub(crate) struct TournamentArgs {
     #[arg(long, value_parser = parse_shard, value_name = "i/n|auto")]
     shard: Option<ShardArg>,
     /// Seconds external agents have to connect.
-    #[arg(long, default_value_t = 10)]
+    #[arg(long, default_value_t = CONNECT_TIMEOUT_S)]
     connect_timeout_s: u64,
 }
 
@@ -128,6 +128,9 @@ enum KeepReplays {
     Failed,
     None,
 }
+
+/// Seconds external agents have to connect, unless `--connect-timeout-s` says otherwise.
+const CONNECT_TIMEOUT_S: u64 = 10;
 
 /// `--shard`: a fixed share, or the job array's.
 #[derive(Clone, Copy)]
@@ -345,7 +348,7 @@ fn resume(dir: &Path, concurrency: Option<usize>) -> Result<u8> {
         resume: true,
         replays: manifest.replays,
         concurrency,
-        connect_timeout: Duration::from_secs(10),
+        connect_timeout: Duration::from_secs(CONNECT_TIMEOUT_S),
     };
     let hint = |out: &Path| {
         format!("{} tournament resume {}", program_name(), shell_quote(&out.display().to_string()))

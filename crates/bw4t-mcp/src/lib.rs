@@ -17,7 +17,7 @@ mod view;
 
 pub use docs::Docs;
 pub use http::{MCP_PATH, serve_http};
-pub use link::{DecisionLog, JoinError, Link, Tokens};
+pub use link::{DecisionLog, JoinError, Link};
 pub use local::{LocalMatch, Started};
 pub use server::{MAX_TOOL_SECONDS, RobotServer};
 

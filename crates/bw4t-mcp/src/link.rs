@@ -17,11 +17,11 @@ use crate::view::View;
 
 /// Token counts an agent reports about itself (cumulative).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Tokens {
+pub(crate) struct Tokens {
     /// Prompt (input) tokens so far.
-    pub prompt: u64,
+    pub(crate) prompt: u64,
     /// Completion (output) tokens so far.
-    pub completion: u64,
+    pub(crate) completion: u64,
 }
 
 /// A tool call's answer: the report of an action (none for `look`) and the state after.
@@ -42,9 +42,6 @@ enum Request {
         tokens: Option<Tokens>,
         counted: bool,
         reply: oneshot::Sender<Reply>,
-    },
-    Usage {
-        reply: oneshot::Sender<PlayerUsage>,
     },
 }
 
@@ -149,14 +146,6 @@ impl Link {
         answer.await.map_err(|_| LinkError::Gone)
     }
 
-    /// How the robot has been driven so far: every tool call counts (`look` too), and
-    /// the thinking time is the wall time between a result and the next call.
-    pub async fn usage(&self) -> Option<PlayerUsage> {
-        let (reply, answer) = oneshot::channel();
-        self.send(Request::Usage { reply }).await.ok()?;
-        answer.await.ok()
-    }
-
     async fn send(&self, request: Request) -> Result<(), LinkError> {
         self.requests.send(request).await.map_err(|_| LinkError::Gone)
     }
@@ -227,7 +216,6 @@ async fn drive(
                     ms
                 };
                 match request {
-                    Request::Usage { reply } => { let _ = reply.send(usage); }
                     Request::Look { tokens, counted, reply } => {
                         if counted {
                             let think_ms = think(&mut robot, tokens);

@@ -10,11 +10,10 @@
 use std::collections::VecDeque;
 
 use bw4t_protocol::{
-    AckCode, ActId, ClientMessage, MatchInfo, Mode, Said, Say, ServerMessage, act_message, fact_to_percept,
+    AckCode, ActId, ClientMessage, Knowledge, MatchInfo, Mode, Said, Say, ServerMessage, Snapshot,
+    act_message, percepts_delta,
 };
 use bw4t_sim::{Action, BlockId, PerceptDelta};
-
-use bw4t_protocol::{Knowledge, Snapshot};
 
 /// What a tool asks the robot to do.
 #[derive(Clone, Debug, PartialEq)]
@@ -203,37 +202,30 @@ impl Robot {
         if let Some(busy) = self.busy() {
             return Err(Busy::InProgress(busy));
         }
-        if let Some(reason) = &self.ended {
-            let report = Report {
-                outcome: Outcome::MatchOver,
-                reason: Some(reason.clone()),
-                started: self.tick,
-                tick: self.tick,
-                changes: Vec::new(),
-            };
-            self.finished.push_back(report);
+        if let Some(reason) = self.ended.clone() {
+            self.report_now(Outcome::MatchOver, reason);
             return Ok(());
         }
         if !self.started {
             self.queued = Some(command);
             return Ok(());
         }
-        let act = command.action().map(|action| {
-            self.next_act += 1;
-            self.transmit.push_back(act_message(self.next_act, &action));
-            self.next_act
-        });
-        if let Command::Say { to, said, text } = &command {
-            self.next_act += 1;
-            let say = Say {
-                id: Some(ActId::Number(self.next_act)),
+        // Actions and messages get an id, which their `ack` (and `result`) echo.
+        let message = match (&command, command.action()) {
+            (_, Some(action)) => Some(act_message(self.next_act + 1, &action)),
+            (Command::Say { to, said, text }, None) => Some(ClientMessage::Say(Say {
+                id: Some(ActId::Number(self.next_act + 1)),
                 to: to.clone(),
                 text: text.clone(),
                 said: said.clone(),
-            };
-            self.transmit.push_back(ClientMessage::Say(say));
-        }
-        let act = act.or(matches!(command, Command::Say { .. }).then_some(self.next_act));
+            })),
+            _ => None,
+        };
+        let act = message.map(|message| {
+            self.next_act += 1;
+            self.transmit.push_back(message);
+            self.next_act
+        });
         let until = match command {
             Command::Wait { ticks } => ticks.map(|t| self.tick.saturating_add(t)),
             _ => None,
@@ -261,14 +253,7 @@ impl Robot {
             self.finish(pending, Outcome::Timeout, reason);
         } else if let Some(command) = self.queued.take() {
             let reason = format!("the match has not started yet ({} not sent)", tool_name(&command));
-            let report = Report {
-                outcome: Outcome::Timeout,
-                reason: Some(reason),
-                started: 0,
-                tick: 0,
-                changes: Vec::new(),
-            };
-            self.finished.push_back(report);
+            self.report_now(Outcome::Timeout, reason);
         }
     }
 
@@ -279,15 +264,10 @@ impl Robot {
                 self.robot = welcome.robot;
                 self.info = Some(welcome.match_info);
             }
-            ServerMessage::Percepts(percepts) => {
-                let delta = PerceptDelta {
-                    tick: percepts.tick,
-                    full: percepts.full,
-                    add: percepts.add.iter().filter_map(|f| fact_to_percept(f).ok()).collect(),
-                    not: percepts.not.iter().filter_map(|f| fact_to_percept(f).ok()).collect(),
-                };
-                self.on_percepts(&delta);
-            }
+            ServerMessage::Percepts(percepts) => match percepts_delta(&percepts) {
+                Ok(delta) => self.on_percepts(&delta),
+                Err(e) => self.end(format!("the server sent percepts this client cannot read ({e})")),
+            },
             ServerMessage::Ack(ack) => {
                 if !ack.ok {
                     let reason = match (ack.code, ack.reason) {
@@ -385,6 +365,18 @@ impl Robot {
         }
     }
 
+    /// Reports a call that ended before it began: nothing changed.
+    fn report_now(&mut self, outcome: Outcome, reason: String) {
+        let report = Report {
+            outcome,
+            reason: Some(reason),
+            started: self.tick,
+            tick: self.tick,
+            changes: Vec::new(),
+        };
+        self.finished.push_back(report);
+    }
+
     fn finish(&mut self, pending: Pending, outcome: Outcome, reason: Option<String>) {
         let changes = self.knowledge.changes_since(&pending.before);
         let report = Report { outcome, reason, started: pending.started, tick: self.tick, changes };
@@ -400,14 +392,7 @@ impl Robot {
         if let Some(pending) = self.pending.take() {
             self.finish(pending, Outcome::MatchOver, Some(reason));
         } else if self.queued.take().is_some() {
-            let report = Report {
-                outcome: Outcome::MatchOver,
-                reason: Some(reason),
-                started: 0,
-                tick: 0,
-                changes: Vec::new(),
-            };
-            self.finished.push_back(report);
+            self.report_now(Outcome::MatchOver, reason);
         }
     }
 

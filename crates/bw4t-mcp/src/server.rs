@@ -166,27 +166,31 @@ const TOOLS: &[ToolRow] = &[
     },
 ];
 
-fn tool_list() -> Vec<Tool> {
-    TOOLS
-        .iter()
-        .map(|row| {
-            let schema = serde_json::to_value((row.schema)()).unwrap_or_default();
-            let mut object: JsonObject = match schema {
-                Value::Object(map) => map,
-                _ => JsonObject::new(),
-            };
-            // An optional argument is simply left out: a `null` default would contradict
-            // its type for strict schema checkers.
-            if let Some(Value::Object(properties)) = object.get_mut("properties") {
-                for property in properties.values_mut().filter_map(Value::as_object_mut) {
-                    if property.get("default") == Some(&Value::Null) {
-                        property.remove("default");
+/// Every tool's definition, made once (schemas are generated from the argument types).
+fn tool_list() -> &'static [Tool] {
+    static LIST: std::sync::OnceLock<Vec<Tool>> = std::sync::OnceLock::new();
+    LIST.get_or_init(|| {
+        TOOLS
+            .iter()
+            .map(|row| {
+                let schema = serde_json::to_value((row.schema)()).unwrap_or_default();
+                let mut object: JsonObject = match schema {
+                    Value::Object(map) => map,
+                    _ => JsonObject::new(),
+                };
+                // An optional argument is simply left out: a `null` default would contradict
+                // its type for strict schema checkers.
+                if let Some(Value::Object(properties)) = object.get_mut("properties") {
+                    for property in properties.values_mut().filter_map(Value::as_object_mut) {
+                        if property.get("default") == Some(&Value::Null) {
+                            property.remove("default");
+                        }
                     }
                 }
-            }
-            Tool::new(row.name, row.description, Arc::new(object))
-        })
-        .collect()
+                Tool::new(row.name, row.description, Arc::new(object))
+            })
+            .collect()
+    })
 }
 
 /// Arguments as `T`, or an MCP error naming the tool and the problem.
@@ -328,11 +332,11 @@ impl ServerHandler for RobotServer {
         _request: Option<PaginatedRequestParams>,
         _context: RequestContext<RoleServer>,
     ) -> Result<ListToolsResult, ErrorData> {
-        Ok(ListToolsResult::with_all_items(tool_list()))
+        Ok(ListToolsResult::with_all_items(tool_list().to_vec()))
     }
 
     fn get_tool(&self, name: &str) -> Option<Tool> {
-        tool_list().into_iter().find(|t| t.name == name)
+        tool_list().iter().find(|t| t.name == name).cloned()
     }
 
     async fn call_tool(
@@ -383,7 +387,11 @@ impl ServerHandler for RobotServer {
                 None,
             ));
         };
-        let goal = self.link.look(None, false).await.ok().map(|reply| reply.view.state);
+        // Only the goal depends on the match; the rest is fixed.
+        let goal = match row.uri {
+            "bw4t://goal" => self.link.look(None, false).await.ok().map(|reply| reply.view.state),
+            _ => None,
+        };
         let text = self.docs.resource(row.uri, goal.as_ref());
         let contents = ResourceContents::text(text, row.uri).with_mime_type(row.mime);
         Ok(ReadResourceResult::new(vec![contents]).into())

@@ -37,6 +37,18 @@ pub fn percept_to_fact(p: &Percept) -> Fact {
 #[error("not a percept: {0}")]
 pub struct FactError(pub String);
 
+/// Reads a `percepts` message back into the delta it was made from: what a remote player
+/// applies to its beliefs.
+pub fn percepts_delta(percepts: &crate::messages::Percepts) -> Result<bw4t_sim::PerceptDelta, FactError> {
+    let facts = |list: &[Fact]| list.iter().map(|f| fact_to_percept(f)).collect::<Result<Vec<_>, _>>();
+    Ok(bw4t_sim::PerceptDelta {
+        tick: percepts.tick,
+        full: percepts.full,
+        add: facts(&percepts.add)?,
+        not: facts(&percepts.not)?,
+    })
+}
+
 /// Reads a fact array back into a percept.
 pub fn fact_to_percept(fact: &[Value]) -> Result<Percept, FactError> {
     let bad = || FactError(Value::from(fact.to_vec()).to_string());

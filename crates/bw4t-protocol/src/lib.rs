@@ -18,7 +18,7 @@ mod words;
 pub use codec::{DecodeError, LineBuffer, MAX_LINE, decode_client, decode_server, encode};
 pub use convert::{
     ActError, FactError, act_message, action_from_act, action_to_act, fact_to_percept, message_text,
-    percept_to_fact, receiver,
+    percept_to_fact, percepts_delta, receiver,
 };
 pub use language::{Group, KINDS, KindRow, MessagePolicy, Said, SaidError, Slot, kind_row, language_json};
 pub use messages::*;

@@ -6,9 +6,9 @@ use std::net::SocketAddr;
 use bw4t_agents::{ActionAck, Agent, Observation, OrderDone};
 use bw4t_protocol::{
     ActId, ClientMessage, Hello, MatchResult, ServerMessage, act_message, decode_server, encode,
-    fact_to_percept,
+    percepts_delta,
 };
-use bw4t_sim::{OrderOutcome, PerceptDelta};
+use bw4t_sim::OrderOutcome;
 use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader};
 use tokio::net::TcpStream;
 
@@ -69,13 +69,7 @@ pub async fn play_remote(
                 told.done.push(OrderDone { action: n, outcome });
             }
             ServerMessage::Percepts(p) => {
-                let facts = |list: &[Vec<serde_json::Value>]| {
-                    list.iter()
-                        .map(|f| fact_to_percept(f).map_err(|e| RemoteError::Protocol(e.to_string())))
-                        .collect::<Result<Vec<_>, _>>()
-                };
-                let delta =
-                    PerceptDelta { tick: p.tick, full: p.full, add: facts(&p.add)?, not: facts(&p.not)? };
+                let delta = percepts_delta(&p).map_err(|e| RemoteError::Protocol(e.to_string()))?;
                 // The same rule as in-process: decide when told something, or when the agent
                 // asked to be woken by now (on time if the hello asked for every tick).
                 let due = agent.wake_at().is_some_and(|tick| p.tick >= tick);
