@@ -9,7 +9,7 @@ use std::time::Duration;
 
 use bw4t_agents::{Agent, Observation, Strategy};
 use bw4t_protocol::{Hello, Mode, ServerMessage};
-use bw4t_server::{Arena, ArenaConfig, OnEnd, ResultsStore, SeatPlan, ServerConfig, Template};
+use bw4t_server::{Arena, ArenaConfig, HostConfig, OnEnd, ResultsStore, SeatPlan, Template};
 use bw4t_sim::Action;
 use serde_json::{Value, json};
 use tokio::sync::oneshot;
@@ -37,7 +37,7 @@ impl ArenaServer {
             let shutdown = async {
                 let _ = stopped.await;
             };
-            bw4t_server::serve_arena(&served, listener, Some(http), shutdown).await;
+            bw4t_server::serve_arena(&served, listener, Some(http.into()), shutdown).await;
         });
         ArenaServer { arena, addr, http: http_addr, stop: Some(stop), task }
     }
@@ -56,8 +56,8 @@ impl ArenaServer {
 }
 
 /// A lockstep match config on a shipped map.
-fn lockstep(map: &str, robots: usize, max_ticks: u64) -> ServerConfig {
-    let mut config = ServerConfig::new(shipped_map(map));
+fn lockstep(map: &str, robots: usize, max_ticks: u64) -> HostConfig {
+    let mut config = HostConfig::new(shipped_map(map));
     config.mode = Mode::Lockstep;
     config.robots = robots;
     config.max_ticks = Some(max_ticks);
@@ -66,7 +66,7 @@ fn lockstep(map: &str, robots: usize, max_ticks: u64) -> ServerConfig {
     config
 }
 
-fn template(name: &str, config: ServerConfig) -> Template {
+fn template(name: &str, config: HostConfig) -> Template {
     let mut t = Template::single(name, config, OnEnd::Stay);
     t.names.clear();
     t
@@ -230,7 +230,7 @@ async fn the_operator_makes_lists_inspects_and_stops_matches_through_the_api() {
     base.config.max_ticks = None;
     base.replays = true;
     let mut config = ArenaConfig::new(vec![base]);
-    config.operator_token = Some("op".into());
+    config.server.operator_token = Some("op".into());
     config.results = ResultsStore::in_dir(&dir).expect("results dir");
     let server = ArenaServer::start(config).await;
     let create = r#"{"name": "demo", "robots": 2, "builtin": 1}"#;
@@ -359,7 +359,7 @@ async fn bystander_stream(hostile_in_a: bool) -> Vec<String> {
     let mut b = Template::single("b", lockstep("fixed", 1, 400), OnEnd::Stay);
     b.config.seed = 8;
     let mut config = ArenaConfig::new(vec![a, b]);
-    config.hello_timeout = Duration::from_millis(200);
+    config.server.hello_timeout = Duration::from_millis(200);
     let server = ArenaServer::start(config).await;
     let addr = server.addr;
     let mut hostile = Vec::new();
@@ -480,7 +480,7 @@ async fn a_restarted_server_numbers_runs_on_from_its_results() {
         t.seats = (1..=3).map(|i| SeatPlan::builtin(format!("Bot{i}"), Strategy::Cooperative)).collect();
         let mut config = ArenaConfig::new(vec![t]);
         config.results = ResultsStore::in_dir(&dir).expect("results dir");
-        config.operator_token = Some("op".into());
+        config.server.operator_token = Some("op".into());
         config
     };
     let first = ArenaServer::start(ladder()).await;

@@ -32,7 +32,7 @@ async fn replay(file: &Path) {
     let Some((_, first)) = lines.next() else { return };
     let header: Value = serde_json::from_str(first).expect("json");
     let Some(server) = header.get("server") else { return };
-    let mut config = bw4t_server::ServerConfig::new(shipped_map(server["map"].as_str().expect("map")));
+    let mut config = bw4t_server::HostConfig::new(shipped_map(server["map"].as_str().expect("map")));
     config.seed = server["seed"].as_u64().expect("seed");
     config.mode = if server["mode"] == "realtime" { Mode::Realtime } else { Mode::Lockstep };
     config.max_ticks = server["max_ticks"].as_u64();

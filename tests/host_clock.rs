@@ -2,25 +2,13 @@
 //! client's queue, hands the host events and reads what it would send.
 
 use std::collections::BTreeMap;
-use std::sync::Arc;
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
+use bw4t_host::{ConnId, HostConfig, HostEvent, MatchHost, Seat, Transmit};
 use bw4t_protocol::{Mode, ServerMessage, decode_client, decode_server};
-use bw4t_server::{ConnId, HostEvent, MatchHost, QueueRoom, Seat, ServerConfig, Transmit};
 use serde_json::{Value, json};
 
 use crate::util::{lockstep, shipped_map};
-
-/// A client's queue whose free room the test sets.
-#[derive(Clone)]
-struct Gauge(Arc<AtomicUsize>);
-
-impl QueueRoom for Gauge {
-    fn free(&self) -> usize {
-        self.0.load(Ordering::SeqCst)
-    }
-}
 
 /// What one connection was sent.
 #[derive(Default)]
@@ -36,20 +24,22 @@ struct Sim {
     start: Instant,
     now: Instant,
     inboxes: BTreeMap<ConnId, Inbox>,
-    gauges: BTreeMap<ConnId, Gauge>,
+    /// The room each client's queue has, which the test sets (the client reads every line
+    /// at once, so the room stays as set).
+    rooms: BTreeMap<ConnId, usize>,
 }
 
 const ROOMY: usize = 1024;
 
 impl Sim {
-    fn new(config: ServerConfig) -> Sim {
+    fn new(config: HostConfig) -> Sim {
         Sim::with_seats(config, Vec::new())
     }
 
-    fn with_seats(config: ServerConfig, seats: Vec<Seat>) -> Sim {
+    fn with_seats(config: HostConfig, seats: Vec<Seat>) -> Sim {
         let start = Instant::now();
         let host = MatchHost::new(config, seats, None, start).expect("a valid match");
-        Sim { host, start, now: start, inboxes: BTreeMap::new(), gauges: BTreeMap::new() }
+        Sim { host, start, now: start, inboxes: BTreeMap::new(), rooms: BTreeMap::new() }
     }
 
     /// The simulated time since the start.
@@ -72,15 +62,27 @@ impl Sim {
         }
     }
 
+    /// Tells the host the room of every client's queue, as a driver does before it hands
+    /// the host anything.
+    fn report_rooms(&mut self) {
+        for (&conn, &room) in &self.rooms {
+            self.host.handle_event(self.now, HostEvent::Room { conn, room });
+        }
+    }
+
     fn event(&mut self, event: HostEvent) {
+        self.report_rooms();
         self.host.handle_event(self.now, event);
         self.collect();
     }
 
+    fn set_room(&mut self, conn: ConnId, room: usize) {
+        self.rooms.insert(conn, room);
+    }
+
     fn open(&mut self, conn: ConnId) {
-        let gauge = Gauge(Arc::new(AtomicUsize::new(ROOMY)));
-        self.gauges.insert(conn, gauge.clone());
-        self.event(HostEvent::Opened { conn, room: Box::new(gauge) });
+        self.rooms.insert(conn, ROOMY);
+        self.event(HostEvent::Opened { conn, room: ROOMY });
     }
 
     fn say(&mut self, conn: ConnId, message: Value) {
@@ -106,6 +108,7 @@ impl Sim {
             match self.host.poll_timeout() {
                 Some(t) if t <= target && !self.host.is_over() => {
                     self.now = self.now.max(t);
+                    self.report_rooms();
                     self.host.handle_timeout(self.now);
                     self.collect();
                 }
@@ -147,6 +150,7 @@ impl Sim {
     }
 
     fn finish(&mut self) -> bw4t_protocol::MatchResult {
+        self.report_rooms();
         let result = self.host.finish(self.now);
         self.collect();
         result
@@ -155,7 +159,7 @@ impl Sim {
 
 /// Lockstep with a 1 s deadline and percepts every tick, so a player that does not answer
 /// paces the match at one tick per second of the simulated clock.
-fn lockstep_config(robots: usize) -> ServerConfig {
+fn lockstep_config(robots: usize) -> HostConfig {
     let mut config = lockstep("fixed", 3, robots);
     config.deadline = Some(Duration::from_secs(1));
     config.every_tick = true;
@@ -272,19 +276,19 @@ fn a_client_that_does_not_read_gets_a_snapshot_later_or_is_disconnected() {
     // Bob reads but never answers, so ticks come once a second. Ann's queue has less than
     // the reserve free: her percepts are held back and she is not awaited.
     sim.ready(1);
-    sim.gauges[&1].0.store(10, Ordering::SeqCst);
+    sim.set_room(1, 10);
     sim.run_until(Duration::from_secs(3));
     assert_eq!(sim.host.tick(), 3);
     assert_eq!(sim.percepts(1).len(), 1, "only the joining snapshot");
     // Reading again within the slow limit: her next percepts are a full snapshot.
-    sim.gauges[&1].0.store(ROOMY, Ordering::SeqCst);
+    sim.set_room(1, ROOMY);
     sim.run_until(Duration::from_secs(4));
     let latest = sim.percepts(1).last().copied().cloned().expect("percepts again");
     assert!(latest.full && latest.tick == 4, "{latest:?}");
     assert!(!latest.add.is_empty());
     // Not reading for longer than the slow limit (from the first tick held back, 5 s):
     // disconnected with too_slow.
-    sim.gauges[&1].0.store(10, Ordering::SeqCst);
+    sim.set_room(1, 10);
     sim.run_until(Duration::from_secs(10));
     assert_eq!(sim.bye_reason(1), None, "5 s held back is within the limit");
     sim.run_until(Duration::from_secs(11));
@@ -299,7 +303,7 @@ fn a_client_that_does_not_read_gets_a_snapshot_later_or_is_disconnected() {
 fn a_client_whose_queue_is_full_is_killed_without_waiting() {
     let mut sim = Sim::new(lockstep_config(2));
     sim.join(1, "Ann");
-    sim.gauges[&1].0.store(0, Ordering::SeqCst);
+    sim.set_room(1, 0);
     sim.join(2, "Bob");
     // Bob's hello makes the match start; Ann's queue has no room left even for replies.
     sim.say(1, json!({"type": "act", "id": 1, "action": "goTo", "args": ["RoomA1"]}));
@@ -311,7 +315,7 @@ fn a_client_whose_queue_is_full_is_killed_without_waiting() {
 
 #[test]
 fn spectator_frames_are_throttled_to_their_rate_on_the_match_clock() {
-    let mut config = ServerConfig::new(shipped_map("fixed"));
+    let mut config = HostConfig::new(shipped_map("fixed"));
     config.mode = Mode::Realtime;
     config.robots = 1;
     config.game.ticks_per_second = 20;
@@ -332,7 +336,7 @@ fn spectator_frames_are_throttled_to_their_rate_on_the_match_clock() {
 
 #[test]
 fn realtime_ticks_fall_on_the_period_and_missed_ones_are_skipped() {
-    let mut config = ServerConfig::new(shipped_map("fixed"));
+    let mut config = HostConfig::new(shipped_map("fixed"));
     config.mode = Mode::Realtime;
     config.robots = 1;
     config.game.ticks_per_second = 10;
@@ -380,7 +384,7 @@ fn a_match_whose_reserved_players_will_not_come_starts_without_them() {
 
 #[test]
 fn a_paused_match_makes_no_ticks_and_resumes_a_full_period_later() {
-    let mut config = ServerConfig::new(shipped_map("fixed"));
+    let mut config = HostConfig::new(shipped_map("fixed"));
     config.mode = Mode::Realtime;
     config.robots = 1;
     config.game.ticks_per_second = 10;
@@ -401,7 +405,7 @@ fn a_paused_match_makes_no_ticks_and_resumes_a_full_period_later() {
 
 #[test]
 fn a_player_that_asks_for_words_gets_its_situation_in_english_with_each_percepts() {
-    let mut config = ServerConfig::new(shipped_map("fixed"));
+    let mut config = HostConfig::new(shipped_map("fixed"));
     config.mode = Mode::Realtime;
     config.robots = 2;
     let mut sim = Sim::new(config);
@@ -434,7 +438,7 @@ fn a_player_that_asks_for_words_gets_its_situation_in_english_with_each_percepts
 
 #[test]
 fn the_last_report_of_each_player_is_in_the_result_even_after_it_left() {
-    let mut config = ServerConfig::new(shipped_map("fixed"));
+    let mut config = HostConfig::new(shipped_map("fixed"));
     config.mode = Mode::Realtime;
     config.robots = 2;
     let mut sim = Sim::new(config);

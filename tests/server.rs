@@ -247,12 +247,12 @@ async fn bad_input_is_answered_and_the_connection_stays_open() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn refusals_are_fatal_and_name_the_reason() {
     let twin = "area = [30, 30]\n[[spawn]]\nname = \"S\"\nat = [5, 5]\n[[zone]]\nname = \"Hall\"\ntype = \"corridor\"\ncentre = [15, 5]\nsize = [30, 10]\nneighbours = [\"DropZone\"]\n[[zone]]\nname = \"DropZone\"\ntype = \"room\"\ncentre = [15, 15]\nsize = [10, 10]\ndoors = [[15, 10]]\n";
-    let mut config = bw4t_server::ServerConfig::new(bw4t_map::Map::from_native(twin).expect("map"));
+    let mut config = bw4t_server::HostConfig::new(bw4t_map::Map::from_native(twin).expect("map"));
     config.token = Some("sesame".into());
-    config.max_connections = 8;
     // Two seats but one spawn point: the last refusal is the map's.
     config.robots = 2;
-    let server = TestServer::start(config).await;
+    let limits = bw4t_server::ServerConfig { max_connections: 8, ..Default::default() };
+    let server = TestServer::start_limited(config, limits).await;
     let hello = |extra: serde_json::Value| {
         let mut h = json!({"type": "hello", "protocol": "bw4t", "versions": [1], "token": "sesame"});
         h.as_object_mut().expect("object").extend(extra.as_object().expect("object").clone());
@@ -286,10 +286,13 @@ async fn refusals_are_fatal_and_name_the_reason() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn silent_connections_time_out_and_extra_connections_are_refused() {
-    let mut config = lockstep("fixed", 4, 1);
-    config.hello_timeout = Duration::from_millis(300);
-    config.max_connections = 2;
-    let server = TestServer::start(config).await;
+    let config = lockstep("fixed", 4, 1);
+    let limits = bw4t_server::ServerConfig {
+        hello_timeout: Duration::from_millis(300),
+        max_connections: 2,
+        ..Default::default()
+    };
+    let server = TestServer::start_limited(config, limits).await;
     let mut silent = Client::connect(server.addr).await;
     let mut second = Client::connect(server.addr).await;
     second.send(json!({"type": "ping"})).await;
@@ -359,18 +362,18 @@ async fn let_ticks_pass(bob: &mut AutoPlayer, n: u64) {
     bob.wait("ticks to pass", |s| (s.tick >= now + n).then_some(())).await;
 }
 
-fn realtime_flood_config(slow_limit: Duration) -> bw4t_server::ServerConfig {
+/// A fast realtime match whose clients' queues hold 100 lines.
+async fn realtime_flood_server(slow_limit: Duration) -> TestServer {
     let mut config = lockstep("fixed", 6, 2);
     config.mode = Mode::Realtime;
     config.game.ticks_per_second = 200;
-    config.queue = 100;
     config.slow_limit = slow_limit;
-    config
+    TestServer::start_limited(config, bw4t_server::ServerConfig { queue: 100, ..Default::default() }).await
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_client_that_stops_reading_gets_a_snapshot_and_every_message_once() {
-    let server = TestServer::start(realtime_flood_config(Duration::from_secs(60))).await;
+    let server = realtime_flood_server(Duration::from_secs(60)).await;
     let mut ann = Client::connect_small(server.addr).await;
     ann.send(
         json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": "Ann", "every_tick": true}),
@@ -407,7 +410,7 @@ async fn a_client_that_stops_reading_gets_a_snapshot_and_every_message_once() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_client_that_never_reads_is_disconnected_and_others_play_on() {
-    let server = TestServer::start(realtime_flood_config(Duration::from_millis(300))).await;
+    let server = realtime_flood_server(Duration::from_millis(300)).await;
     let mut ann = Client::connect_small(server.addr).await;
     ann.send(
         json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": "Ann", "every_tick": true}),
@@ -431,8 +434,9 @@ async fn good_player_stream(adversaries: bool) -> Vec<String> {
     let mut config = lockstep("fixed", 8, 1);
     config.max_ticks = Some(400);
     config.token = Some("sesame".into());
-    config.hello_timeout = Duration::from_millis(200);
-    let server = TestServer::start(config).await;
+    let limits =
+        bw4t_server::ServerConfig { hello_timeout: Duration::from_millis(200), ..Default::default() };
+    let server = TestServer::start_limited(config, limits).await;
     let addr = server.addr;
     let mut hostile = Vec::new();
     if adversaries {
@@ -517,7 +521,7 @@ const ONE_BLOCK_MAP: &str = r#"
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn completing_the_sequence_ends_the_match_for_everyone() {
-    let mut config = bw4t_server::ServerConfig::new(bw4t_map::Map::from_native(ONE_BLOCK_MAP).expect("map"));
+    let mut config = bw4t_server::HostConfig::new(bw4t_map::Map::from_native(ONE_BLOCK_MAP).expect("map"));
     config.mode = Mode::Lockstep;
     let server = TestServer::start(config).await;
     let mut ann = AutoPlayer::join_with(server.addr, json!({"name": "Ann", "every_tick": true})).await;
@@ -548,7 +552,7 @@ async fn completing_the_sequence_ends_the_match_for_everyone() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_robot_whose_player_stays_away_leaves_after_the_grace_period() {
-    let mut config = bw4t_server::ServerConfig::new(bw4t_map::Map::from_native(ONE_BLOCK_MAP).expect("map"));
+    let mut config = bw4t_server::HostConfig::new(bw4t_map::Map::from_native(ONE_BLOCK_MAP).expect("map"));
     config.mode = Mode::Realtime;
     config.game.ticks_per_second = 100;
     config.robots = 2;

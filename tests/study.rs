@@ -5,8 +5,8 @@
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 
-use bw4t_server::study::{self, StudyServer};
 use bw4t_server::{Arena, ArenaConfig, ResultsStore};
+use bw4t_study::{self as study, StudyServer};
 use serde_json::{Value, json};
 use tokio::sync::oneshot;
 
@@ -117,7 +117,7 @@ impl StudyRig {
         let study = parse(text).expect("the study file is good");
         let mut config = ArenaConfig::new(study.templates());
         config.default = None;
-        config.operator_token = Some(TOKEN.into());
+        config.server.operator_token = Some(TOKEN.into());
         config.results = ResultsStore::in_dir(&dir.join("matches")).expect("results dir");
         let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.expect("bind");
         let http = tokio::net::TcpListener::bind("127.0.0.1:0").await.expect("bind");
@@ -126,11 +126,18 @@ impl StudyRig {
         let served = StudyServer::open(study, dir, arena.clone()).expect("the study opens");
         let (stop, stopped) = oneshot::channel::<()>();
         let running = arena.clone();
+        let routes: Vec<std::sync::Arc<dyn bw4t_server::Routes>> = vec![std::sync::Arc::new(served.clone())];
         let task = tokio::spawn(async move {
             let shutdown = async {
                 let _ = stopped.await;
             };
-            bw4t_server::serve_arena(&running, listener, Some(http), shutdown).await;
+            bw4t_server::serve_arena(
+                &running,
+                listener,
+                Some(bw4t_server::Web { listener: http, routes }),
+                shutdown,
+            )
+            .await;
         });
         StudyRig { arena, addr, http: http_addr, stop: Some(stop), task, _study: served }
     }
@@ -209,6 +216,15 @@ async fn arrive(rig: &StudyRig, id: &str) -> (u16, Value) {
         Some(json!({"params": {"PROLIFIC_PID": id, "STUDY_ID": "s1"}})),
     )
     .await
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_study_pages_and_every_module_they_import_are_served() {
+    let dir = temp_dir("pages");
+    let rig = StudyRig::start(&dir, STUDY).await;
+    let served = crate::web::modules_of(rig.http, &["/study", "/study/admin"]).await;
+    crate::web::assert_every_module_in_use("crates/bw4t-study/web", &served);
+    rig.shutdown().await;
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

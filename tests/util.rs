@@ -244,7 +244,7 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use bw4t_protocol::{ActId, MatchResult, ServerMessage, decode_server};
-use bw4t_server::ServerConfig;
+use bw4t_server::HostConfig;
 use bw4t_sim::PerceptDelta;
 use serde_json::{Value, json};
 use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader};
@@ -264,12 +264,17 @@ pub struct TestServer {
 }
 
 impl TestServer {
-    pub async fn start(config: ServerConfig) -> TestServer {
+    pub async fn start(config: HostConfig) -> TestServer {
         TestServer::start_with(config, bw4t_server::Extras::default()).await
     }
 
+    /// A server with these limits on connections.
+    pub async fn start_limited(config: HostConfig, server: bw4t_server::ServerConfig) -> TestServer {
+        TestServer::start_with(config, bw4t_server::Extras { server, ..Default::default() }).await
+    }
+
     /// A server with seats taken in advance (and possibly a replay).
-    pub async fn start_with(config: ServerConfig, extras: bw4t_server::Extras) -> TestServer {
+    pub async fn start_with(config: HostConfig, extras: bw4t_server::Extras) -> TestServer {
         let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.expect("bind");
         let addr = listener.local_addr().expect("addr");
         let (stop, stopped) = oneshot::channel::<()>();
@@ -298,8 +303,8 @@ impl TestServer {
 }
 
 /// A server config on a shipped map, lockstep, waiting for `robots` players.
-pub fn lockstep(map: &str, seed: u64, robots: usize) -> ServerConfig {
-    let mut config = ServerConfig::new(shipped_map(map));
+pub fn lockstep(map: &str, seed: u64, robots: usize) -> HostConfig {
+    let mut config = HostConfig::new(shipped_map(map));
     config.seed = seed;
     config.mode = bw4t_protocol::Mode::Lockstep;
     config.robots = robots;

@@ -1,7 +1,7 @@
 use std::net::SocketAddr;
 
 use bw4t_protocol::{MAX_LINE, Mode, ServerMessage, decode_server, encode};
-use bw4t_server::ServerConfig;
+use bw4t_server::{HostConfig, ServerConfig};
 use futures_util::{SinkExt, StreamExt};
 use serde_json::{Value, json};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
@@ -141,7 +141,16 @@ fn hello_json(name: &str) -> String {
 }
 
 /// A realtime server on the fixed map with the web port, listening as `bw4t serve` does.
-async fn web_server_with(config: ServerConfig, builtin: usize) -> (TestServer, SocketAddr) {
+async fn web_server_with(config: HostConfig, builtin: usize) -> (TestServer, SocketAddr) {
+    web_server_limited(config, builtin, ServerConfig::default()).await
+}
+
+/// [`web_server_with`] with these limits on connections.
+async fn web_server_limited(
+    config: HostConfig,
+    builtin: usize,
+    server: ServerConfig,
+) -> (TestServer, SocketAddr) {
     let http = bw4t_server::listen("127.0.0.1:0".parse().expect("addr")).expect("listen");
     let http_addr = http.local_addr().expect("addr");
     let seats = (1..=builtin)
@@ -152,11 +161,11 @@ async fn web_server_with(config: ServerConfig, builtin: usize) -> (TestServer, S
             )
         })
         .collect();
-    let extras = bw4t_server::Extras { seats, http: Some(http), ..Default::default() };
+    let extras = bw4t_server::Extras { server, seats, http: Some(http), ..Default::default() };
     (TestServer::start_with(config, extras).await, http_addr)
 }
 
-fn web_config(robots: usize) -> ServerConfig {
+fn web_config(robots: usize) -> HostConfig {
     let mut config = lockstep("fixed", 4, robots);
     config.mode = Mode::Realtime;
     config.game.ticks_per_second = 100;
@@ -237,13 +246,15 @@ fn imports_of(module: &str, source: &str) -> Vec<String> {
         .collect()
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn every_module_the_page_imports_is_served_as_javascript() {
-    let (server, http) = web_server(0, 1).await;
-    // The page, the study page and the study dashboard each load one module (the latter
-    // two name theirs from the root, as they are served at /study and /study/admin).
+/// Every module the pages at `pages` load, directly or through imports, by path with its
+/// text; each must be served as JavaScript. Pages name their module from the root, as
+/// the study's are served at `/study` and `/study/admin`.
+pub(crate) async fn modules_of(
+    http: SocketAddr,
+    pages: &[&str],
+) -> std::collections::BTreeMap<String, String> {
     let mut queue: Vec<String> = Vec::new();
-    for at in ["/", "/study", "/study/admin"] {
+    for at in pages {
         let page = get(http, at).await.body;
         let before = queue.len();
         queue.extend(
@@ -264,6 +275,24 @@ async fn every_module_the_page_imports_is_served_as_javascript() {
         queue.extend(imports_of(&path, &answer.body));
         served.insert(path, answer.body);
     }
+    served
+}
+
+/// Checks that every module in `folder` (from the repository's root) is among `served`.
+pub(crate) fn assert_every_module_in_use(folder: &str, served: &std::collections::BTreeMap<String, String>) {
+    let web = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(folder);
+    for entry in std::fs::read_dir(&web).expect("the page's folder") {
+        let name = entry.expect("an entry").file_name().into_string().expect("a UTF-8 name");
+        if name.ends_with(".js") {
+            assert!(served.contains_key(&format!("/{name}")), "{folder}/{name} is not imported by a page");
+        }
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn every_module_the_page_imports_is_served_as_javascript() {
+    let (server, http) = web_server(0, 1).await;
+    let served = modules_of(http, &["/"]).await;
     // The page keeps beliefs with the JavaScript client's own file, not a copy.
     assert_eq!(
         served.get("/client/beliefs.js").map(String::as_str),
@@ -271,14 +300,9 @@ async fn every_module_the_page_imports_is_served_as_javascript() {
         "modules: {:?}",
         served.keys()
     );
-    // And every module of the page is in use.
-    let web = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("crates/bw4t-server/web");
-    for entry in std::fs::read_dir(&web).expect("the page's folder") {
-        let name = entry.expect("an entry").file_name().into_string().expect("a UTF-8 name");
-        if name.ends_with(".js") {
-            assert!(served.contains_key(&format!("/{name}")), "{name} is not imported by the page");
-        }
-    }
+    assert_every_module_in_use("crates/bw4t-server/web", &served);
+    // A server that runs no study serves no study pages.
+    assert_eq!(get(http, "/study").await.status, 404);
     server.stop().await;
 }
 
@@ -419,9 +443,8 @@ async fn the_replay_viewer_serves_every_ticks_frame() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_websocket_without_hello_is_closed_at_the_hello_deadline_like_tcp() {
-    let mut config = web_config(1);
-    config.hello_timeout = std::time::Duration::from_millis(300);
-    let (server, http) = web_server_with(config, 0).await;
+    let limits = ServerConfig { hello_timeout: std::time::Duration::from_millis(300), ..Default::default() };
+    let (server, http) = web_server_limited(web_config(1), 0, limits).await;
     let mut silent_ws = ws(http).await;
     let mut silent_tcp = Client::connect(server.addr).await;
     let over_ws = drain(&mut silent_ws).await;
@@ -434,11 +457,13 @@ async fn a_websocket_without_hello_is_closed_at_the_hello_deadline_like_tcp() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_page_answers_while_the_websocket_limit_is_full() {
-    let mut config = web_config(1);
-    config.max_connections = 2;
     // The silent sockets keep their places for the whole test.
-    config.hello_timeout = std::time::Duration::from_secs(600);
-    let (server, http) = web_server_with(config, 0).await;
+    let limits = ServerConfig {
+        max_connections: 2,
+        hello_timeout: std::time::Duration::from_secs(600),
+        ..Default::default()
+    };
+    let (server, http) = web_server_limited(web_config(1), 0, limits).await;
     let first = ws(http).await;
     let _second = ws(http).await;
     let page = get(http, "/").await;
@@ -490,9 +515,8 @@ async fn websockets_from_other_pages_are_refused_unless_allowed() {
     let check = |allowed: &[&str]| {
         let allowed: Vec<String> = allowed.iter().map(|o| o.to_string()).collect();
         async move {
-            let mut config = web_config(4);
-            config.allowed_origins = allowed;
-            let (server, http) = web_server_with(config, 0).await;
+            let limits = ServerConfig { allowed_origins: allowed, ..Default::default() };
+            let (server, http) = web_server_limited(web_config(4), 0, limits).await;
             let port = http.port();
             let cases = [
                 ("no Origin: not a page", vec![]),
@@ -613,9 +637,8 @@ impl Drop for ServeChild {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_burst_of_page_requests_is_answered_whatever_the_websocket_limit() {
-    let mut config = web_config(1);
-    config.max_connections = 2;
-    let (server, http) = web_server_with(config, 0).await;
+    let limits = ServerConfig { max_connections: 2, ..Default::default() };
+    let (server, http) = web_server_limited(web_config(1), 0, limits).await;
     let paths = [
         "/",
         "/app.js",

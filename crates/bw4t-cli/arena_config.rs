@@ -7,7 +7,7 @@ use std::time::Duration;
 use anyhow::{Context, Result, bail};
 use bw4t_agents::Strategy;
 use bw4t_protocol::Mode;
-use bw4t_server::{OnEnd, SeatPlan, ServerConfig, Template};
+use bw4t_server::{HostConfig, OnEnd, SeatPlan, Template};
 use bw4t_sim::MatchConfig;
 use serde::Deserialize;
 
@@ -154,7 +154,7 @@ fn template(t: TemplateFile, base: &Path, seed: u64) -> Result<Template> {
             crate::maps::load(&spec)
         })
         .collect::<Result<Vec<_>>>()?;
-    let mut config = ServerConfig::new(maps[0].clone());
+    let mut config = HostConfig::new(maps[0].clone());
     config.seed = t.seed.unwrap_or(seed);
     config.game = MatchConfig {
         ticks_per_second: t.tick_hz,
@@ -234,6 +234,7 @@ fn template(t: TemplateFile, base: &Path, seed: u64) -> Result<Template> {
         names,
         on_end,
         replays: t.replays,
+        lateness: None,
     })
 }
 

@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result, bail};
 use bw4t_map::{Map, SeededRng, ZoneKind};
 use bw4t_protocol::{ClientMessage, ErrorCode, Hello, Mode, Outcome, ServerMessage, act_message, encode};
-use bw4t_server::{Arena, ArenaConfig, OnEnd, SeatPlan, ServerConfig, Template, TickLateness};
+use bw4t_server::{Arena, ArenaConfig, HostConfig, OnEnd, SeatPlan, ServerConfig, Template, TickLateness};
 use bw4t_sim::Action;
 use clap::{Args, ValueEnum};
 use serde_json::{Value, json};
@@ -144,8 +144,6 @@ fn realtime(args: &ArenaArgs, map: &Map, seed: u64, shape: Shape) -> Result<Valu
 
     let lateness = Arc::new(TickLateness::default());
     let mut config = match_config(map, seed, Mode::Realtime);
-    config.lateness = Some(lateness.clone());
-    config.max_connections = connections + 16;
     config.robots = shape.players + shape.teammates;
     let names: Vec<String> = (1..=n).map(|i| format!("m{i}")).collect();
     let template = Template {
@@ -159,8 +157,9 @@ fn realtime(args: &ArenaArgs, map: &Map, seed: u64, shape: Shape) -> Result<Valu
         max_running: n,
         on_end: OnEnd::Stay,
         replays: false,
+        lateness: Some(lateness.clone()),
     };
-    let server = Served::start(&server_rt, ArenaConfig::new(vec![template]).with_limits_of(&config))?;
+    let server = Served::start(&server_rt, arena_config(vec![template], connections + 16))?;
     let (rss_matches, fds_matches) = (rss_kb()?, open_fds()?);
 
     let rooms = room_names(map)?;
@@ -393,8 +392,9 @@ fn lockstep_run(args: &ArenaArgs, map: &Map, seed: u64, workers: usize) -> Resul
         max_running: m,
         on_end: OnEnd::Restart,
         replays: false,
+        lateness: None,
     };
-    let arena_config = ArenaConfig::new(vec![template]).with_limits_of(&config);
+    let arena_config = ArenaConfig::new(vec![template]);
     let rt = runtime(workers, LOCKSTEP_THREADS)?;
     let (started, cpu) = (Instant::now(), thread_cpu_seconds(LOCKSTEP_THREADS)?);
     let totals = rt.block_on(async {
@@ -445,16 +445,13 @@ fn soak(args: &ArenaArgs, map: &Map, seed: u64) -> Result<Value> {
 
     let mut steady = match_config(map, seed, Mode::Realtime);
     steady.max_ticks = Some(steady_ticks);
-    steady.lateness = Some(steady_lateness.clone());
-    steady.max_connections = 2 * connections + 16;
     let mut churn = steady.clone();
     churn.max_ticks = Some(churn_ticks);
-    churn.lateness = Some(churn_lateness.clone());
     // A churn match starts without whoever left, its empty seats played by built-in agents.
     churn.start_timeout = Some(Duration::from_secs(1));
     churn.fill = Some(bw4t_agents::Strategy::Cooperative);
     churn.grace = Duration::from_secs(2);
-    let template = |name: &str, config: &ServerConfig, running: usize| Template {
+    let template = |name: &str, config: &HostConfig, lateness: &Arc<TickLateness>, running: usize| Template {
         name: name.into(),
         maps: vec![map.clone()],
         config: config.clone(),
@@ -463,13 +460,14 @@ fn soak(args: &ArenaArgs, map: &Map, seed: u64) -> Result<Value> {
         max_running: running,
         on_end: OnEnd::Restart,
         replays: false,
+        lateness: Some(lateness.clone()),
     };
     let templates = vec![
-        template(STEADY, &steady, args.soak_players / ROBOTS),
-        template(CHURN, &churn, (args.soak_churners / ROBOTS).max(1)),
+        template(STEADY, &steady, &steady_lateness, args.soak_players / ROBOTS),
+        template(CHURN, &churn, &churn_lateness, (args.soak_churners / ROBOTS).max(1)),
     ];
 
-    let server = Served::start(&server_rt, ArenaConfig::new(templates).with_limits_of(&steady))?;
+    let server = Served::start(&server_rt, arena_config(templates, 2 * connections + 16))?;
     let ctx = Arc::new(SoakContext {
         addr: server.addr,
         rooms: room_names(map)?,
@@ -882,8 +880,15 @@ fn room_names(map: &Map) -> Result<Arc<[String]>> {
 }
 
 /// A match of 3 players on `map` (one server's limits and all).
-fn match_config(map: &Map, seed: u64, mode: Mode) -> ServerConfig {
-    let mut config = ServerConfig::new(map.clone());
+/// An arena of `templates` that takes `connections` at once.
+fn arena_config(templates: Vec<Template>, connections: usize) -> ArenaConfig {
+    let mut config = ArenaConfig::new(templates);
+    config.server = ServerConfig { max_connections: connections, ..ServerConfig::default() };
+    config
+}
+
+fn match_config(map: &Map, seed: u64, mode: Mode) -> HostConfig {
+    let mut config = HostConfig::new(map.clone());
     config.seed = seed;
     config.mode = mode;
     config.robots = ROBOTS;

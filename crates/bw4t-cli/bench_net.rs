@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result, bail};
 use bw4t_map::{Map, MapParts, Spawn, Vec2};
 use bw4t_protocol::{ClientMessage, Hello, Mode, Say, ServerMessage, act_message, decode_server, encode};
-use bw4t_server::ServerConfig;
+use bw4t_server::HostConfig;
 use bw4t_sim::Action;
 use serde_json::{Value, json};
 use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader};
@@ -17,7 +17,7 @@ use tokio::net::TcpStream;
 /// `lockstep`: players that answer at once, with a message each tick.
 pub(crate) fn lockstep(map: &str, seed: u64, players: usize, ticks: u64) -> Result<Value> {
     let map = crate::maps::load(map)?;
-    let mut config = ServerConfig::new(map);
+    let mut config = HostConfig::new(map);
     config.seed = seed;
     config.mode = Mode::Lockstep;
     config.robots = players;

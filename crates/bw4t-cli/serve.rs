@@ -10,7 +10,7 @@ use std::sync::Arc;
 
 use anyhow::{Context, Result, bail};
 use bw4t_protocol::Mode;
-use bw4t_server::{ArenaConfig, OnEnd, SeatPlan, ServerConfig, Template};
+use bw4t_server::{ArenaConfig, HostConfig, OnEnd, SeatPlan, Template};
 use bw4t_sim::MatchConfig;
 use clap::{Args, ValueEnum};
 
@@ -124,18 +124,18 @@ pub(crate) fn run(args: &ServeArgs) -> Result<()> {
     init_logs(&args.log);
     let seed = args.seed.unwrap_or_else(crate::random_seed);
     let mut settings = ArenaConfig::new(Vec::new());
-    settings.hello_timeout = Duration::from_secs(args.hello_timeout_s);
-    settings.allowed_origins = args.allow_origin.clone();
-    settings.operator_token = args.operator_token.clone();
+    settings.server.hello_timeout = Duration::from_secs(args.hello_timeout_s);
+    settings.server.allowed_origins = args.allow_origin.clone();
+    settings.server.operator_token = args.operator_token.clone();
     let (templates, default, results_dir) = match &args.config {
         Some(path) => {
             let file = crate::arena_config::load(path, seed)?;
             // The command line wins over the file, which wins over the default.
             if let Some(max) = args.max_connections.or(file.max_connections) {
-                settings.max_connections = max;
+                settings.server.max_connections = max;
             }
-            if settings.operator_token.is_none() {
-                settings.operator_token = file.operator_token;
+            if settings.server.operator_token.is_none() {
+                settings.server.operator_token = file.operator_token;
             }
             for t in &file.templates {
                 let matches = if t.names.is_empty() {
@@ -158,7 +158,7 @@ pub(crate) fn run(args: &ServeArgs) -> Result<()> {
         }
         None => {
             if let Some(max) = args.max_connections {
-                settings.max_connections = max;
+                settings.server.max_connections = max;
             }
             let template = single_match(args, seed)?;
             (vec![template], Some(bw4t_server::DEFAULT_MATCH.to_string()), args.results_dir.clone())
@@ -200,7 +200,7 @@ pub(crate) fn run(args: &ServeArgs) -> Result<()> {
             None => None,
         };
         let arena = bw4t_server::Arena::start(settings).context("cannot start the matches")?;
-        bw4t_server::serve_arena(&arena, listener, http, stop).await;
+        bw4t_server::serve_arena(&arena, listener, http.map(bw4t_server::Web::from), stop).await;
         anyhow::Ok(arena.outcomes())
     })?;
     let Some((id, last)) = outcomes.into_iter().last() else { return Ok(()) };
@@ -231,7 +231,7 @@ pub(crate) fn run(args: &ServeArgs) -> Result<()> {
 /// unless `--once`.
 fn single_match(args: &ServeArgs, seed: u64) -> Result<Template> {
     let map = crate::maps::load(&args.map)?;
-    let mut config = ServerConfig::new(map);
+    let mut config = HostConfig::new(map);
     config.seed = seed;
     config.game = MatchConfig {
         ticks_per_second: args.tick_hz,

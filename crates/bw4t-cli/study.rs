@@ -7,8 +7,8 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
-use bw4t_server::study::{Study, StudyServer};
 use bw4t_server::{ArenaConfig, ResultsStore};
+use bw4t_study::{Study, StudyServer};
 use clap::{Args, Subcommand};
 
 /// Options of `bw4t study`.
@@ -78,7 +78,7 @@ pub(crate) fn run(args: &StudyArgs) -> Result<()> {
 
 fn run_export(args: &ExportArgs) -> Result<()> {
     let out = args.out.clone().unwrap_or_else(|| args.dir.join("export"));
-    let summary = bw4t_server::study::export(&args.dir, &out).map_err(anyhow::Error::msg)?;
+    let summary = bw4t_study::export(&args.dir, &out).map_err(anyhow::Error::msg)?;
     outln!(
         "exported {} into {}: {}, {} ({} without an end), {}, {}, {}",
         args.dir.display(),
@@ -95,17 +95,16 @@ fn run_export(args: &ExportArgs) -> Result<()> {
 
 fn serve(args: &StudyArgs, file: &Path) -> Result<()> {
     crate::serve::init_logs(&args.log);
-    let study =
-        bw4t_server::study::load(file, &|spec: &str| crate::maps::load(spec).map_err(|e| format!("{e:#}")))
-            .map_err(anyhow::Error::msg)?;
+    let study = bw4t_study::load(file, &|spec: &str| crate::maps::load(spec).map_err(|e| format!("{e:#}")))
+        .map_err(anyhow::Error::msg)?;
     keep_study_file(&args.data, &study, args.changed_study)?;
     let token = args.operator_token.clone().unwrap_or_else(bw4t_server::random_token);
     let mut settings = ArenaConfig::new(study.templates());
     settings.default = None;
-    settings.operator_token = Some(token.clone());
-    settings.allowed_origins = args.allow_origin.clone();
-    settings.max_connections = args.max_connections;
-    settings.hello_timeout = Duration::from_secs(10);
+    settings.server.operator_token = Some(token.clone());
+    settings.server.allowed_origins = args.allow_origin.clone();
+    settings.server.max_connections = args.max_connections;
+    settings.server.hello_timeout = Duration::from_secs(10);
     let matches = args.data.join("matches");
     settings.results = ResultsStore::in_dir(&matches)
         .with_context(|| format!("cannot write results into {}", matches.display()))?;
@@ -147,8 +146,9 @@ fn serve(args: &StudyArgs, file: &Path) -> Result<()> {
         if args.operator_token.is_none() {
             outln!("operator token: {token}");
         }
-        bw4t_server::serve_arena(&arena, listener, Some(http), stop).await;
-        drop(server);
+        let routes: Vec<std::sync::Arc<dyn bw4t_server::Routes>> = vec![std::sync::Arc::new(server)];
+        bw4t_server::serve_arena(&arena, listener, Some(bw4t_server::Web { listener: http, routes }), stop)
+            .await;
         anyhow::Ok(())
     })?;
     eprintln!("bw4t: stopped; the data is in {} (bw4t study export {0})", args.data.display());
@@ -171,7 +171,7 @@ fn keep_study_file(data: &Path, study: &Study, changed: bool) -> Result<()> {
                 copy.display()
             );
         }
-        let kept = data.join(format!("study-{}.toml", bw4t_server::study::now_ms()));
+        let kept = data.join(format!("study-{}.toml", bw4t_study::now_ms()));
         std::fs::rename(&copy, &kept).with_context(|| format!("cannot keep {}", kept.display()))?;
     }
     std::fs::write(&copy, &study.text).with_context(|| format!("cannot write {}", copy.display()))

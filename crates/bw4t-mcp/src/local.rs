@@ -7,7 +7,7 @@ use std::time::Duration;
 use bw4t_agents::Strategy;
 use bw4t_map::Map;
 use bw4t_protocol::{Hello, MatchResult, Mode};
-use bw4t_server::{Extras, Seat, ServerConfig, ServerError};
+use bw4t_server::{Extras, HostConfig, Seat, ServerError};
 use bw4t_sim::MatchConfig;
 use tokio::task::JoinHandle;
 
@@ -47,7 +47,7 @@ impl LocalMatch {
         let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
         let addr = listener.local_addr()?;
         let token = bw4t_server::random_token();
-        let mut config = ServerConfig::new(self.map);
+        let mut config = HostConfig::new(self.map);
         config.seed = self.seed;
         config.game = self.game;
         config.mode = Mode::Lockstep;
@@ -61,7 +61,7 @@ impl LocalMatch {
             let name = format!("Bot{}", i + 1);
             seats.push(Seat::Local(name.clone(), strategy.agent(&name)));
         }
-        let extras = Extras { seats, replay: self.replay, program: program(), gone_seats: None, http: None };
+        let extras = Extras { seats, replay: self.replay, program: program(), ..Extras::default() };
         let result = tokio::spawn(bw4t_server::serve_with(listener, config, extras, std::future::pending()));
         Ok(Started { addr, hello: Hello::agent(self.player, Some(token)), result })
     }

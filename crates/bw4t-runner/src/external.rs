@@ -11,7 +11,7 @@ pub use bw4t_agents::SeatSpec;
 use bw4t_agents::Strategy;
 use bw4t_map::Map;
 use bw4t_protocol::{AgentStatus, MatchResult, Mode};
-use bw4t_server::{Extras, Seat, ServerConfig};
+use bw4t_server::{Extras, HostConfig, Seat, ServerConfig};
 use bw4t_sim::MatchConfig;
 use serde::Serialize;
 
@@ -119,7 +119,7 @@ pub fn play_served(run: ServedRun<'_>) -> Result<Served, ServedError> {
         let listener =
             tokio::net::TcpListener::bind("127.0.0.1:0").await.map_err(|e| io("cannot listen", e))?;
         let addr = listener.local_addr().map_err(|e| io("no address", e))?;
-        let mut config = ServerConfig::new(run.map.clone());
+        let mut config = HostConfig::new(run.map.clone());
         config.seed = run.seed;
         config.game = run.game.clone();
         config.mode = Mode::Lockstep;
@@ -128,7 +128,6 @@ pub fn play_served(run: ServedRun<'_>) -> Result<Served, ServedError> {
         config.deadline = run.deadline;
         config.token = Some(token.clone());
         config.start_timeout = Some(run.connect_timeout);
-        config.hello_timeout = run.connect_timeout;
         config.max_late_in_row = Some(MAX_LATE_IN_ROW);
         config.pause_when_empty = false;
         let seats = run
@@ -141,6 +140,7 @@ pub fn play_served(run: ServedRun<'_>) -> Result<Served, ServedError> {
             .collect();
         let (gone_tx, gone_rx) = tokio::sync::mpsc::channel(run.seats.len().max(1));
         let extras = Extras {
+            server: ServerConfig { hello_timeout: run.connect_timeout, ..ServerConfig::default() },
             seats,
             replay: run.replay,
             program: crate::program(),

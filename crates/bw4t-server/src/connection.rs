@@ -7,66 +7,17 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::future::Future;
 
 use bw4t_protocol::{
-    ByeReason, ClientMessage, DecodeError, ErrorCode, ErrorMessage, Leaving, LineBuffer, Lobby, Pong,
-    ServerBye, ServerMessage, encode,
+    ClientMessage, DecodeError, ErrorCode, Leaving, LineBuffer, Lobby, ServerMessage, encode,
 };
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::tcp::{OwnedReadHalf, OwnedWriteHalf};
 use tokio::net::{TcpListener, TcpSocket, TcpStream};
 use tokio::sync::{Notify, mpsc, watch};
 
+use bw4t_host::{ConnId, bye_line, error_line, pong_line};
+
 use crate::arena::{Arena, QueueNews, Route, Routed};
-
-/// Identifies a connection for the match task.
-pub type ConnId = u64;
-
-/// What a connection's writer sends.
-#[derive(Debug)]
-pub(crate) enum Outbound {
-    /// One encoded line.
-    Line(Arc<str>),
-    /// Flush and close the connection.
-    Close,
-}
-
-/// A new connection's handles.
-#[derive(Debug)]
-pub(crate) struct Opened {
-    /// Its id.
-    pub conn: ConnId,
-    /// Its queue of outgoing lines.
-    pub tx: mpsc::Sender<Outbound>,
-    /// Closes it at once, queued lines or not (for clients that do not read).
-    pub kill: Arc<Notify>,
-    /// Becomes true when its writer has finished (flushed and closed).
-    pub done: watch::Receiver<bool>,
-}
-
-/// What connections tell the match task.
-#[derive(Debug)]
-pub(crate) enum Event {
-    /// A new connection.
-    Opened(Opened),
-    /// A well-formed message (other than `ping`, answered by the connection itself).
-    Message { conn: ConnId, message: ClientMessage },
-    /// The connection sent a line that is not a valid message.
-    BadInput { conn: ConnId },
-    /// The connection is gone.
-    Closed { conn: ConnId },
-    /// From the server, not a connection.
-    Control(Control),
-}
-
-/// What the server asks of a match.
-#[derive(Debug)]
-pub(crate) enum Control {
-    /// Where the match is.
-    Status(tokio::sync::oneshot::Sender<crate::HostStatus>),
-    /// End it now (`interrupted`).
-    Stop,
-    /// Stop ticking until resumed (`true`), or go on (`false`).
-    Pause(bool),
-}
+use crate::events::{Event, Opened, Outbound};
 
 /// How many connections the kernel may hold for a listener before they are accepted. The
 /// usual default (128) overflows under a burst of page loads, and clients then wait a
@@ -87,7 +38,7 @@ pub fn listen(addr: std::net::SocketAddr) -> std::io::Result<TcpListener> {
 /// Accepts connections until aborted, refusing those beyond the limit.
 pub(crate) async fn accept_loop(listener: TcpListener, arena: Arena) {
     let open = Arc::new(AtomicUsize::new(0));
-    let max = arena.config().max_connections;
+    let max = arena.config().server.max_connections;
     loop {
         let Ok((stream, _)) = listener.accept().await else {
             // Out of file descriptors or a reset before accept: try again shortly.
@@ -114,22 +65,6 @@ async fn refuse(mut stream: TcpStream, limit: usize) {
         error_line(ErrorCode::ServerFull, &format!("the server takes at most {limit} connections"), true);
     let _ = stream.write_all(error.as_bytes()).await;
     let _ = stream.shutdown().await;
-}
-
-/// An encoded `error` message.
-pub(crate) fn error_line(code: ErrorCode, message: &str, fatal: bool) -> Arc<str> {
-    let msg = ServerMessage::Error(ErrorMessage { code, message: message.into(), fatal });
-    encode(&msg).into()
-}
-
-/// An encoded `pong` answering a `ping` with this id.
-fn pong_line(id: Option<bw4t_protocol::ActId>) -> Arc<str> {
-    encode(&ServerMessage::Pong(Pong { id })).into()
-}
-
-/// An encoded `bye` message.
-pub(crate) fn bye_line(reason: impl Into<ByeReason>) -> Arc<str> {
-    encode(&ServerMessage::Bye(ServerBye { reason: reason.into() })).into()
 }
 
 /// Where a connection's outgoing lines go: a TCP socket or a WebSocket.
@@ -299,7 +234,7 @@ struct Joined {
 /// and `bye` `hello_timeout` and is closed.
 pub(crate) async fn run(conn: ConnId, mut source: impl LineSource, sink: impl LineSink, arena: &Arena) {
     // The writer ends on `Close`, a kill or a dead socket; the reader then stops too.
-    let outgoing = start_writer(conn, arena.config().queue, sink);
+    let outgoing = start_writer(conn, arena.config().server.queue, sink);
     let (tx, mut done) = (outgoing.tx.clone(), outgoing.done.clone());
     // `None`: the connection is over (it left, said `bye`, was refused or timed out).
     let Some(Joined { route, hello, rest }) = greet(&mut source, &tx, &mut done, arena).await else {
@@ -361,7 +296,7 @@ async fn greet(
     done: &mut watch::Receiver<bool>,
     arena: &Arena,
 ) -> Option<Joined> {
-    let hello_deadline = tokio::time::Instant::now() + arena.config().hello_timeout;
+    let hello_deadline = tokio::time::Instant::now() + arena.config().server.hello_timeout;
     loop {
         let incoming = tokio::select! {
             incoming = source.next() => incoming,

@@ -18,8 +18,12 @@ use bw4t_protocol::{EndReason, MatchResult, Mode};
 use bw4t_tournament::Row;
 use tokio::sync::{mpsc, oneshot, watch};
 
-use crate::connection::{Control, Event};
-use crate::{HostStatus, Seat, ServerConfig, ServerError};
+use bw4t_host::{HostConfig, HostStatus, MatchHost, Seat};
+
+use crate::config::{ServerConfig, ServerError};
+use crate::driver;
+use crate::events::{Control, Event};
+use crate::lateness::TickLateness;
 
 pub(crate) use route::{QueueNews, Route, Routed};
 pub use store::ResultsStore;
@@ -70,7 +74,7 @@ pub struct Template {
     pub name: String,
     /// The matches' settings; `config.map` is the first map and `config.seed` the first
     /// match's seed (the n-th match made gets `seed + n`).
-    pub config: ServerConfig,
+    pub config: HostConfig,
     /// The maps its matches play in turn (`OnEnd::Next`), the first being `config.map`.
     pub maps: Vec<Map>,
     /// Seats given to built-in agents when a match is made.
@@ -84,11 +88,13 @@ pub struct Template {
     pub on_end: OnEnd,
     /// Keep a replay of each match (in the results directory).
     pub replays: bool,
+    /// Where its realtime matches' tick lateness is counted, if anywhere.
+    pub lateness: Option<Arc<TickLateness>>,
 }
 
 impl Template {
     /// A template of one match named `name`, made at the start, with `config`.
-    pub fn single(name: &str, config: ServerConfig, on_end: OnEnd) -> Template {
+    pub fn single(name: &str, config: HostConfig, on_end: OnEnd) -> Template {
         Template {
             name: name.to_string(),
             maps: vec![config.map.clone()],
@@ -98,6 +104,7 @@ impl Template {
             max_running: 1,
             on_end,
             replays: false,
+            lateness: None,
         }
     }
 }
@@ -112,19 +119,10 @@ pub struct ArenaConfig {
     pub templates: Vec<Template>,
     /// What a `hello` that names no match joins: a match's or a template's name.
     pub default: Option<String>,
-    /// The operator's secret: the HTTP API's credential, and each match's operator token
-    /// where the match has none of its own.
-    pub operator_token: Option<String>,
     /// Where results, the index and replays are written; `None`: kept in memory only.
     pub results: ResultsStore,
-    /// Connections accepted at once (protocol port; as many WebSockets on the web port).
-    pub max_connections: usize,
-    /// The time a new connection has to say `hello`.
-    pub hello_timeout: Duration,
-    /// Lines queued per connection.
-    pub queue: usize,
-    /// Pages besides the server's own that may open WebSockets.
-    pub allowed_origins: Vec<String>,
+    /// How connections are treated: limits, origins, the operator's secret.
+    pub server: ServerConfig,
     /// Stop when no match is live any more (after the first has ended): `--once`.
     pub once: bool,
     /// Maps the API may make matches on, by name; `None`: only the templates' maps.
@@ -141,35 +139,20 @@ impl ArenaConfig {
     pub fn new(templates: Vec<Template>) -> ArenaConfig {
         ArenaConfig {
             templates,
-            default: Some(crate::DEFAULT_MATCH.to_string()),
-            operator_token: None,
+            default: Some(bw4t_host::DEFAULT_MATCH.to_string()),
             results: ResultsStore::in_memory(),
-            max_connections: 256,
-            hello_timeout: Duration::from_secs(10),
-            queue: 1024,
-            allowed_origins: Vec::new(),
+            server: ServerConfig::default(),
             once: false,
             maps: None,
             first_replay: Arc::default(),
         }
-    }
-
-    /// Takes the server-wide limits (connections, hello timeout, queue, origins, operator
-    /// token) of a one-match configuration.
-    pub fn with_limits_of(mut self, config: &ServerConfig) -> ArenaConfig {
-        self.operator_token.clone_from(&config.operator_token);
-        self.max_connections = config.max_connections;
-        self.hello_timeout = config.hello_timeout;
-        self.queue = config.queue;
-        self.allowed_origins.clone_from(&config.allowed_origins);
-        self
     }
 }
 
 /// A match being made: its settings and what it starts with.
 pub struct MatchSpec {
     /// Its settings, `name` and `template` included.
-    pub config: ServerConfig,
+    pub config: HostConfig,
     /// Seats taken at the start, in robot-id order.
     pub seats: Vec<Seat>,
     /// Where its replay goes, with the program name written into it.
@@ -276,9 +259,6 @@ struct Inner {
     outcomes: Mutex<VecDeque<(String, Result<MatchResult, String>)>>,
     /// Map layouts (`/map.json`), by map name.
     layouts: Mutex<BTreeMap<String, Arc<str>>>,
-    /// The study served on this arena, whose API the HTTP server answers (weak: the study
-    /// holds the arena).
-    study: Mutex<Option<crate::study::StudyRef>>,
 }
 
 /// A handle on the server's matches; clones share them.
@@ -350,7 +330,6 @@ impl Arena {
                 ended_count: watch::Sender::new(0),
                 outcomes: Mutex::new(VecDeque::new()),
                 layouts: Mutex::new(BTreeMap::new()),
-                study: Mutex::new(None),
             }),
         };
         let starting: Vec<(String, String)> = arena
@@ -436,7 +415,7 @@ impl Arena {
             return Err(ArenaError::NameTaken(config.name));
         }
         if config.operator_token.is_none() {
-            config.operator_token.clone_from(&self.inner.config.operator_token);
+            config.operator_token.clone_from(&self.inner.config.server.operator_token);
         }
         let name = config.name.clone();
         let run = state.runs.get(&name).copied().unwrap_or(0) + 1;
@@ -451,9 +430,10 @@ impl Arena {
                 kept.then(|| self.inner.config.results.replay_writer(&id)).flatten()
             });
         let open_seats = config.robots.saturating_sub(seats.len());
-        let host = crate::MatchHost::new(config.clone(), seats, replay, std::time::Instant::now())?;
+        let host = MatchHost::new(config.clone(), seats, replay, std::time::Instant::now())
+            .map_err(ServerError::Host)?;
         state.runs.insert(name.clone(), run);
-        let (events, events_rx) = mpsc::channel(crate::host::driver::EVENT_QUEUE);
+        let (events, events_rx) = mpsc::channel(driver::EVENT_QUEUE);
         let started = Arc::new(AtomicBool::new(false));
         let live = LiveMatch {
             id: id.clone(),
@@ -479,11 +459,12 @@ impl Arena {
         let arena = self.clone();
         let mut stop = self.inner.shutdown.subscribe();
         let task_name = name.clone();
+        let lateness = template.as_ref().and_then(|t| t.lateness.clone());
         tokio::spawn(async move {
             let shutdown = async move {
                 let _ = stop.wait_for(|s| *s).await;
             };
-            let outcome = crate::host::driver::run(host, events_rx, gone_seats, started, shutdown).await;
+            let outcome = driver::run(host, events_rx, gone_seats, started, lateness, shutdown).await;
             arena.record_end(&task_name, &id, outcome);
         });
         Ok(name)
@@ -636,16 +617,6 @@ impl Arena {
                 return;
             }
         }
-    }
-
-    /// Serves `study`'s API beside the arena's own, while it lives.
-    pub(crate) fn attach_study(&self, study: crate::study::StudyRef) {
-        *self.inner.study.lock().unwrap_or_else(|p| p.into_inner()) = Some(study);
-    }
-
-    /// The study served on this arena, if any.
-    pub(crate) fn study(&self) -> Option<crate::study::StudyRef> {
-        self.inner.study.lock().unwrap_or_else(|p| p.into_inner()).clone()
     }
 
     /// Stops a live match's clock (`paused`) or starts it again; players stay connected.

@@ -13,7 +13,7 @@ use bw4t_protocol::{ErrorCode, Hello, Role};
 use tokio::sync::mpsc;
 
 use super::{Arena, State};
-use crate::connection::Event;
+use crate::events::Event;
 
 /// Where a `hello` goes.
 pub(crate) enum Routed {

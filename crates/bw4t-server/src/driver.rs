@@ -1,5 +1,6 @@
-//! The tokio driver of a [`MatchHost`]: owns the event channel, the connections' queues
-//! and the timer, and does nothing but carry events in and transmits out. A panic inside
+//! The tokio driver of a [`MatchHost`]: owns the event channel, the connections' queues,
+//! the clock and the timer, and does nothing but carry events in and transmits out (and
+//! tell the host how much room each connection's queue has before it hands it anything). A panic inside
 //! the host ends this match only: its connections get `match_failed` and the caller the
 //! panic's message.
 
@@ -14,8 +15,10 @@ use tokio::time::{Duration, Instant};
 
 use bw4t_protocol::ErrorCode;
 
-use super::{HostEvent, MatchHost, QueueRoom, Transmit};
-use crate::connection::{ConnId, Control, Event, Opened, Outbound, bye_line, error_line};
+use bw4t_host::{ConnId, HostEvent, MatchHost, Transmit, bye_line, error_line};
+
+use crate::events::{Control, Event, Opened, Outbound};
+use crate::lateness::TickLateness;
 
 /// Capacity of the channel from connections to the match task.
 pub(crate) const EVENT_QUEUE: usize = 4096;
@@ -25,15 +28,6 @@ const FLUSH_LIMIT: Duration = Duration::from_secs(2);
 
 /// Ticks simulated back to back (lockstep, nobody awaited) before letting other tasks run.
 const YIELD_EVERY: u64 = 64;
-
-/// A connection's queue, as the host sees it: how much room it has.
-struct ConnQueue(mpsc::Sender<Outbound>);
-
-impl QueueRoom for ConnQueue {
-    fn free(&self) -> usize {
-        self.0.capacity()
-    }
-}
 
 /// A connection's handles, kept by the driver.
 struct Handles {
@@ -53,6 +47,7 @@ pub(crate) async fn run(
     mut events: mpsc::Receiver<Event>,
     mut gone_seats: Option<mpsc::Receiver<String>>,
     started: Arc<AtomicBool>,
+    lateness: Option<Arc<TickLateness>>,
     shutdown: impl Future<Output = ()>,
 ) -> Outcome {
     tokio::pin!(shutdown);
@@ -82,7 +77,9 @@ pub(crate) async fn run(
                     () = &mut shutdown => host.interrupt(),
                     () = std::future::ready(()) => {}
                 }
+                rooms(&mut host, &handles);
                 host.handle_timeout(Instant::now().into_std());
+                record_lateness(&mut host, lateness.as_deref());
                 back_to_back += 1;
                 if back_to_back.is_multiple_of(YIELD_EVERY) {
                     flush(&mut host, &mut handles, &mut closing);
@@ -101,11 +98,17 @@ pub(crate) async fn run(
                     None => host.interrupt(),
                 },
                 Some(name) = recv_opt(&mut gone_seats) => {
+                    rooms(&mut host, &handles);
                     host.handle_event(Instant::now().into_std(), HostEvent::SeatAbandoned { name });
                 }
-                () = sleep_until_opt(timeout.map(Instant::from_std)) => host.handle_timeout(Instant::now().into_std()),
+                () = sleep_until_opt(timeout.map(Instant::from_std)) => {
+                    rooms(&mut host, &handles);
+                    host.handle_timeout(Instant::now().into_std());
+                    record_lateness(&mut host, lateness.as_deref());
+                }
             }
         }
+        rooms(&mut host, &handles);
         let result = host.finish(Instant::now().into_std());
         flush(&mut host, &mut handles, &mut closing);
         result
@@ -171,7 +174,7 @@ fn take(
 ) {
     let event = match event {
         Event::Opened(Opened { conn, tx, kill, done }) => {
-            let room = Box::new(ConnQueue(tx.clone()));
+            let room = tx.capacity();
             handles.insert(conn, Handles { tx, kill, done });
             HostEvent::Opened { conn, room }
         }
@@ -191,7 +194,23 @@ fn take(
         Event::Control(Control::Stop) => return host.interrupt(),
         Event::Control(Control::Pause(paused)) => return host.set_paused(Instant::now().into_std(), paused),
     };
+    rooms(host, handles);
     host.handle_event(Instant::now().into_std(), event);
+}
+
+/// Tells the host how much room each connection's queue has now.
+fn rooms(host: &mut MatchHost, handles: &BTreeMap<ConnId, Handles>) {
+    let now = Instant::now().into_std();
+    for (conn, h) in handles {
+        host.handle_event(now, HostEvent::Room { conn: *conn, room: h.tx.capacity() });
+    }
+}
+
+/// Counts how late the tick just made was, where the server counts it.
+fn record_lateness(host: &mut MatchHost, lateness: Option<&TickLateness>) {
+    if let (Some(lateness), Some((late, skipped))) = (lateness, host.take_lateness()) {
+        lateness.record(late, skipped);
+    }
 }
 
 /// Hands every pending transmit to its connection's queue. The host only queues a line

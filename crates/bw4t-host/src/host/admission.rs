@@ -4,13 +4,12 @@
 use bw4t_protocol::{ErrorCode, Hello, MatchInfo, Mode, Role, ServerMessage, VERSION, Welcome};
 use bw4t_sim::{JoinError, RobotId};
 
-use super::{ConnRole, Delivery, MatchHost, Player, Sight};
-use crate::ServerConfig;
-use crate::connection::ConnId;
+use super::{ConnId, ConnRole, Delivery, MatchHost, Player, Sight};
+use crate::{HostConfig, HostError};
 
 /// Refuses a configuration in which two roles share a token, since one role's secret
 /// would then open the other's.
-pub(super) fn check_tokens_differ(config: &ServerConfig) -> Result<(), crate::ServerError> {
+pub(super) fn check_tokens_differ(config: &HostConfig) -> Result<(), HostError> {
     let tokens = [
         ("player", &config.token),
         ("spectator", &config.spectator_token),
@@ -19,7 +18,7 @@ pub(super) fn check_tokens_differ(config: &ServerConfig) -> Result<(), crate::Se
     for (i, (a, first)) in tokens.iter().enumerate() {
         for (b, second) in &tokens[i + 1..] {
             if first.is_some() && first == second {
-                return Err(crate::ServerError::SameToken(a, b));
+                return Err(HostError::SameToken(a, b));
             }
         }
     }
@@ -207,7 +206,7 @@ impl MatchHost {
 }
 
 /// Whether `given` is `secret`, in a time that does not depend on where they differ.
-pub(crate) fn same_secret(given: &str, secret: &str) -> bool {
+pub fn same_secret(given: &str, secret: &str) -> bool {
     let differences = given.bytes().zip(secret.bytes()).fold(0u8, |acc, (a, b)| acc | (a ^ b));
     given.len() == secret.len() && differences == 0
 }

@@ -2,8 +2,8 @@
 //! participant's arrival, state, answers, trial starts and events; the operator's list
 //! of participants. Every refusal is a 4xx whose `error` names the problem.
 
+use http::{Method, StatusCode};
 use serde_json::{Value, json};
-use tokio_tungstenite::tungstenite::http::{Method, StatusCode};
 
 use super::flow::{Participant, Record, order_for, valid_id};
 use super::{Ended, Slot, StudyServer, TrialRefusal, append, lock, now_ms};
@@ -360,7 +360,7 @@ impl StudyServer {
                 );
             };
             if match_id.rsplit_once('.').map(|(n, _)| n) != Some(name)
-                || crate::check_match_name(name).is_err()
+                || bw4t_server::check_match_name(name).is_err()
             {
                 return error(
                     StatusCode::BAD_REQUEST,

@@ -12,7 +12,7 @@ use bw4t_protocol::{MessagePolicy, Mode};
 use serde::Deserialize;
 
 use super::markdown::to_html;
-use crate::{OnEnd, SeatPlan, ServerConfig, Template};
+use bw4t_server::{HostConfig, OnEnd, SeatPlan, Template};
 
 /// The file, as written.
 #[derive(Deserialize)]
@@ -599,7 +599,7 @@ impl Study {
     }
 
     fn template(&self, c: &Condition) -> Template {
-        let mut config = ServerConfig::new(c.map.clone());
+        let mut config = HostConfig::new(c.map.clone());
         config.name = c.name.clone();
         config.seed = c.seed;
         config.game.ticks_per_second = c.tick_hz;
@@ -624,6 +624,7 @@ impl Study {
             max_running: c.max_running,
             on_end: OnEnd::Stay,
             replays: true,
+            lateness: None,
         }
     }
 

@@ -11,20 +11,25 @@ use std::net::{Ipv4Addr, Ipv6Addr};
 use std::sync::Arc;
 
 use bw4t_protocol::{DecodeError, ErrorCode, MAX_LINE};
+use bytes::Bytes;
 use futures_util::stream::{SplitSink, SplitStream};
 use futures_util::{SinkExt, StreamExt};
-use tokio::io::AsyncWriteExt;
-use tokio::net::TcpStream;
+use http_body_util::Full;
+use hyper::upgrade::Upgraded;
+use hyper::{Request, Response, StatusCode, header};
+use hyper_util::rt::TokioIo;
 use tokio::sync::{OwnedSemaphorePermit, Semaphore};
 use tokio_tungstenite::WebSocketStream;
-use tokio_tungstenite::tungstenite::handshake::server::{Response, create_response, write_response};
-use tokio_tungstenite::tungstenite::http::{self, StatusCode};
+use tokio_tungstenite::tungstenite::handshake::server::create_response;
 use tokio_tungstenite::tungstenite::protocol::{Role, WebSocketConfig};
 use tokio_tungstenite::tungstenite::{Error as WsError, Message};
 
+use super::Reply;
 use crate::arena::Arena;
 use crate::connection::{Incoming, LineSink, LineSource};
-use crate::http::{Head, Reply};
+
+/// A WebSocket over the upgraded HTTP connection.
+type Socket = WebSocketStream<TokioIo<Upgraded>>;
 
 /// Bytes read from the socket at a time (the library's default, 128 KiB, is allocated
 /// eagerly for every connection; messages here are small).
@@ -48,7 +53,7 @@ pub(crate) struct Live {
 impl Live {
     /// The WebSocket side of `arena`.
     pub(crate) fn new(arena: Arena) -> Live {
-        let config = arena.config();
+        let config = &arena.config().server;
         Live {
             max_sockets: config.max_connections,
             sockets: Arc::new(Semaphore::new(config.max_connections)),
@@ -60,16 +65,21 @@ impl Live {
 
 /// A handshake that may go ahead: its `101` answer and its place among the WebSockets.
 pub(crate) struct Admitted {
-    response: Response,
+    response: Response<()>,
     permit: OwnedSemaphorePermit,
 }
 
 /// Checks a request on `/ws`: a valid handshake, an allowed origin and host, a free place.
-pub(crate) fn admit(request: &http::Request<()>, live: &Live) -> Result<Admitted, Reply> {
-    let response = create_response(request)
+pub(crate) fn admit<B>(request: &Request<B>, live: &Live) -> Result<Admitted, Reply> {
+    let mut head = Request::new(());
+    *head.method_mut() = request.method().clone();
+    *head.uri_mut() = request.uri().clone();
+    *head.version_mut() = request.version();
+    *head.headers_mut() = request.headers().clone();
+    let response = create_response(&head)
         .map_err(|e| Reply::text(StatusCode::BAD_REQUEST, format!("not a WebSocket handshake: {e}")))?;
     let header = |name| request.headers().get(name).and_then(|v| v.to_str().ok());
-    if let Some(why) = live.origins.refusal(header(http::header::ORIGIN), header(http::header::HOST)) {
+    if let Some(why) = live.origins.refusal(header(header::ORIGIN), header(header::HOST)) {
         return Err(Reply::text(StatusCode::FORBIDDEN, why));
     }
     let permit = live
@@ -80,15 +90,26 @@ pub(crate) fn admit(request: &http::Request<()>, live: &Live) -> Result<Admitted
     Ok(Admitted { response, permit })
 }
 
-/// Completes the handshake and runs the WebSocket as a protocol connection: a text
-/// frame is a line.
-pub(crate) async fn bridge(mut stream: TcpStream, head: Head, admitted: Admitted, live: &Live) {
-    let place = admitted.permit;
-    let mut answer = Vec::new();
-    if write_response(&mut answer, &admitted.response).is_err() || stream.write_all(&answer).await.is_err() {
-        return;
-    }
-    let ws = WebSocketStream::from_partially_read(stream, head.rest, Role::Server, Some(config())).await;
+/// Answers the handshake with `101` and, once hyper hands the connection over, runs the
+/// WebSocket as a protocol connection.
+pub(crate) fn upgrade(
+    request: Request<hyper::body::Incoming>,
+    admitted: Admitted,
+    live: Arc<Live>,
+) -> Response<Full<Bytes>> {
+    let Admitted { response, permit } = admitted;
+    tokio::spawn(async move {
+        if let Ok(upgraded) = hyper::upgrade::on(request).await {
+            let ws =
+                WebSocketStream::from_raw_socket(TokioIo::new(upgraded), Role::Server, Some(config())).await;
+            bridge(ws, permit, &live).await;
+        }
+    });
+    response.map(|()| Full::new(Bytes::new()))
+}
+
+/// Runs the WebSocket as a protocol connection: a text frame is a line.
+async fn bridge(ws: Socket, place: OwnedSemaphorePermit, live: &Live) {
     let (write, read) = ws.split();
     let mut lines = WsLines(read);
     let conn = live.arena.next_conn();
@@ -111,7 +132,7 @@ fn config() -> WebSocketConfig {
 }
 
 /// The receiving half of a WebSocket, as a line source: a text message is a line.
-struct WsLines(SplitStream<WebSocketStream<TcpStream>>);
+struct WsLines(SplitStream<Socket>);
 
 impl LineSource for WsLines {
     async fn next(&mut self) -> Incoming {
@@ -140,7 +161,7 @@ impl LineSource for WsLines {
 }
 
 /// The sending half of a WebSocket, as a line sink: a line is a text frame.
-struct WsSink(SplitSink<WebSocketStream<TcpStream>, Message>);
+struct WsSink(SplitSink<Socket, Message>);
 
 impl LineSink for WsSink {
     async fn send_line(&mut self, line: Arc<str>) -> bool {

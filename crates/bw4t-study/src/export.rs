@@ -285,7 +285,7 @@ pub fn export(dir: &Path, out: &Path) -> Result<ExportSummary, String> {
     write("participants.csv", &people)?;
     let metadata = json!({
         "study": study_name,
-        "bw4t": crate::program(),
+        "bw4t": bw4t_server::program(),
         "conditions": conditions,
         "pages": pages,
         "participants": summary.participants,

@@ -1,17 +1,8 @@
-//! The match host, sans-IO: the one owner of a served match. It admits players (at most
-//! `robots`), spectators and the operator ([`admission`]), buffers actions until the next
-//! tick boundary, paces ticks (realtime or lockstep), holds percepts back from clients that
-//! do not read, throttles spectator frames, records the replay and makes the result.
-//!
-//! It does no I/O and reads no clock: the driver ([`driver`]) hands it events and the
-//! time ([`MatchHost::handle_event`], [`MatchHost::handle_timeout`]), sends what it
-//! returns ([`MatchHost::poll_transmit`]) and wakes it when it asks
-//! ([`MatchHost::poll_timeout`]). Tests drive it on a simulated clock.
+//! [`MatchHost`]: the one owner of a served match, its events in and transmits out.
 
 mod admission;
-pub(crate) mod driver;
 
-pub(crate) use admission::same_secret;
+pub use admission::same_secret;
 
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::sync::Arc;
@@ -25,8 +16,11 @@ use bw4t_protocol::{
 use bw4t_protocol::{AckCode, ByeReason, EndReason, ErrorCode, Leaving, Recorder, RobotExtra};
 use bw4t_sim::{Accepted, Action, Intent, Match, OrderEnd, OrderId, Receiver, Rejection, RobotId, Seats};
 
-use crate::connection::{ConnId, bye_line, error_line};
-use crate::{Seat, ServerConfig};
+use crate::lines::{bye_line, error_line};
+use crate::{HostConfig, HostError, Seat};
+
+/// Identifies a connection, unique for the host's life.
+pub type ConnId = u64;
 
 /// Room kept in a client's queue for acks, results and errors: percepts are held back
 /// (and later replaced by a snapshot) when less than this is free.
@@ -35,21 +29,23 @@ const RESERVE: usize = 64;
 /// How many messages a spectator frame carries at most.
 const FRAME_MESSAGES: usize = 100;
 
-/// How much room a connection's outgoing queue has left, in lines. The driver's queue
-/// answers for a real connection; a test sets it.
-pub trait QueueRoom: Send {
-    /// Lines that can still be queued.
-    fn free(&self) -> usize;
-}
-
 /// What the host is told.
 pub enum HostEvent {
     /// A new connection.
     Opened {
         /// Its id, unique for the host's life.
         conn: ConnId,
-        /// A gauge of its outgoing queue.
-        room: Box<dyn QueueRoom>,
+        /// Lines its outgoing queue can take.
+        room: usize,
+    },
+    /// How many lines the connection's outgoing queue can take now, counting every line
+    /// [`MatchHost::poll_transmit`] has handed out. The driver says so before it hands the
+    /// host anything else, so the host never queues more than a client's queue holds.
+    Room {
+        /// The connection.
+        conn: ConnId,
+        /// Lines its outgoing queue can take.
+        room: usize,
     },
     /// A well-formed message (other than `ping`, which connections answer themselves).
     Message {
@@ -99,7 +95,10 @@ pub enum Transmit {
 }
 
 struct Conn {
-    room: Box<dyn QueueRoom>,
+    /// Room in its outgoing queue when the driver last said.
+    room: usize,
+    /// Lines queued for it since then, taken by the driver or not.
+    queued: usize,
     /// Lines handed to [`MatchHost::poll_transmit`]'s queue but not yet taken by the driver.
     unsent: usize,
     role: ConnRole,
@@ -111,7 +110,7 @@ struct Conn {
 impl Conn {
     /// Lines this connection's queue can still take.
     fn free(&self) -> usize {
-        self.room.free().saturating_sub(self.unsent)
+        self.room.saturating_sub(self.queued)
     }
 }
 
@@ -301,7 +300,7 @@ enum Phase {
 
 /// A served match and everyone connected to it, without I/O.
 pub struct MatchHost {
-    config: ServerConfig,
+    config: HostConfig,
     game: Match,
     conns: BTreeMap<ConnId, Conn>,
     players: BTreeMap<RobotId, Player>,
@@ -328,6 +327,8 @@ pub struct MatchHost {
     lobby_changed: bool,
     /// The operator paused the match: no tick is made until it is resumed.
     held: bool,
+    /// How late the last realtime tick was made, and the ticks skipped, until taken.
+    lateness: Option<(Duration, u64)>,
 }
 
 /// Where a match is, for listings: a copy made on request, so it costs nothing per tick.
@@ -355,15 +356,15 @@ impl MatchHost {
     /// A host for a new match created at `now`, with `seats` taken in robot-id order and
     /// the replay, if any, written to `replay`.
     pub fn new(
-        config: ServerConfig,
+        config: HostConfig,
         seats: Vec<Seat>,
         replay: Option<(Box<dyn std::io::Write + Send>, String)>,
         now: Instant,
-    ) -> Result<MatchHost, crate::ServerError> {
+    ) -> Result<MatchHost, HostError> {
         admission::check_tokens_differ(&config)?;
         if seats.len() > config.robots {
             let message = format!("{} seats, but the match admits {} players", seats.len(), config.robots);
-            return Err(crate::ServerError::Seat(message));
+            return Err(HostError::Seat(message));
         }
         let game = Match::new(&config.map, &config.game, config.seed)?;
         let names = seats.iter().map(|s| s.name().to_string()).collect();
@@ -400,13 +401,14 @@ impl MatchHost {
             gone: BTreeMap::new(),
             lobby_changed: false,
             held: false,
+            lateness: None,
         };
         for seat in seats {
             let (name, local) = match seat {
                 Seat::Remote(name) => (name, None),
                 Seat::Local(name, agent) => (name, Some(agent)),
             };
-            let id = host.join(Some(&name)).map_err(|(_, message)| crate::ServerError::Seat(message))?;
+            let id = host.join(Some(&name)).map_err(|(_, message)| HostError::Seat(message))?;
             if let Some(player) = host.players.get_mut(&id) {
                 player.reserved = local.is_none();
                 player.local = local.map(|agent| Driver::new(id, agent));
@@ -418,12 +420,23 @@ impl MatchHost {
 
     /// Takes in one event at `now`.
     pub fn handle_event(&mut self, now: Instant, event: HostEvent) {
+        if let HostEvent::Room { conn, room } = event {
+            // Lines still in the outbox are not in the driver's queue yet: they count
+            // against the room just reported.
+            if let Some(c) = self.conns.get_mut(&conn) {
+                c.room = room;
+                c.queued = c.unsent;
+            }
+            return;
+        }
         self.settle();
         self.now = self.now.max(now);
         match event {
             HostEvent::Opened { conn, room } => {
-                self.conns.insert(conn, Conn { room, unsent: 0, role: ConnRole::New, lobby: false });
+                let c = Conn { room, queued: 0, unsent: 0, role: ConnRole::New, lobby: false };
+                self.conns.insert(conn, c);
             }
+            HostEvent::Room { .. } => unreachable!("answered before"),
             HostEvent::Closed { conn } => self.on_closed(conn),
             HostEvent::BadInput { conn } => self.count_error(conn),
             HostEvent::Message { conn, message } => self.on_message(conn, message),
@@ -465,9 +478,7 @@ impl MatchHost {
                         next += period;
                         skipped += 1;
                     }
-                    if let Some(lateness) = &self.config.lateness {
-                        lateness.record(now.saturating_duration_since(next_tick), skipped);
-                    }
+                    self.lateness = Some((now.saturating_duration_since(next_tick), skipped));
                     self.phase = Phase::Playing { since, next_tick: next };
                     self.advance();
                 }
@@ -568,6 +579,12 @@ impl MatchHost {
             self.tick_sent_at = self.now;
         }
         self.held = paused;
+    }
+
+    /// How late the last realtime tick was made after it fell due, and how many ticks
+    /// were skipped because the host was later than a whole period; once per tick.
+    pub fn take_lateness(&mut self) -> Option<(Duration, u64)> {
+        self.lateness.take()
     }
 
     /// The current tick.
@@ -1022,6 +1039,7 @@ impl MatchHost {
             return;
         }
         c.unsent += 1;
+        c.queued += 1;
         self.outbox.push_back(Transmit::Line { conn, line });
     }
 

@@ -5,27 +5,29 @@
 //! Each participant's every step and event is a line appended to
 //! `DIR/participants/ID.jsonl`, written with one `write_all` per request, so a killed
 //! server loses nothing already answered; at start the state is rebuilt from those logs
-//! (`flow.rs`). The HTTP side is `api.rs`; [`export`] makes tidy CSV of a data directory.
+//! (`flow.rs`). The HTTP side is `api.rs` and the study's pages (`web.rs`), mounted on
+//! the server's web port as [`Routes`]; [`export`] makes tidy CSV of a data directory.
 
 mod answers;
-pub(crate) mod api;
+mod api;
 mod config;
 mod export;
 mod flow;
 mod markdown;
+mod web;
 
 use std::collections::BTreeMap;
 use std::fs::{File, OpenOptions};
 use std::io::{BufRead, Write};
 use std::path::{Path, PathBuf};
-use std::sync::{Arc, Mutex, MutexGuard, Weak};
+use std::sync::{Arc, Mutex, MutexGuard};
 
 use serde_json::{Value, json};
 
 pub use config::{Condition, Item, ItemKind, MapLoader, Order, Page, Study, load, parse};
 pub use export::{ExportSummary, export};
 
-use crate::Arena;
+use bw4t_server::{Answering, Arena, Reply, Routes, WebRequest};
 use flow::{Participant, Record};
 
 /// A study being served: its participants, their logs, the arena its trials play in.
@@ -47,11 +49,6 @@ struct Slot {
     file: File,
 }
 
-/// What an arena keeps of the study it serves: a weak handle, since the study holds the
-/// arena.
-#[derive(Clone)]
-pub(crate) struct StudyRef(Weak<Shared>);
-
 /// The milliseconds since the Unix epoch (the logs' `server_ms`).
 pub fn now_ms() -> u64 {
     std::time::SystemTime::now()
@@ -68,7 +65,7 @@ impl StudyServer {
     /// (`participants/` made if missing). Every participant's state is rebuilt from their
     /// log; a trial whose match did not end before the server stopped is marked
     /// incomplete and given again. The study answers on the arena's HTTP API for as
-    /// long as this value (or a clone) lives.
+    /// long as it is mounted on the server's web port (its [`Routes`]).
     pub fn open(study: Study, dir: &Path, arena: Arena) -> std::io::Result<StudyServer> {
         let logs = dir.join("participants");
         std::fs::create_dir_all(&logs)?;
@@ -97,13 +94,7 @@ impl StudyServer {
                 }
             }
         }
-        server.inner.arena.attach_study(StudyRef(Arc::downgrade(&server.inner)));
         Ok(server)
-    }
-
-    /// The study served on `arena`, if any.
-    pub(crate) fn of(arena: &Arena) -> Option<StudyServer> {
-        arena.study()?.0.upgrade().map(|inner| StudyServer { inner })
     }
 
     /// The study.
@@ -306,4 +297,26 @@ fn append(slot: &mut Slot, records: &[Record]) -> std::io::Result<()> {
         slot.state.apply(record, now);
     }
     Ok(())
+}
+
+impl Routes for StudyServer {
+    fn serves(&self, path: &str) -> bool {
+        web::serves(path)
+    }
+
+    fn respond(&self, request: WebRequest) -> Answering<'_> {
+        Box::pin(async move {
+            let Some(rest) = request.path.trim_end_matches('/').strip_prefix("/api/study") else {
+                return web::page(&request.method, &request.path);
+            };
+            let rest = rest.trim_start_matches('/');
+            let rest: Vec<&str> = if rest.is_empty() { Vec::new() } else { rest.split('/').collect() };
+            match api::respond(self, &request.method, &rest, &request.body, request.operator).await {
+                api::Answer::Json(status, body) => Reply::json(status, body.to_string()),
+                api::Answer::Unauthorized => {
+                    Reply::unauthorized(self.inner.arena.config().server.operator_token.is_some())
+                }
+            }
+        })
+    }
 }

@@ -236,17 +236,16 @@ mod tests {
     use std::path::Path;
 
     use super::order_for;
-    use crate::study::{Order, parse};
+    use crate::{Order, parse};
 
-    fn study(order: &str, conditions: usize) -> crate::study::Study {
+    fn study(order: &str, conditions: usize) -> crate::Study {
         let mut text = format!("[study]\nname = \"s\"\norder = \"{order}\"\n");
         for i in 0..conditions {
             text += &format!("[[condition]]\nname = \"c{i}\"\n[[page]]\nkind = \"trial\"\n");
         }
         text += "[[page]]\nkind = \"final\"\n";
         let map = |_: &str| {
-            bw4t_map::Map::from_native(include_str!("../../../../maps/default.toml"))
-                .map_err(|e| e.to_string())
+            bw4t_map::Map::from_native(include_str!("../../../maps/default.toml")).map_err(|e| e.to_string())
         };
         parse(&text, Path::new("s.toml"), &map).expect("a good study")
     }

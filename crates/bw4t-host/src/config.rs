@@ -1,0 +1,122 @@
+//! How one served match runs: its map, seed and settings, who may join and how, and its
+//! pacing; and the seats taken before anyone connects.
+
+use std::collections::BTreeMap;
+use std::time::Duration;
+
+use bw4t_map::Map;
+use bw4t_protocol::{MessagePolicy, Mode};
+use bw4t_sim::MatchConfig;
+
+/// The name of the match that clients naming none join.
+pub const DEFAULT_MATCH: &str = "default";
+
+/// How often a served match's replay records a digest, in ticks.
+pub const REPLAY_DIGEST_EVERY: u64 = 100;
+
+/// How a served match runs.
+#[derive(Clone, Debug)]
+pub struct HostConfig {
+    /// The match's name on the server (`hello.match`, `welcome.match.name`).
+    pub name: String,
+    /// This run's id (`NAME.RUN`, `welcome.match.id`), under which its result is filed;
+    /// set by the arena.
+    pub id: String,
+    /// The template the match was made from, if any.
+    pub template: Option<String>,
+    /// At the start timeout, seat built-in agents of this strategy in the empty seats.
+    pub fill: Option<bw4t_agents::Strategy>,
+    /// The map.
+    pub map: Map,
+    /// The match seed.
+    pub seed: u64,
+    /// Simulation settings; `ticks_per_second` is also the realtime tick rate.
+    pub game: MatchConfig,
+    /// Realtime or lockstep pacing.
+    pub mode: Mode,
+    /// How many players the match waits for before its first tick, and admits at most.
+    pub robots: usize,
+    /// End the match after this many ticks.
+    pub max_ticks: Option<u64>,
+    /// Lockstep: how long to wait for `ready` (`None`: forever).
+    pub deadline: Option<Duration>,
+    /// The player token: a secret players must present.
+    pub token: Option<String>,
+    /// The spectator token: with it (or the player token) set, spectators must present it.
+    pub spectator_token: Option<String>,
+    /// The operator token: the secret of the `operator` role, which sees every message.
+    pub operator_token: Option<String>,
+    /// Spectators see private (addressed) messages too.
+    pub spectators_see_private: bool,
+    /// Send every player `percepts` every tick, even empty ones.
+    pub every_tick: bool,
+    /// How long a dropped player's robot waits for its session to come back.
+    pub grace: Duration,
+    /// Actions and messages a player may send per tick; more are rejected.
+    pub max_actions_per_tick: u32,
+    /// A client whose queue stays full this long is disconnected.
+    pub slow_limit: Duration,
+    /// Spectator frames per wall-clock second, at most.
+    pub spectator_hz: u32,
+    /// Start even if fewer than `robots` players are connected after this long.
+    pub start_timeout: Option<Duration>,
+    /// Lockstep: disconnect a player that misses this many deadlines in a row.
+    pub max_late_in_row: Option<u32>,
+    /// Lockstep: with no player connected, wait for one instead of running on. Off for
+    /// matches whose players are programs that will not come back once gone.
+    pub pause_when_empty: bool,
+    /// Which messages players may send.
+    pub language: MessagePolicy,
+    /// Free-form labels (e.g. a study's condition), written into the replay and the result.
+    pub labels: BTreeMap<String, String>,
+}
+
+impl HostConfig {
+    /// Defaults for everything but the map.
+    pub fn new(map: Map) -> Self {
+        HostConfig {
+            name: DEFAULT_MATCH.to_string(),
+            id: String::new(),
+            template: None,
+            fill: None,
+            map,
+            seed: 0,
+            game: MatchConfig::default(),
+            mode: Mode::Realtime,
+            robots: 1,
+            max_ticks: None,
+            deadline: Some(Duration::from_millis(1000)),
+            token: None,
+            spectator_token: None,
+            operator_token: None,
+            spectators_see_private: false,
+            every_tick: false,
+            grace: Duration::from_secs(30),
+            max_actions_per_tick: 16,
+            slow_limit: Duration::from_secs(5),
+            spectator_hz: 20,
+            start_timeout: None,
+            max_late_in_row: None,
+            pause_when_empty: true,
+            language: MessagePolicy::default(),
+            labels: BTreeMap::new(),
+        }
+    }
+}
+
+/// A seat taken before any client connects, so robot ids follow a fixed order.
+pub enum Seat {
+    /// Kept for a remote player, who claims it with `hello` and this name.
+    Remote(String),
+    /// Played in-process by a built-in agent.
+    Local(String, Box<dyn bw4t_agents::Agent>),
+}
+
+impl Seat {
+    /// The player's name.
+    pub fn name(&self) -> &str {
+        match self {
+            Seat::Remote(name) | Seat::Local(name, _) => name,
+        }
+    }
+}

@@ -1,0 +1,50 @@
+//! The server's own policy (how many connections, how long a `hello` may take, how many
+//! lines a client's queue holds, which pages may open WebSockets) and why a match could
+//! not be served. How each match runs is its [`HostConfig`](bw4t_host::HostConfig).
+
+use std::time::Duration;
+
+use bw4t_host::HostError;
+
+/// How the server treats connections, whatever match they join.
+#[derive(Clone, Debug)]
+pub struct ServerConfig {
+    /// The operator's secret: the HTTP API's credential, and each match's operator token
+    /// where the match has none of its own.
+    pub operator_token: Option<String>,
+    /// Connections accepted at once (protocol port; as many WebSockets on the web port).
+    pub max_connections: usize,
+    /// The time a new connection has to say `hello`.
+    pub hello_timeout: Duration,
+    /// Lines queued per connection before it counts as not reading.
+    pub queue: usize,
+    /// Web pages, besides the server's own, that may open WebSockets (see
+    /// [`parse_origin`](crate::parse_origin); `*`: any).
+    pub allowed_origins: Vec<String>,
+}
+
+impl Default for ServerConfig {
+    fn default() -> Self {
+        ServerConfig {
+            operator_token: None,
+            max_connections: 256,
+            hello_timeout: Duration::from_secs(10),
+            queue: 1024,
+            allowed_origins: Vec::new(),
+        }
+    }
+}
+
+/// Why a match could not be served.
+#[derive(Debug, thiserror::Error)]
+pub enum ServerError {
+    /// The match could not be made (its settings, content or seats).
+    #[error(transparent)]
+    Host(#[from] HostError),
+    /// A seat could not be had (a name taken, the server stopping).
+    #[error("cannot seat a player: {0}")]
+    Seat(String),
+    /// The match failed inside the server (a panic), with its message.
+    #[error("the match failed: {0}")]
+    Failed(String),
+}

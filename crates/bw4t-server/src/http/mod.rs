@@ -1,0 +1,210 @@
+//! The web port, on hyper: the browser page, the map's layout and replay frames, the
+//! JSON API of a live server, `/ws` (handed to [`websocket`]), and the [`Routes`] of
+//! whatever is mounted beside them (a study). One request per connection.
+//!
+//! Plain requests are short, so they are admitted on accept up to their own limit
+//! ([`MAX_REQUESTS`]) and never wait behind the long-lived WebSockets, which have theirs
+//! (`max_connections`). Beyond a limit the client gets `503` with `Retry-After`. hyper
+//! frames the requests: heads are bounded in size and time, bodies in size and time here.
+//! Every answer but a WebSocket's `101` says `Connection: close`, so hyper closes the
+//! connection after it.
+
+mod api;
+mod files;
+mod reply;
+mod routes;
+pub(crate) mod websocket;
+
+pub use files::{FrameSource, ReplayAsk, Site};
+pub use reply::Reply;
+pub use routes::{Answering, Routes, WebRequest, query_value};
+
+use std::convert::Infallible;
+use std::pin::Pin;
+use std::sync::{Arc, Mutex};
+use std::task::{Context, Poll};
+use std::time::Duration;
+
+use bytes::Bytes;
+use http_body_util::{BodyExt, Full, Limited};
+use hyper::body::Incoming;
+use hyper::server::conn::http1;
+use hyper::service::service_fn;
+use hyper::{Request, Response, StatusCode};
+use hyper_util::rt::{TokioIo, TokioTimer};
+use tokio::io::{AsyncRead, AsyncWrite, ReadBuf};
+use tokio::net::{TcpListener, TcpStream};
+use tokio::sync::{OwnedSemaphorePermit, Semaphore};
+
+use crate::arena::Arena;
+use websocket::Live;
+
+/// Plain requests read or answered at once, by default; more are answered `503` at once.
+/// They are short, so this is far above what a page load needs.
+pub const MAX_REQUESTS: usize = 1024;
+
+/// The longest request head read, in bytes (hyper's buffer; longer heads get `431`).
+const MAX_HEAD: usize = 16 * 1024;
+/// The most header lines in a request head.
+const MAX_HEADERS: usize = 64;
+/// The longest request body read, in bytes.
+const MAX_BODY: usize = 64 * 1024;
+/// The time a client has to send its request head, and again its body.
+const HEAD_TIMEOUT: Duration = Duration::from_secs(10);
+
+/// What the web port serves besides the page's files.
+#[derive(Clone)]
+pub(crate) struct Served {
+    pub site: Arc<Site>,
+    /// A live server: its API and `/ws`.
+    pub live: Option<Arc<Live>>,
+    /// Routes mounted beside the server's own, asked first.
+    pub mounted: Vec<Arc<dyn Routes>>,
+}
+
+/// Serves the page (no match: `/ws` is not found) on `listener` until aborted, with at
+/// most `max_requests` requests being read or answered at once.
+pub async fn serve_site(listener: TcpListener, site: Arc<Site>, max_requests: usize) {
+    serve(listener, Served { site, live: None, mounted: Vec::new() }, max_requests).await;
+}
+
+/// Serves `served` on `listener` until aborted.
+pub(crate) async fn serve(listener: TcpListener, served: Served, max_requests: usize) {
+    let requests = Arc::new(Semaphore::new(max_requests));
+    loop {
+        let Ok((stream, _)) = listener.accept().await else {
+            // Out of file descriptors or a reset before accept: try again shortly.
+            tokio::time::sleep(Duration::from_millis(10)).await;
+            continue;
+        };
+        let _ = stream.set_nodelay(true);
+        let place = requests.clone().try_acquire_owned().ok();
+        let busy = place.is_none();
+        let place = Arc::new(Mutex::new(place));
+        let served = served.clone();
+        tokio::spawn(async move {
+            let io = TokioIo::new(Placed { place: place.clone(), stream });
+            let service = service_fn(move |request| {
+                let (served, place) = (served.clone(), place.clone());
+                async move {
+                    let response = if busy {
+                        Reply::busy("too many requests at once").into_response()
+                    } else {
+                        answer(request, &served, &place).await
+                    };
+                    Ok::<_, Infallible>(response)
+                }
+            });
+            let connection = http1::Builder::new()
+                .timer(TokioTimer::new())
+                .header_read_timeout(HEAD_TIMEOUT)
+                .max_buf_size(MAX_HEAD)
+                .max_headers(MAX_HEADERS)
+                .title_case_headers(true)
+                .serve_connection(io, service)
+                .with_upgrades();
+            let _ = connection.await;
+        });
+    }
+}
+
+/// A connection's socket and its place among the plain requests: the place is given
+/// back before the socket closes (so a client that sees the close can come back at
+/// once), or as soon as the connection becomes a WebSocket.
+struct Placed {
+    place: Arc<Mutex<Option<OwnedSemaphorePermit>>>,
+    stream: TcpStream,
+}
+
+impl Drop for Placed {
+    fn drop(&mut self) {
+        free_place(&self.place);
+    }
+}
+
+fn free_place(place: &Mutex<Option<OwnedSemaphorePermit>>) {
+    place.lock().unwrap_or_else(|p| p.into_inner()).take();
+}
+
+impl AsyncRead for Placed {
+    fn poll_read(
+        mut self: Pin<&mut Self>,
+        cx: &mut Context<'_>,
+        buf: &mut ReadBuf<'_>,
+    ) -> Poll<std::io::Result<()>> {
+        Pin::new(&mut self.stream).poll_read(cx, buf)
+    }
+}
+
+impl AsyncWrite for Placed {
+    fn poll_write(
+        mut self: Pin<&mut Self>,
+        cx: &mut Context<'_>,
+        buf: &[u8],
+    ) -> Poll<std::io::Result<usize>> {
+        Pin::new(&mut self.stream).poll_write(cx, buf)
+    }
+
+    fn poll_flush(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<std::io::Result<()>> {
+        Pin::new(&mut self.stream).poll_flush(cx)
+    }
+
+    fn poll_shutdown(mut self: Pin<&mut Self>, cx: &mut Context<'_>) -> Poll<std::io::Result<()>> {
+        Pin::new(&mut self.stream).poll_shutdown(cx)
+    }
+}
+
+/// Answers one request: `/ws` becomes a WebSocket; the rest is read whole and answered
+/// by the mounted routes, the API or the page's files.
+async fn answer(
+    request: Request<Incoming>,
+    served: &Served,
+    place: &Mutex<Option<OwnedSemaphorePermit>>,
+) -> Response<Full<Bytes>> {
+    let path = request.uri().path().to_string();
+    if let Some(live) = served.live.as_ref().filter(|_| path == "/ws") {
+        return match websocket::admit(&request, live) {
+            Ok(admitted) => {
+                // From here on it counts as a WebSocket, not as a request.
+                free_place(place);
+                websocket::upgrade(request, admitted, live.clone())
+            }
+            Err(reply) => reply.into_response(),
+        };
+    }
+    let (head, body) = request.into_parts();
+    let body = match tokio::time::timeout(HEAD_TIMEOUT, Limited::new(body, MAX_BODY).collect()).await {
+        Err(_) => {
+            return Reply::text(StatusCode::REQUEST_TIMEOUT, "the body did not come in time").into_response();
+        }
+        Ok(Err(e)) if e.is::<http_body_util::LengthLimitError>() => {
+            let too_long = format!("a body of at most {MAX_BODY} bytes");
+            return Reply::error(StatusCode::PAYLOAD_TOO_LARGE, too_long).into_response();
+        }
+        Ok(Err(e)) => return Reply::text(StatusCode::BAD_REQUEST, format!("bad body: {e}")).into_response(),
+        Ok(Ok(body)) => body.to_bytes().to_vec(),
+    };
+    let arena = served.live.as_ref().map(|live| &live.arena);
+    let request = WebRequest {
+        operator: arena
+            .is_some_and(|arena| api::is_operator(&head.method, &head.headers, head.uri.query(), arena)),
+        method: head.method,
+        query: head.uri.query().unwrap_or("").to_string(),
+        headers: head.headers,
+        path,
+        body,
+    };
+    let reply = if let Some(routes) = served.mounted.iter().find(|r| r.serves(&request.path)) {
+        routes.respond(request).await
+    } else if let Some(arena) = arena.filter(|_| api::serves(&request.path)) {
+        api::respond(request, arena).await
+    } else {
+        files::respond(&request.method, &request.path, &served.site).await
+    };
+    reply.into_response()
+}
+
+/// The arena a live server's web port serves.
+pub(crate) fn live(arena: &Arena) -> Arc<Live> {
+    Arc::new(Live::new(arena.clone()))
+}

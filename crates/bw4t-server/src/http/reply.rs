@@ -1,0 +1,85 @@
+//! An HTTP answer: status, content type, body and extra headers; every answer is made
+//! into a response here, with the headers every answer carries.
+
+use std::borrow::Cow;
+
+use bytes::Bytes;
+use http_body_util::Full;
+use hyper::{Response, StatusCode, header};
+
+/// What a `503` asks the client to wait, in seconds.
+const RETRY_AFTER_S: u32 = 1;
+
+/// An HTTP answer.
+#[derive(Debug)]
+pub struct Reply {
+    status: StatusCode,
+    kind: &'static str,
+    body: Cow<'static, str>,
+    headers: Vec<(&'static str, String)>,
+}
+
+impl Reply {
+    /// An answer with this status, content type and body.
+    pub fn new(status: StatusCode, kind: &'static str, body: impl Into<Cow<'static, str>>) -> Reply {
+        Reply { status, kind, body: body.into(), headers: Vec::new() }
+    }
+
+    /// A plain-text answer; the text gets a newline.
+    pub fn text(status: StatusCode, text: impl Into<String>) -> Reply {
+        Reply::new(status, "text/plain; charset=utf-8", text.into() + "\n")
+    }
+
+    /// A JSON answer.
+    pub fn json(status: StatusCode, body: impl Into<Cow<'static, str>>) -> Reply {
+        Reply::new(status, "application/json", body)
+    }
+
+    /// A JSON error answer: `{"error": "..."}`.
+    pub fn error(status: StatusCode, message: impl Into<String>) -> Reply {
+        Reply::json(status, serde_json::json!({ "error": message.into() }).to_string())
+    }
+
+    /// `503 Service Unavailable` with `Retry-After`.
+    pub fn busy(why: &str) -> Reply {
+        Reply::text(StatusCode::SERVICE_UNAVAILABLE, format!("{why}; try again shortly"))
+            .with("Retry-After", RETRY_AFTER_S.to_string())
+    }
+
+    /// `401 Unauthorized` for a request without the operator's token; `has_token` tells
+    /// whether the server has one at all.
+    pub fn unauthorized(has_token: bool) -> Reply {
+        let why = if has_token {
+            "wrong or missing operator token (Authorization: Bearer TOKEN)"
+        } else {
+            "this server has no operator token (bw4t serve --operator-token)"
+        };
+        Reply::error(StatusCode::UNAUTHORIZED, why).with("WWW-Authenticate", "Bearer".into())
+    }
+
+    /// The answer with one more header.
+    pub fn with(mut self, name: &'static str, value: String) -> Reply {
+        self.headers.push((name, value));
+        self
+    }
+
+    /// The response: never cached, and the connection closed after it.
+    pub(crate) fn into_response(self) -> Response<Full<Bytes>> {
+        let body = match self.body {
+            Cow::Borrowed(text) => Bytes::from_static(text.as_bytes()),
+            Cow::Owned(text) => Bytes::from(text),
+        };
+        let mut response = Response::new(Full::new(body));
+        *response.status_mut() = self.status;
+        let headers = response.headers_mut();
+        headers.insert(header::CONTENT_TYPE, header::HeaderValue::from_static(self.kind));
+        headers.insert(header::CACHE_CONTROL, header::HeaderValue::from_static("no-store"));
+        headers.insert(header::CONNECTION, header::HeaderValue::from_static("close"));
+        for (name, value) in self.headers {
+            if let Ok(value) = header::HeaderValue::from_str(&value) {
+                headers.append(name, value);
+            }
+        }
+        response
+    }
+}
