@@ -10,7 +10,7 @@ use bw4t_tournament::{SHARDS_VAR, TournamentConfig};
 use clap::Args;
 use serde_json::json;
 
-use crate::tournament::shell_quote;
+use crate::runs::shell_quote;
 
 /// Options of `bw4t tournament slurm`.
 #[derive(Args)]
@@ -109,7 +109,7 @@ pub(crate) fn slurm(args: &SlurmArgs) -> Result<()> {
         bail!("--cpus-per-task must be at least 1");
     }
     let (_, hash) = read_config(&args.config)?;
-    let out = absolute(&args.out.clone().unwrap_or_else(|| crate::tournament::default_out("slurm")))?;
+    let out = absolute(&args.out.clone().unwrap_or_else(|| crate::runs::default_out("slurm")))?;
     let config = absolute(&args.config)?;
     let here = std::env::current_dir().context("no current directory")?;
     let scripts = out.join("slurm");
@@ -207,7 +207,7 @@ pub(crate) fn k8s(args: &K8sArgs) -> Result<()> {
         );
     }
     let (text, hash) = read_config(&args.config)?;
-    let out = args.out.clone().unwrap_or_else(|| crate::tournament::default_out("k8s"));
+    let out = args.out.clone().unwrap_or_else(|| crate::runs::default_out("k8s"));
     std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
     let name = &args.name;
     let results = format!("/results/{name}");

@@ -170,7 +170,7 @@ pub(crate) fn run(args: &McpArgs) -> Result<()> {
                     teammates,
                     max_ticks,
                     deadline: (args.deadline_s > 0).then(|| Duration::from_secs(args.deadline_s)),
-                    replay: crate::replay::writer(args.replay.as_deref())?,
+                    replay: crate::runs::replay_writer(args.replay.as_deref())?,
                 }
                 .start()
                 .await?;

@@ -175,8 +175,8 @@ fn view(file: &Path, bind: std::net::IpAddr, port: u16) -> Result<u8> {
         .build()
         .context("cannot start the runtime")?;
     runtime.block_on(async {
-        let stop = crate::serve::stop_signal();
-        let (listener, local) = crate::serve::listen(std::net::SocketAddr::new(bind, port))?;
+        let stop = crate::serving::stop_signal();
+        let (listener, local) = crate::serving::listen(std::net::SocketAddr::new(bind, port))?;
         outln!("http on {local}");
         eprintln!(
             "bw4t: replay of map '{}', seed {}, {last} ticks; Ctrl-C (or SIGTERM) stops",
@@ -189,12 +189,4 @@ fn view(file: &Path, bind: std::net::IpAddr, port: u16) -> Result<u8> {
         anyhow::Ok(())
     })?;
     Ok(status::SUCCESS)
-}
-
-/// A buffered file for a replay, or none without a path.
-pub(crate) fn writer(path: Option<&std::path::Path>) -> Result<Option<Box<dyn std::io::Write + Send>>> {
-    let Some(path) = path else { return Ok(None) };
-    let file = std::fs::File::create(path)
-        .with_context(|| format!("cannot create replay file {}", path.display()))?;
-    Ok(Some(Box::new(std::io::BufWriter::new(file))))
 }

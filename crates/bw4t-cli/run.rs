@@ -94,7 +94,7 @@ pub(crate) fn run(args: &RunArgs) -> Result<u8> {
             limit.ticks
         );
     }
-    let replay = crate::replay::writer(args.replay.as_deref())?;
+    let replay = crate::runs::replay_writer(args.replay.as_deref())?;
     let external = seats.iter().any(|s| matches!(s, SeatSpec::External { .. }));
     let mut out_of_time = false;
     let (result, agents) = if external {

@@ -48,7 +48,7 @@ pub(crate) struct StudyArgs {
     #[arg(long, value_name = "N", default_value_t = 256)]
     max_connections: usize,
     #[command(flatten)]
-    log: crate::serve::LogArgs,
+    log: crate::serving::LogArgs,
 }
 
 #[derive(Subcommand)]
@@ -94,7 +94,7 @@ fn run_export(args: &ExportArgs) -> Result<()> {
 }
 
 fn serve(args: &StudyArgs, file: &Path) -> Result<()> {
-    crate::serve::init_logs(&args.log);
+    crate::serving::init_logs(&args.log);
     let study = bw4t_study::load(file, &|spec: &str| crate::maps::load(spec).map_err(|e| format!("{e:#}")))
         .map_err(anyhow::Error::msg)?;
     keep_study_file(&args.data, &study, args.changed_study)?;
@@ -126,9 +126,9 @@ fn serve(args: &StudyArgs, file: &Path) -> Result<()> {
         .build()
         .context("cannot start the runtime")?;
     runtime.block_on(async {
-        let stop = crate::serve::stop_signal();
-        let (listener, local) = crate::serve::listen(SocketAddr::new(args.bind, args.port))?;
-        let (http, web) = crate::serve::listen(SocketAddr::new(args.bind, args.http))?;
+        let stop = crate::serving::stop_signal();
+        let (listener, local) = crate::serving::listen(SocketAddr::new(args.bind, args.port))?;
+        let (http, web) = crate::serving::listen(SocketAddr::new(args.bind, args.http))?;
         outln!("listening on {local}");
         outln!("http on {web}");
         let arena = bw4t_server::Arena::start(settings).context("cannot start the study's matches")?;

@@ -17,6 +17,7 @@ use bw4t_tournament::{
 };
 use clap::{Args, Subcommand, ValueEnum};
 
+use crate::runs::{default_out, shell_quote};
 use crate::status;
 
 /// Options of `bw4t tournament`.
@@ -440,16 +441,6 @@ fn resume_command(args: &TournamentArgs, out: &Path) -> String {
     words.iter().map(|w| shell_quote(w)).collect::<Vec<_>>().join(" ")
 }
 
-/// `word` as `sh` reads it back: bare when safe, else in single quotes.
-pub(crate) fn shell_quote(word: &str) -> String {
-    let safe = |c: char| c.is_ascii_alphanumeric() || "_-./:=@%+,".contains(c);
-    if !word.is_empty() && word.chars().all(safe) {
-        word.to_string()
-    } else {
-        format!("'{}'", word.replace('\'', "'\\''"))
-    }
-}
-
 /// The configuration file merged with the flags.
 fn config(args: &TournamentArgs) -> Result<TournamentConfig> {
     let mut config = match &args.config {
@@ -510,11 +501,6 @@ fn config(args: &TournamentArgs) -> Result<TournamentConfig> {
         bail!("give a configuration file, or --map and --team (see bw4t tournament --help)");
     }
     Ok(config)
-}
-
-pub(crate) fn default_out(what: &str) -> PathBuf {
-    let secs = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_secs());
-    PathBuf::from("runs").join(format!("{what}-{secs}"))
 }
 
 /// A progress bar on a terminal; a line per finished match otherwise.
