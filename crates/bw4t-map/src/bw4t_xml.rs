@@ -13,13 +13,14 @@ use std::fmt;
 
 use roxmltree::{Document, Node};
 
-use crate::check::guess_orientation;
 use crate::colour::{Colour, UnknownColour};
-use crate::format::without_bom;
 use crate::geometry::{Door, Orientation, Rect, Vec2};
 use crate::limits::coordinate_problem;
-use crate::model::{Map, MapError, MapParts, Spawn, Zone, ZoneKind};
-use crate::rules::{Problem, infer_orientation, zone_place};
+use crate::model::{Map, MapError};
+use crate::parts::{MapParts, Spawn, Zone, ZoneKind};
+use crate::problem::{Problem, zone_place};
+use crate::rules::guess_orientation;
+use crate::rules::infer_orientation;
 
 /// The root element of an original map file.
 const ROOT: &str = "newMap";
@@ -414,4 +415,9 @@ fn text(node: Node) -> String {
 
 fn place(node: Node, what: &str) -> XmlPlace {
     XmlPlace { line: node.document().text_pos_at(node.range().start).row, what: what.to_string() }
+}
+/// The text without a leading byte-order mark, which is not whitespace but must neither
+/// hide the `<` of an XML file nor reach a reader.
+pub(crate) fn without_bom(text: &str) -> &str {
+    text.strip_prefix('\u{feff}').unwrap_or(text)
 }

@@ -15,8 +15,9 @@ use crate::colour::Colour;
 use crate::format::{MapLoadError, parse_parts};
 use crate::geometry::{Door, Orientation, Rect, Vec2};
 use crate::limits::{in_range, within_counts};
-use crate::model::{DROP_ZONE, MapParts, Zone, ZoneKind};
-use crate::rules::{Problem, door_on_edge, point, rule_problems, zone_place};
+use crate::parts::{DROP_ZONE, MapParts, Zone, ZoneKind};
+use crate::problem::{Problem, point, zone_place};
+use crate::rules::{door_on_edge, rule_problems};
 
 /// Reads and checks a map file: the problems of [`parse_parts`] and [`check_parts`],
 /// errors first. `robots`, when given, is the number of robots the map must take.
@@ -110,26 +111,6 @@ pub fn check_parts(parts: &MapParts, robots: Option<usize>) -> Vec<Problem> {
     let mut out = checker.out;
     out.sort_by_key(|p| p.severity);
     out
-}
-
-/// The orientation to keep for a door given without one whose centre picks no single
-/// edge of its room, for a reader that goes on to report every problem. A door at a
-/// corner (on two edges) is reported here; one off every edge is left to [`check_parts`],
-/// which names it.
-pub(crate) fn guess_orientation(
-    place: &str,
-    centre: Vec2,
-    room: &Rect,
-    out: &mut Vec<Problem>,
-) -> Orientation {
-    let on_both = door_on_edge(&Door { centre, orientation: Orientation::Horizontal }, room);
-    if on_both {
-        out.push(Problem::error(
-            place,
-            format!("door at {} is at a corner of the room: its orientation must be given", point(centre)),
-        ));
-    }
-    Orientation::Horizontal
 }
 
 fn spawn_place(idx: usize, name: &str) -> String {
@@ -251,7 +232,7 @@ impl<'a> Checker<'a> {
     }
 
     fn spawns(&mut self, robots: Option<usize>) {
-        let spawns: &'a [crate::model::Spawn] = &self.parts.spawns;
+        let spawns: &'a [crate::parts::Spawn] = &self.parts.spawns;
         if let Some(n) = robots {
             if spawns.len() < n {
                 self.error("spawn points", format!("{} for {n} robots: each robot needs one", spawns.len()));

@@ -2,11 +2,10 @@
 
 use crate::colour::Colour;
 use crate::geometry::{Rect, Vec2};
-use crate::model::{Map, ZoneIdx, ZoneKind};
+use crate::limits::MAX_BLOCKS_PER_ROOM;
+use crate::model::Map;
+use crate::parts::{ZoneIdx, ZoneKind};
 use crate::rng::SeededRng;
-
-/// No room ever holds more blocks than this (random blocks go elsewhere).
-pub const MAX_BLOCKS_PER_ROOM: usize = 10;
 
 /// Blocks in a room are at least this far apart on one axis.
 pub const BLOCK_SPACING: f32 = 2.0;

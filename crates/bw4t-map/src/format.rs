@@ -1,10 +1,12 @@
 //! The two map file formats, told apart in one place ([`MapFormat::of`]), and reading a
 //! file of either: validated ([`Map::parse`]) or as parts for the check ([`parse_parts`]).
 
+use crate::bw4t_xml::without_bom;
 use crate::bw4t_xml::{XmlError, xml_parts};
-use crate::model::{Map, MapParts};
+use crate::model::Map;
 use crate::native::{NativeError, native_parts};
-use crate::rules::Problem;
+use crate::parts::MapParts;
+use crate::problem::Problem;
 
 /// The format of a map file.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -22,12 +24,6 @@ impl MapFormat {
     pub fn of(text: &str) -> MapFormat {
         if without_bom(text).trim_start().starts_with('<') { MapFormat::Xml } else { MapFormat::Native }
     }
-}
-
-/// The text without a leading byte-order mark, which is not whitespace but must neither
-/// hide the `<` of an XML file nor reach a reader.
-pub(crate) fn without_bom(text: &str) -> &str {
-    text.strip_prefix('\u{feff}').unwrap_or(text)
 }
 
 /// A map file in either format that could not be loaded.

@@ -4,8 +4,9 @@
 
 use crate::colour::Colour;
 use crate::geometry::{Door, Orientation, Rect, Vec2};
-use crate::model::{DROP_ZONE, Map, MapError, MapParts, Spawn, Zone, ZoneKind};
-use crate::rules::Problem;
+use crate::model::{Map, MapError};
+use crate::parts::{DROP_ZONE, MapParts, Spawn, Zone, ZoneKind};
+use crate::problem::Problem;
 
 /// Rows, at most; with the columns, this keeps a generated map within
 /// [`MAX_ZONES`](crate::MAX_ZONES).

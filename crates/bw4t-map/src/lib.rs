@@ -13,6 +13,8 @@ mod limits;
 mod locate;
 mod model;
 mod native;
+mod parts;
+mod problem;
 mod render;
 mod rng;
 mod rules;
@@ -21,16 +23,17 @@ mod walls;
 pub use bw4t_xml::{XmlError, XmlPlace};
 pub use check::{CheckError, check_parts, check_text};
 pub use colour::{Colour, UnknownColour};
-pub use content::{
-    BLOCK_SPACING, Content, ContentError, MAX_BLOCKS_PER_ROOM, PlacedBlock, block_area, spot_is_clear,
-};
+pub use content::{BLOCK_SPACING, Content, ContentError, PlacedBlock, block_area, spot_is_clear};
 pub use format::{MapFormat, MapLoadError, parse_parts};
 pub use generate::{MAX_COLUMNS, MAX_ROWS, generate};
 pub use geometry::{Door, Orientation, Rect, Vec2};
-pub use limits::{MAX_COORDINATE, MAX_MAP_BYTES, MAX_SPAWNS, MAX_ZONES, coordinate_problem};
-pub use model::{DROP_ZONE, Map, MapError, MapParts, Spawn, Zone, ZoneIdx, ZoneKind};
+pub use limits::{
+    MAX_BLOCKS_PER_ROOM, MAX_COORDINATE, MAX_MAP_BYTES, MAX_SPAWNS, MAX_ZONES, coordinate_problem,
+};
+pub use model::{Map, MapError};
 pub use native::NativeError;
+pub use parts::{DROP_ZONE, MapParts, Spawn, Zone, ZoneIdx, ZoneKind};
+pub use problem::{Problem, Severity};
 pub use render::{RobotMark, colour_hex, render_scene, render_svg, zone_fill};
 pub use rng::SeededRng;
-pub use rules::{Problem, Severity};
 pub use walls::{Wall, zone_walls};

@@ -3,10 +3,12 @@
 //! and [`limit_problems`] (the first of the map's rules, see `rules.rs`) refuses too many
 //! zones or spawn points and more random blocks than the rooms hold.
 
-use crate::content::MAX_BLOCKS_PER_ROOM;
 use crate::geometry::Vec2;
-use crate::model::{DROP_ZONE, MapParts, ZoneKind};
-use crate::rules::{Problem, zone_place};
+use crate::parts::{DROP_ZONE, MapParts, ZoneKind};
+use crate::problem::{Problem, zone_place};
+
+/// No room ever holds more blocks than this (random blocks go elsewhere).
+pub const MAX_BLOCKS_PER_ROOM: usize = 10;
 
 /// Largest coordinate or size, in map units, of either sign: far beyond any playable map
 /// (the original ones are 50 x 80), and small enough for `f32` positions to stay precise

@@ -2,7 +2,7 @@
 //! cost follows the zones near the point, not the size of the map.
 
 use crate::geometry::{Rect, Vec2};
-use crate::model::{Zone, ZoneIdx, ZoneKind};
+use crate::parts::{Zone, ZoneIdx, ZoneKind};
 
 /// The zones of a map bucketed by a uniform grid over their bounding box. Each cell lists,
 /// in file order, every zone whose box reaches into it, so the first zone of a cell that

@@ -4,12 +4,14 @@ use std::fmt::Write as _;
 
 use serde::Deserialize;
 
-use crate::check::guess_orientation;
 use crate::colour::{Colour, UnknownColour};
 use crate::geometry::{Door, Orientation, Rect, Vec2};
 use crate::limits::coordinate_problem;
-use crate::model::{Map, MapError, MapParts, Spawn, Zone, ZoneKind};
-use crate::rules::{Problem, infer_orientation};
+use crate::model::{Map, MapError};
+use crate::parts::{MapParts, Spawn, Zone, ZoneKind};
+use crate::problem::Problem;
+use crate::rules::guess_orientation;
+use crate::rules::infer_orientation;
 
 /// The format version this code reads and writes.
 const FORMAT_VERSION: u32 = 1;

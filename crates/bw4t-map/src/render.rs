@@ -11,7 +11,8 @@ use std::fmt::Write as _;
 use crate::colour::Colour;
 use crate::content::Content;
 use crate::geometry::{Rect, Vec2};
-use crate::model::{Map, Zone, ZoneKind};
+use crate::model::Map;
+use crate::parts::{Zone, ZoneKind};
 use crate::walls::zone_walls;
 
 /// Pixels per map unit.

@@ -6,76 +6,12 @@
 //! [`check_parts`]: crate::check_parts
 
 use std::collections::BTreeMap;
-use std::fmt;
 
-use crate::content::MAX_BLOCKS_PER_ROOM;
 use crate::geometry::{Door, Orientation, Rect, Vec2};
+use crate::limits::MAX_BLOCKS_PER_ROOM;
 use crate::limits::{in_range, limit_problems, within_counts};
-use crate::model::{DROP_ZONE, MapParts, Zone, ZoneKind};
-
-/// How bad a [`Problem`] is; errors sort before warnings.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
-pub enum Severity {
-    /// The map is refused, or a match on it cannot be completed.
-    Error,
-    /// The map loads and plays, but something looks unintended.
-    Warning,
-}
-
-impl Severity {
-    /// The lower-case word used in reports: `error` or `warning`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Severity::Error => "error",
-            Severity::Warning => "warning",
-        }
-    }
-}
-
-impl fmt::Display for Severity {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-/// One thing wrong with a map, and where it is.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Problem {
-    /// Error or warning.
-    pub severity: Severity,
-    /// The part of the map concerned, e.g. `zone 'RoomA1'`, `spawn 2 'Bot2'`, `sequence`.
-    pub place: String,
-    /// What is wrong there.
-    pub message: String,
-}
-
-impl Problem {
-    /// An error at `place`.
-    pub fn error(place: impl Into<String>, message: impl Into<String>) -> Problem {
-        Problem { severity: Severity::Error, place: place.into(), message: message.into() }
-    }
-
-    /// A warning at `place`.
-    pub fn warning(place: impl Into<String>, message: impl Into<String>) -> Problem {
-        Problem { severity: Severity::Warning, place: place.into(), message: message.into() }
-    }
-
-    /// Whether this is an error (not a warning).
-    pub fn is_error(&self) -> bool {
-        self.severity == Severity::Error
-    }
-
-    /// The place and the message, without the severity: `zone 'RoomA1': ...`.
-    pub fn located(&self) -> String {
-        format!("{}: {}", self.place, self.message)
-    }
-}
-
-impl fmt::Display for Problem {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}: {}", self.severity, self.located())
-    }
-}
+use crate::parts::{DROP_ZONE, MapParts, Zone, ZoneKind};
+use crate::problem::{Problem, point, zone_place};
 
 /// Every rule `parts` breaks, as errors: the limits, then a positive area, unique
 /// non-empty zone names, each zone's own rules in file order, one drop zone that is a
@@ -209,16 +145,6 @@ fn drop_zone(parts: &MapParts, out: &mut Vec<Problem>) {
 /// How problems of the drop zone as a whole (none, or several) name their place.
 const DROP_ZONE_PLACE: &str = "drop zone";
 
-/// How a zone is named in problems: by name, or by position in the file when it has none.
-pub(crate) fn zone_place(idx: usize, zone: &Zone) -> String {
-    if zone.name.is_empty() { format!("zone {}", idx + 1) } else { format!("zone '{}'", zone.name) }
-}
-
-/// A point as `(x, y)`; whole numbers print without a fraction.
-pub(crate) fn point(p: Vec2) -> String {
-    format!("({}, {})", p.x, p.y)
-}
-
 /// How far off an edge a door's centre may lie and still be on it.
 const EDGE_TOLERANCE: f32 = 1e-3;
 
@@ -240,6 +166,26 @@ pub(crate) fn infer_orientation(centre: Vec2, room: &Rect) -> Option<Orientation
         (false, true) => Some(Orientation::Vertical),
         _ => None,
     }
+}
+
+/// The orientation to keep for a door given without one whose centre picks no single
+/// edge of its room, for a reader that goes on to report every problem. A door at a
+/// corner (on two edges) is reported here; one off every edge is left to [`check_parts`],
+/// which names it.
+pub(crate) fn guess_orientation(
+    place: &str,
+    centre: Vec2,
+    room: &Rect,
+    out: &mut Vec<Problem>,
+) -> Orientation {
+    let on_both = door_on_edge(&Door { centre, orientation: Orientation::Horizontal }, room);
+    if on_both {
+        out.push(Problem::error(
+            place,
+            format!("door at {} is at a corner of the room: its orientation must be given", point(centre)),
+        ));
+    }
+    Orientation::Horizontal
 }
 
 #[cfg(test)]

@@ -2,7 +2,8 @@
 //! the physics (which gives them thickness), the SVG renderer and the page (`/map.json`).
 
 use crate::geometry::{Door, Orientation, Vec2};
-use crate::model::{Map, Zone};
+use crate::model::Map;
+use crate::parts::Zone;
 
 /// A straight piece of wall on a zone's edge, along x (`horizontal`) or along y.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -92,7 +93,7 @@ impl Door {
 mod tests {
     use super::*;
     use crate::geometry::Rect;
-    use crate::model::ZoneKind;
+    use crate::parts::ZoneKind;
 
     fn room(doors: Vec<Door>) -> Zone {
         Zone {
