@@ -29,7 +29,9 @@ pub use table::{
     ACTIONS, ActionRow, PERCEPTS, PerceptRow, Scope, SendType, action_row, percept_row, table_json,
 };
 pub use view::map_layout;
-pub use vocabulary::{AckCode, AgentStatus, ByeReason, EndReason, ErrorCode, Leaving, MoveState, Outcome};
+pub use vocabulary::{
+    AckCode, AgentStatus, ByeReason, EndReason, ErrorCode, Leaving, Mode, MoveState, Outcome,
+};
 pub use words::{Heard, Knowledge, RoomSeen, RoomTold, Snapshot, is_room};
 
 /// The protocol's name, as sent in `hello`.

@@ -5,7 +5,7 @@ use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
 use crate::result::MatchResult;
-use crate::vocabulary::{AckCode, ByeReason, EndReason, ErrorCode, MoveState, Outcome};
+use crate::vocabulary::{AckCode, ByeReason, EndReason, ErrorCode, Mode, MoveState, Outcome};
 
 /// An id chosen by the client for an `act`, echoed in its `ack` and `result`.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
@@ -216,26 +216,6 @@ pub struct Welcome {
     /// About the match.
     #[serde(rename = "match")]
     pub match_info: MatchInfo,
-}
-
-/// How a match is paced.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
-#[serde(rename_all = "snake_case")]
-pub enum Mode {
-    /// Ticks follow the wall clock.
-    Realtime,
-    /// Each tick waits for the players (or a deadline).
-    Lockstep,
-}
-
-impl Mode {
-    /// The wire name.
-    pub fn name(self) -> &'static str {
-        match self {
-            Mode::Realtime => "realtime",
-            Mode::Lockstep => "lockstep",
-        }
-    }
 }
 
 /// The match a client joined.

@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::vocabulary::EndReason;
 
-use crate::messages::Mode;
+use crate::vocabulary::Mode;
 
 /// The result of a match.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]

@@ -1,5 +1,6 @@
 //! The wire's words, each listed once: error and ack codes, why connections close and
-//! matches end, how orders end, robots' move states and agents' statuses. Each is an enum
+//! matches end, how orders end, robots' move states, agents' statuses and how a match is
+//! paced. Each is an enum
 //! serialised as the string the protocol documents, so the JSON Schemas list its values.
 
 use std::fmt;
@@ -339,6 +340,26 @@ mod tests {
         use bw4t_sim::MoveState as M;
         for m in [M::Arrived, M::Traveling, M::Collided] {
             assert_eq!(MoveState::from(m).as_str(), m.name());
+        }
+    }
+}
+
+/// How a match is paced.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Mode {
+    /// Ticks follow the wall clock.
+    Realtime,
+    /// Each tick waits for the players (or a deadline).
+    Lockstep,
+}
+
+impl Mode {
+    /// The wire name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Mode::Realtime => "realtime",
+            Mode::Lockstep => "lockstep",
         }
     }
 }
