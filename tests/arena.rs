@@ -8,7 +8,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use bw4t_agents::{Agent, Observation, Strategy};
-use bw4t_protocol::{Hello, Mode, ServerMessage};
+use bw4t_protocol::{Mode, ServerMessage, SessionOptions};
 use bw4t_server::{Arena, ArenaConfig, HostConfig, OnEnd, ResultsStore, SeatPlan, Template};
 use bw4t_sim::Action;
 use serde_json::{Value, json};
@@ -102,8 +102,13 @@ async fn a_classroom_of_teams_each_completes_its_match_at_once() {
     let players: Vec<_> = teams
         .iter()
         .map(|team| {
-            let hello = Hello { match_name: Some(team.clone()), ..Hello::agent("Student", None) };
-            tokio::spawn(bw4t_runner::play_remote(server.addr, hello, Strategy::Cooperative.agent("Student")))
+            let options =
+                SessionOptions { match_name: Some(team.clone()), ..SessionOptions::agent("Student", None) };
+            tokio::spawn(bw4t_runner::play_remote(
+                server.addr,
+                options,
+                Strategy::Cooperative.agent("Student"),
+            ))
         })
         .collect();
     for player in players {

@@ -622,7 +622,7 @@ async fn the_builtin_team_over_tcp_plays_the_same_match_as_headless() {
         let agent = bw4t_agents::Strategy::Cooperative.agent(name);
         clients.push(tokio::spawn(bw4t_runner::play_remote(
             server.addr,
-            bw4t_protocol::Hello::agent(name, None),
+            bw4t_protocol::SessionOptions::agent(name, None),
             agent,
         )));
     }

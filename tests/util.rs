@@ -243,7 +243,9 @@ use std::net::SocketAddr;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use bw4t_protocol::{ActId, MatchResult, ServerMessage, decode_server};
+use bw4t_protocol::{
+    ActId, ClientSession, MatchResult, ServerMessage, SessionEvent, SessionOptions, decode_server,
+};
 use bw4t_server::HostConfig;
 use bw4t_sim::PerceptDelta;
 use serde_json::{Value, json};
@@ -411,6 +413,7 @@ impl Client {
 pub async fn well_behaved_stream(good: &mut Client) -> Vec<String> {
     let places = ["RoomA1", "RoomC2", "DropZone", "RoomB3"];
     let (mut stream, mut next, mut busy) = (Vec::new(), 0, false);
+    let mut session = None;
     while let Some(message) = good.recv().await {
         let mut value = serde_json::to_value(&message).expect("json");
         for field in ["/session", "/result/wall_ms"] {
@@ -419,24 +422,33 @@ pub async fn well_behaved_stream(good: &mut Client) -> Vec<String> {
             }
         }
         stream.push(value.to_string());
-        let tick = match message {
-            ServerMessage::Percepts(p) => p.tick,
-            ServerMessage::Result(_) => {
-                // The tick's `percepts` follows; decide and answer then.
-                busy = false;
-                continue;
+        let session = match (&message, &mut session) {
+            (ServerMessage::Welcome(welcome), None) => session.insert(ClientSession::adopt(welcome.clone())),
+            (_, Some(session)) => {
+                session.handle_message(message).expect("a message of the protocol");
+                session
             }
-            _ => continue,
+            (_, None) => continue,
         };
-        if !busy {
-            busy = true;
-            next += 1;
-            good.send(
-                json!({"type": "act", "id": next, "action": "goTo", "args": [places[next % places.len()]]}),
-            )
-            .await;
+        while let Some(event) = session.poll_event() {
+            match event {
+                // The tick's `percepts` follows; decide and answer then.
+                SessionEvent::Result { .. } => busy = false,
+                SessionEvent::Percepts { .. } => {
+                    if !busy {
+                        busy = true;
+                        next += 1;
+                        session.act_named("goTo", vec![json!(places[next % places.len()])]);
+                    }
+                    session.ready();
+                }
+                _ => {}
+            }
         }
-        good.send(json!({"type": "ready", "tick": tick})).await;
+        let out: String = std::iter::from_fn(|| session.poll_transmit()).collect();
+        if !out.is_empty() {
+            good.send_raw(out.trim_end()).await;
+        }
     }
     stream
 }
@@ -460,15 +472,33 @@ pub struct Seen {
     pub lobbies: Vec<bw4t_protocol::Lobby>,
 }
 
-/// A player that answers every `percepts` with `ready`, so lockstep matches
-/// move on, while the test sends actions and waits on what the player has seen.
+/// A player that answers every `percepts` with `ready` (in lockstep), so matches move
+/// on, while the test sends actions and waits on what the player has seen.
 pub struct AutoPlayer {
     pub welcome: bw4t_protocol::Welcome,
     pub seen: Arc<Mutex<Seen>>,
     updates: watch::Receiver<u64>,
-    writer: Arc<tokio::sync::Mutex<OwnedWriteHalf>>,
+    link: Arc<Link>,
     reader: JoinHandle<()>,
-    next_id: u64,
+}
+
+/// An auto-player's session and the socket it writes to.
+struct Link {
+    session: Mutex<ClientSession>,
+    writer: tokio::sync::Mutex<OwnedWriteHalf>,
+}
+
+impl Link {
+    /// Writes what the session has to send. The writer is held first, so lines leave in the
+    /// order the session queued them whoever flushes.
+    async fn flush(&self) -> std::io::Result<()> {
+        let mut writer = self.writer.lock().await;
+        let out: String = {
+            let mut session = self.session.lock().expect("lock");
+            std::iter::from_fn(|| session.poll_transmit()).collect()
+        };
+        writer.write_all(out.as_bytes()).await
+    }
 }
 
 impl AutoPlayer {
@@ -476,94 +506,95 @@ impl AutoPlayer {
         AutoPlayer::join_with(addr, json!({"name": name})).await
     }
 
-    /// Joins with extra `hello` fields (e.g. `{"name": "Bob", "every_tick": true}`).
+    /// Joins with the `hello` fields a player chooses (e.g. `{"name": "Bob", "every_tick": true}`).
     pub async fn join_with(addr: SocketAddr, fields: Value) -> AutoPlayer {
-        let mut hello = json!({"type": "hello", "protocol": "bw4t", "versions": [1]});
-        hello.as_object_mut().expect("object").extend(fields.as_object().expect("object").clone());
-        let (client, welcome) = welcomed(addr, hello).await;
-        AutoPlayer::adopt(client, welcome)
+        let options: SessionOptions =
+            serde_json::from_value(fields.clone()).unwrap_or_else(|e| panic!("hello fields {fields}: {e}"));
+        let mut session = ClientSession::new(options);
+        let mut client = Client::connect(addr).await;
+        let hello: String = std::iter::from_fn(|| session.poll_transmit()).collect();
+        client.send_raw(hello.trim_end()).await;
+        let welcome = client
+            .until(|m| match m {
+                ServerMessage::Welcome(w) => Some(w.clone()),
+                ServerMessage::Error(e) => panic!("{fields} refused: {e:?}"),
+                _ => None,
+            })
+            .await;
+        session.handle_message(ServerMessage::Welcome(welcome.clone())).expect("a welcome");
+        // The welcome, which the player keeps as a field.
+        session.poll_event();
+        AutoPlayer::play(client, session, welcome)
     }
 
     /// Plays on for a client that has been welcomed.
     pub fn adopt(client: Client, welcome: bw4t_protocol::Welcome) -> AutoPlayer {
+        AutoPlayer::play(client, ClientSession::adopt(welcome.clone()), welcome)
+    }
+
+    fn play(client: Client, session: ClientSession, welcome: bw4t_protocol::Welcome) -> AutoPlayer {
         let (mut lines, writer) = client.into_parts();
-        let writer = Arc::new(tokio::sync::Mutex::new(writer));
+        let link = Arc::new(Link { session: Mutex::new(session), writer: tokio::sync::Mutex::new(writer) });
         let seen = Arc::new(Mutex::new(Seen::default()));
         let (notify, updates) = watch::channel(0u64);
-        let (task_seen, task_writer) = (seen.clone(), writer.clone());
+        let (task_seen, task_link) = (seen.clone(), link.clone());
         let reader = tokio::spawn(async move {
             while let Ok(Some(line)) = lines.next_line().await {
-                let message = decode_server(&line).expect("valid server line");
-                let ready_for = {
+                {
+                    let mut session = task_link.session.lock().expect("lock");
+                    session.handle_line(&line).unwrap_or_else(|e| panic!("{e}"));
                     let mut s = task_seen.lock().expect("lock");
-                    match message {
-                        ServerMessage::Percepts(p) => {
-                            s.beliefs.apply(&delta_of(&p));
-                            let heard: Vec<String> = s
-                                .beliefs
-                                .take_messages()
-                                .into_iter()
-                                .map(|(f, t)| format!("{f}:{t}"))
-                                .collect();
-                            s.heard.extend(heard);
-                            s.tick = p.tick;
-                            Some(p.tick)
-                        }
-                        ServerMessage::Result(r) => {
+                    while let Some(event) = session.poll_event() {
+                        match event {
+                            SessionEvent::Percepts { delta, .. } => {
+                                s.beliefs.apply(&delta);
+                                let heard: Vec<String> = s
+                                    .beliefs
+                                    .take_messages()
+                                    .into_iter()
+                                    .map(|(f, t)| format!("{f}:{t}"))
+                                    .collect();
+                                s.heard.extend(heard);
+                                s.tick = delta.tick;
+                                session.ready();
+                            }
                             // A tick's messages end with its `percepts`: answer that one.
-                            s.results.push(r);
-                            None
+                            SessionEvent::Result { result, .. } => s.results.push(result),
+                            SessionEvent::Ack { ack, .. } => s.acks.push(ack),
+                            SessionEvent::Error(e) => s.errors.push(e.code.to_string()),
+                            SessionEvent::MatchEnd(_) | SessionEvent::Bye(_) => s.ended = true,
+                            SessionEvent::Lobby(l) => s.lobbies.push(l),
+                            SessionEvent::Welcome(_) => {}
                         }
-                        ServerMessage::Ack(a) => {
-                            s.acks.push(a);
-                            None
-                        }
-                        ServerMessage::Error(e) => {
-                            s.errors.push(e.code.to_string());
-                            None
-                        }
-                        ServerMessage::MatchEnd(_) | ServerMessage::Bye(_) => {
-                            s.ended = true;
-                            None
-                        }
-                        ServerMessage::Lobby(l) => {
-                            s.lobbies.push(l);
-                            None
-                        }
-                        _ => None,
                     }
-                };
-                if let Some(tick) = ready_for {
-                    let line = format!("{}\n", json!({"type": "ready", "tick": tick}));
-                    let _ = task_writer.lock().await.write_all(line.as_bytes()).await;
                 }
+                let _ = task_link.flush().await;
                 notify.send_modify(|n| *n += 1);
             }
             task_seen.lock().expect("lock").ended = true;
             notify.send_modify(|n| *n += 1);
         });
-        AutoPlayer { welcome, seen, updates, writer, reader, next_id: 0 }
+        AutoPlayer { welcome, seen, updates, link, reader }
     }
 
     /// Drops the connection without a `bye`, as a crash or a network fault would.
     pub async fn disconnect(self) {
         self.reader.abort();
         let _ = self.reader.await;
-        let _ = self.writer.lock().await.shutdown().await;
+        let _ = self.link.writer.lock().await.shutdown().await;
     }
 
-    /// Sends an action; returns its id.
+    /// Sends an action by its wire name and arguments; returns its id.
     pub async fn act(&mut self, action: &str, args: Value) -> ActId {
-        self.next_id += 1;
-        let line =
-            format!("{}\n", json!({"type": "act", "id": self.next_id, "action": action, "args": args}));
-        self.writer.lock().await.write_all(line.as_bytes()).await.expect("write");
-        ActId::Number(self.next_id)
+        let args = args.as_array().cloned().unwrap_or_else(|| panic!("arguments as an array: {args}"));
+        let id = self.link.session.lock().expect("lock").act_named(action, args);
+        self.link.flush().await.expect("write");
+        ActId::Number(id)
     }
 
     pub async fn say(&mut self, to: &str, text: &str) {
-        let line = format!("{}\n", json!({"type": "say", "to": to, "text": text}));
-        self.writer.lock().await.write_all(line.as_bytes()).await.expect("write");
+        self.link.session.lock().expect("lock").say(to, Some(text.to_string()), None);
+        self.link.flush().await.expect("write");
     }
 
     /// Waits until `check` holds for what the player has seen.

@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
 use bw4t_map::{Map, SeededRng, ZoneKind};
-use bw4t_protocol::{ClientMessage, ErrorCode, Hello, Mode, Outcome, ServerMessage, act_message, encode};
+use bw4t_protocol::{ClientSession, ErrorCode, Mode, Outcome, SessionEvent, SessionOptions};
 use bw4t_server::{Arena, ArenaConfig, HostConfig, OnEnd, SeatPlan, ServerConfig, Template, TickLateness};
 use bw4t_sim::Action;
 use clap::{Args, ValueEnum};
@@ -173,7 +173,7 @@ fn realtime(args: &ArenaArgs, map: &Map, seed: u64, shape: Shape) -> Result<Valu
         for (m, name) in names.iter().enumerate() {
             for p in 0..shape.players {
                 let permit = gate.clone().acquire_owned().await?;
-                let mut hello = Hello::agent(format!("P{}", p + 1), None);
+                let mut hello = SessionOptions::agent(format!("P{}", p + 1), None);
                 hello.match_name = Some(name.clone());
                 let player_seed = seed ^ ((m * shape.players + p) as u64).wrapping_mul(0x9e37_79b9);
                 let (progress, counts, rooms) = (progress.clone(), counts.clone(), rooms.clone());
@@ -304,18 +304,19 @@ struct PlayCounts {
 /// ends.
 async fn realtime_player(
     addr: SocketAddr,
-    hello: Hello,
+    hello: SessionOptions,
     rooms: Arc<[String]>,
     seed: u64,
     progress: &watch::Sender<Progress>,
     counts: &Arc<PlayCounts>,
     permit: tokio::sync::OwnedSemaphorePermit,
 ) -> Result<()> {
-    let mut player = Player::connect(addr, &hello, rooms, seed, counts.clone()).await?;
+    let name = hello.name.clone();
+    let mut player = Player::connect(addr, ClientSession::new(hello), rooms, seed, counts.clone()).await?;
     let (mut permit, mut started) = (Some(permit), false);
     loop {
         match player.next().await? {
-            Heard::Welcome { .. } => {
+            Heard::Welcome => {
                 permit.take();
                 progress.send_modify(|p| p.connected += 1);
             }
@@ -323,7 +324,7 @@ async fn realtime_player(
                 started = true;
                 progress.send_modify(|p| p.started += 1);
             }
-            Heard::Refused(code, why) => bail!("{} refused ({code}): {why}", hello.name.unwrap_or_default()),
+            Heard::Refused(code, why) => bail!("{name} refused ({code}): {why}"),
             Heard::Ended => return Ok(()),
             Heard::Queued | Heard::Started | Heard::Playing => {}
         }
@@ -586,12 +587,13 @@ fn add(counter: &AtomicU64) {
 
 /// A well-behaved player: joins the steady template, plays each match to its end, joins again.
 async fn steady_player(ctx: Arc<SoakContext>, index: usize, mut stop: watch::Receiver<bool>) {
-    let mut hello = Hello::agent(format!("Steady{index}"), None);
+    let mut hello = SessionOptions::agent(format!("Steady{index}"), None);
     hello.template = Some(STEADY.into());
     let seed = ctx.seed ^ (index as u64 + 1).wrapping_mul(0x5851_f42d);
     while !*stop.borrow() {
+        let session = ClientSession::new(hello.clone());
         let Ok(mut player) =
-            Player::connect(ctx.addr, &hello, ctx.rooms.clone(), seed, ctx.play.clone()).await
+            Player::connect(ctx.addr, session, ctx.rooms.clone(), seed, ctx.play.clone()).await
         else {
             add(&ctx.counts.errors);
             pause(&mut stop, Duration::from_millis(100)).await;
@@ -603,7 +605,7 @@ async fn steady_player(ctx: Arc<SoakContext>, index: usize, mut stop: watch::Rec
                 _ = stop.wait_for(|s| *s) => return,
             };
             match heard {
-                Ok(Heard::Welcome { .. }) => add(&ctx.counts.steady_joins),
+                Ok(Heard::Welcome) => add(&ctx.counts.steady_joins),
                 Ok(Heard::Ended) => break,
                 Ok(Heard::Refused(..)) | Err(_) => {
                     add(&ctx.counts.errors);
@@ -630,31 +632,34 @@ enum Churner {
 async fn churner_player(ctx: Arc<SoakContext>, index: usize, kind: Churner, mut stop: watch::Receiver<bool>) {
     let mut rng = SeededRng::new(ctx.seed ^ (index as u64 + 1).wrapping_mul(0x2545_f491));
     let mut generation = 0u64;
-    // The session and match to come back to.
-    let mut back_to: Option<(String, String)> = None;
+    // The session to come back with.
+    let mut back_to: Option<ClientSession> = None;
     while !*stop.borrow() {
-        let name = match kind {
-            Churner::Returns => format!("Back{index}"),
-            Churner::Leaves => format!("Gone{index}x{generation}"),
-        };
-        let mut hello = Hello::agent(name, None);
         let returning = back_to.is_some();
-        match back_to.take() {
-            Some((session, match_name)) => {
-                hello.session = Some(session);
-                hello.match_name = Some(match_name);
+        let session = match back_to.take() {
+            Some(mut session) => {
+                session.reconnect();
+                session
             }
-            None => hello.template = Some(CHURN.into()),
-        }
+            None => {
+                let name = match kind {
+                    Churner::Returns => format!("Back{index}"),
+                    Churner::Leaves => format!("Gone{index}x{generation}"),
+                };
+                let mut hello = SessionOptions::agent(name, None);
+                hello.template = Some(CHURN.into());
+                ClientSession::new(hello)
+            }
+        };
         let seed = rng.next_u64();
         let Ok(mut player) =
-            Player::connect(ctx.addr, &hello, ctx.rooms.clone(), seed, ctx.play.clone()).await
+            Player::connect(ctx.addr, session, ctx.rooms.clone(), seed, ctx.play.clone()).await
         else {
             add(&ctx.counts.errors);
             pause(&mut stop, Duration::from_millis(100)).await;
             continue;
         };
-        let mut leave_at: Option<tokio::time::Instant> = None;
+        let (mut leave_at, mut coming_back) = (None::<tokio::time::Instant>, false);
         loop {
             let stay = leave_at.unwrap_or_else(|| tokio::time::Instant::now() + Duration::from_secs(3600));
             let heard = tokio::select! {
@@ -664,7 +669,10 @@ async fn churner_player(ctx: Arc<SoakContext>, index: usize, kind: Churner, mut 
             };
             let Some(heard) = heard else {
                 match kind {
-                    Churner::Returns => add(&ctx.counts.drops),
+                    Churner::Returns => {
+                        add(&ctx.counts.drops);
+                        coming_back = true;
+                    }
                     Churner::Leaves => {
                         add(&ctx.counts.leaves);
                         generation += 1;
@@ -676,33 +684,26 @@ async fn churner_player(ctx: Arc<SoakContext>, index: usize, kind: Churner, mut 
                 break;
             };
             match heard {
-                Ok(Heard::Welcome { session, match_name }) => {
+                Ok(Heard::Welcome) => {
                     add(if returning { &ctx.counts.reconnects } else { &ctx.counts.joins });
                     let part = 0.1 + 0.4 * (rng.below(1000) as f64 / 1000.0);
                     leave_at = Some(tokio::time::Instant::now() + ctx.match_time.mul_f64(part));
-                    if kind == Churner::Returns {
-                        back_to = session.map(|s| (s, match_name));
-                    }
                 }
                 Ok(Heard::Queued) => add(&ctx.counts.queued),
-                Ok(Heard::Ended) => {
-                    back_to = None;
-                    break;
-                }
+                Ok(Heard::Ended) => break,
                 Ok(Heard::Refused(..)) if returning => {
                     add(&ctx.counts.reconnects_refused);
-                    back_to = None;
                     break;
                 }
                 Ok(Heard::Refused(..)) | Err(_) => {
                     add(&ctx.counts.errors);
-                    back_to = None;
                     break;
                 }
                 Ok(Heard::Started | Heard::Playing) => {}
             }
         }
-        drop(player);
+        let session = player.into_session();
+        back_to = coming_back.then_some(session);
         // A dropped player is away for a moment before it comes back.
         if back_to.is_some() {
             let away = Duration::from_millis(50 + rng.below(250));
@@ -719,11 +720,11 @@ async fn pause(stop: &mut watch::Receiver<bool>, time: Duration) {
 /// A bench client's connection: it orders its robot to a random room whenever it is
 /// welcomed and whenever its last order ends (arrived or collided) or is refused.
 struct Player {
+    session: ClientSession,
     lines: Lines<BufReader<OwnedReadHalf>>,
     writer: OwnedWriteHalf,
     rooms: Arc<[String]>,
     rng: SeededRng,
-    next_id: u64,
     counts: Arc<PlayCounts>,
     /// When each action still awaiting its ack was sent.
     sent: std::collections::HashMap<u64, Instant>,
@@ -734,7 +735,7 @@ struct Player {
 /// What a player heard, as far as the benchmark cares.
 enum Heard {
     /// Welcomed into a match.
-    Welcome { session: Option<String>, match_name: String },
+    Welcome,
     /// Waiting in a template's queue.
     Queued,
     /// The match started (the last `lobby`).
@@ -747,32 +748,29 @@ enum Heard {
     Refused(ErrorCode, String),
 }
 
-/// How every `percepts` line starts: players skip them without parsing.
-const PERCEPTS: &str = r#"{"type":"percepts""#;
-
 impl Player {
+    /// Connects and says the session's `hello`.
     async fn connect(
         addr: SocketAddr,
-        hello: &Hello,
+        session: ClientSession,
         rooms: Arc<[String]>,
         seed: u64,
         counts: Arc<PlayCounts>,
     ) -> Result<Player> {
         let stream = TcpStream::connect(addr).await.with_context(|| format!("cannot connect to {addr}"))?;
         stream.set_nodelay(true)?;
-        let (reader, mut writer) = stream.into_split();
-        writer.write_all(encode(&ClientMessage::Hello(hello.clone())).as_bytes()).await?;
-        let lines = BufReader::new(reader).lines();
+        let (reader, writer) = stream.into_split();
         let mut player = Player {
-            lines,
+            session,
+            lines: BufReader::new(reader).lines(),
             writer,
             rooms,
             rng: SeededRng::new(seed),
-            next_id: 0,
             counts,
             sent: std::collections::HashMap::new(),
             next_talk: None,
         };
+        player.flush().await?;
         player.plan_talk();
         Ok(player)
     }
@@ -784,66 +782,66 @@ impl Player {
             Some(at) => tokio::select! {
                 line = self.lines.next_line() => line?,
                 () = tokio::time::sleep_until(at) => {
-                    self.talk().await?;
+                    self.talk();
+                    self.flush().await?;
                     return Ok(Heard::Playing);
                 }
             },
             None => self.lines.next_line().await?,
         };
         let Some(line) = line else { return Ok(Heard::Ended) };
-        if line.starts_with(PERCEPTS) {
-            self.counts.percepts.fetch_add(1, Ordering::Relaxed);
-            return Ok(Heard::Playing);
-        }
-        // Not `decode_server`: its list of message types lacks `lobby`.
-        let message: ServerMessage =
-            serde_json::from_str(&line).with_context(|| format!("not a server message: {line}"))?;
-        if let ServerMessage::Ack(bw4t_protocol::Ack { id: Some(bw4t_protocol::ActId::Number(id)), .. }) =
-            &message
-        {
-            if let Some(sent) = self.sent.remove(id) {
-                if let Ok(mut latencies) = self.counts.latencies.lock() {
-                    latencies.push(sent.elapsed());
+        self.session.handle_line(&line)?;
+        let mut heard = Heard::Playing;
+        while let Some(event) = self.session.poll_event() {
+            heard = match event {
+                SessionEvent::Percepts { .. } => {
+                    self.counts.percepts.fetch_add(1, Ordering::Relaxed);
+                    Heard::Playing
                 }
-            }
+                SessionEvent::Welcome(_) => {
+                    self.go();
+                    Heard::Welcome
+                }
+                SessionEvent::Lobby(lobby) if lobby.queued.is_some() => Heard::Queued,
+                SessionEvent::Lobby(lobby) if lobby.started => Heard::Started,
+                SessionEvent::Ack { ack, request } => {
+                    if let Some(sent) = request.and_then(|r| self.sent.remove(&r.id)) {
+                        if let Ok(mut latencies) = self.counts.latencies.lock() {
+                            latencies.push(sent.elapsed());
+                        }
+                    }
+                    if !ack.ok {
+                        self.go();
+                    }
+                    Heard::Playing
+                }
+                SessionEvent::Result { result, .. } if result.outcome != Outcome::Superseded => {
+                    self.go();
+                    Heard::Playing
+                }
+                SessionEvent::Error(error) if error.fatal => Heard::Refused(error.code, error.message),
+                SessionEvent::MatchEnd(_) | SessionEvent::Bye(_) => Heard::Ended,
+                _ => Heard::Playing,
+            };
         }
-        Ok(match message {
-            ServerMessage::Welcome(welcome) => {
-                self.go().await?;
-                Heard::Welcome { session: welcome.session, match_name: welcome.match_info.name }
-            }
-            ServerMessage::Lobby(lobby) if lobby.queued.is_some() => Heard::Queued,
-            ServerMessage::Lobby(lobby) if lobby.started => Heard::Started,
-            ServerMessage::Result(result) if result.outcome != Outcome::Superseded => {
-                self.go().await?;
-                Heard::Playing
-            }
-            ServerMessage::Ack(ack) if !ack.ok => {
-                self.go().await?;
-                Heard::Playing
-            }
-            ServerMessage::Error(error) if error.fatal => Heard::Refused(error.code, error.message),
-            ServerMessage::MatchEnd(_) | ServerMessage::Bye(_) => Heard::Ended,
-            _ => Heard::Playing,
-        })
+        self.flush().await?;
+        Ok(heard)
     }
 
     /// Orders the robot to a random room.
-    async fn go(&mut self) -> Result<()> {
+    fn go(&mut self) {
         let room = self.rooms[self.rng.index(self.rooms.len())].clone();
-        self.send(&Action::GoTo(room)).await?;
+        self.send(&Action::GoTo(room));
         self.counts.orders.fetch_add(1, Ordering::Relaxed);
-        Ok(())
     }
 
     /// Tells the team where it is going, as a person would from the page's menu.
-    async fn talk(&mut self) -> Result<()> {
+    fn talk(&mut self) {
         self.plan_talk();
         let mut said = bw4t_protocol::Said::new("going_to");
         said.room = Some(self.rooms[self.rng.index(self.rooms.len())].clone());
-        self.send(&Action::SendMessage { to: bw4t_sim::Receiver::All, text: said.to_text() }).await?;
+        self.send(&Action::SendMessage { to: bw4t_sim::Receiver::All, text: said.to_text() });
         self.counts.messages.fetch_add(1, Ordering::Relaxed);
-        Ok(())
     }
 
     /// Picks when to talk next: `talk_every` on average, at a random moment.
@@ -854,18 +852,30 @@ impl Player {
         });
     }
 
-    /// Sends an action, noting when, for its ack's latency.
-    async fn send(&mut self, action: &Action) -> Result<()> {
-        self.next_id += 1;
-        self.sent.insert(self.next_id, Instant::now());
-        self.writer.write_all(encode(&act_message(self.next_id, action)).as_bytes()).await?;
+    /// Queues an action, noting when, for its ack's latency.
+    fn send(&mut self, action: &Action) {
+        let id = self.session.act(action);
+        self.sent.insert(id, Instant::now());
+    }
+
+    /// Writes what the session has to send.
+    async fn flush(&mut self) -> Result<()> {
+        let out: String = std::iter::from_fn(|| self.session.poll_transmit()).collect();
+        if !out.is_empty() {
+            self.writer.write_all(out.as_bytes()).await?;
+        }
         Ok(())
+    }
+
+    /// Closes the connection; the session stays, to come back with.
+    fn into_session(self) -> ClientSession {
+        self.session
     }
 
     /// Says `bye` (best effort: the connection is dropped next anyway).
     async fn bye(&mut self) {
-        let bye = ClientMessage::Bye(bw4t_protocol::ClientBye {});
-        let _ = self.writer.write_all(encode(&bye).as_bytes()).await;
+        self.session.bye();
+        let _ = self.flush().await;
     }
 }
 

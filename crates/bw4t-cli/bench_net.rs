@@ -7,12 +7,13 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
 use bw4t_map::{Map, MapParts, Spawn, Vec2};
-use bw4t_protocol::{ClientMessage, Hello, Mode, Say, ServerMessage, act_message, decode_server, encode};
+use bw4t_protocol::{ClientSession, Mode, SessionEvent, SessionOptions};
 use bw4t_server::HostConfig;
-use bw4t_sim::Action;
+use bw4t_sim::{Action, MoveState, Percept};
 use serde_json::{Value, json};
-use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader};
+use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader, Lines};
 use tokio::net::TcpStream;
+use tokio::net::tcp::{OwnedReadHalf, OwnedWriteHalf};
 
 /// `lockstep`: players that answer at once, with a message each tick.
 pub(crate) fn lockstep(map: &str, seed: u64, players: usize, ticks: u64) -> Result<Value> {
@@ -56,33 +57,51 @@ pub(crate) fn lockstep(map: &str, seed: u64, players: usize, ticks: u64) -> Resu
 /// A player that moves now and then, says something every tick and answers `ready` at
 /// once. Returns the times between consecutive ticks' percepts.
 async fn lockstep_player(addr: SocketAddr, index: usize, seed: u64) -> Result<Vec<Duration>> {
+    let (mut session, mut lines, mut writer) = join(addr, index).await?;
+    let places = ["RoomA1", "RoomB2", "RoomC3", "DropZone", "RoomA3", "RoomC1"];
+    let mut rng = bw4t_map::SeededRng::new(seed ^ index as u64);
+    let (mut gaps, mut last) = (Vec::new(), None::<Instant>);
+    while let Some(line) = lines.next_line().await? {
+        session.handle_line(&line)?;
+        while let Some(event) = session.poll_event() {
+            let SessionEvent::Percepts { delta, .. } = event else { continue };
+            let now = Instant::now();
+            if let Some(before) = last {
+                gaps.push(now - before);
+            }
+            last = Some(now);
+            session.say("all", Some(format!("tick {}", delta.tick)), None);
+            if rng.below(20) == 0 {
+                let place = places[rng.index(places.len())];
+                session.act(&Action::GoTo(place.into()));
+            }
+            session.ready();
+        }
+        flush(&mut session, &mut writer).await?;
+    }
+    Ok(gaps)
+}
+
+/// Connects as player `Bench{index}` and says `hello`.
+async fn join(
+    addr: SocketAddr,
+    index: usize,
+) -> Result<(ClientSession, Lines<BufReader<OwnedReadHalf>>, OwnedWriteHalf)> {
     let stream = TcpStream::connect(addr).await?;
     stream.set_nodelay(true)?;
     let (reader, mut writer) = stream.into_split();
-    let mut lines = BufReader::new(reader).lines();
-    let hello = ClientMessage::Hello(Hello::agent(format!("Bench{index}"), None));
-    writer.write_all(encode(&hello).as_bytes()).await?;
-    let places = ["RoomA1", "RoomB2", "RoomC3", "DropZone", "RoomA3", "RoomC1"];
-    let mut rng = bw4t_map::SeededRng::new(seed ^ index as u64);
-    let (mut gaps, mut last, mut id) = (Vec::new(), None::<Instant>, 0u64);
-    while let Some(line) = lines.next_line().await? {
-        let ServerMessage::Percepts(p) = decode_server(&line)? else { continue };
-        let now = Instant::now();
-        if let Some(before) = last {
-            gaps.push(now - before);
-        }
-        last = Some(now);
-        id += 1;
-        let say = Say { id: None, to: "all".into(), text: Some(format!("tick {}", p.tick)), said: None };
-        let mut out = encode(&ClientMessage::Say(say));
-        if rng.below(20) == 0 {
-            let place = places[rng.index(places.len())];
-            out += &encode(&act_message(id, &Action::GoTo(place.into())));
-        }
-        out += &encode(&ClientMessage::ready(p.tick));
+    let mut session = ClientSession::new(SessionOptions::agent(format!("Bench{index}"), None));
+    flush(&mut session, &mut writer).await?;
+    Ok((session, BufReader::new(reader).lines(), writer))
+}
+
+/// Writes what the session has to send, in one write.
+async fn flush(session: &mut ClientSession, writer: &mut OwnedWriteHalf) -> Result<()> {
+    let out: String = std::iter::from_fn(|| session.poll_transmit()).collect();
+    if !out.is_empty() {
         writer.write_all(out.as_bytes()).await?;
     }
-    Ok(gaps)
+    Ok(())
 }
 
 /// `realtime`: a `bw4t serve` child process with `robots` connected players at 20 ticks/s;
@@ -140,25 +159,22 @@ pub(crate) fn realtime(seed: u64, robots: usize, seconds: f64) -> Result<Value> 
 
 /// A realtime player: joins, and sends a new `goTo` whenever its robot stops.
 async fn realtime_player(addr: SocketAddr, index: usize, seed: u64, received: Arc<AtomicU64>) -> Result<()> {
-    let stream = TcpStream::connect(addr).await?;
-    stream.set_nodelay(true)?;
-    let (reader, mut writer) = stream.into_split();
-    let mut lines = BufReader::new(reader).lines();
-    let hello = ClientMessage::Hello(Hello::agent(format!("Bench{index}"), None));
-    writer.write_all(encode(&hello).as_bytes()).await?;
+    let (mut session, mut lines, mut writer) = join(addr, index).await?;
     let places = ["RoomA1", "RoomB2", "RoomC3", "DropZone", "RoomA3", "RoomC1", "LeftHallA", "RightHallC"];
     let mut rng = bw4t_map::SeededRng::new(seed ^ index as u64);
-    let mut id = 0u64;
     while let Some(line) = lines.next_line().await? {
-        let ServerMessage::Percepts(p) = decode_server(&line)? else { continue };
-        received.fetch_add(1, Ordering::SeqCst);
-        let stopped =
-            p.add.iter().any(|f| f.first() == Some(&json!("state")) && f.get(1) != Some(&json!("traveling")));
-        if stopped {
-            id += 1;
-            let place = places[rng.index(places.len())];
-            writer.write_all(encode(&act_message(id, &Action::GoTo(place.into()))).as_bytes()).await?;
+        session.handle_line(&line)?;
+        while let Some(event) = session.poll_event() {
+            let SessionEvent::Percepts { delta, .. } = event else { continue };
+            received.fetch_add(1, Ordering::SeqCst);
+            let stopped =
+                delta.add.iter().any(|p| matches!(p, Percept::State(s) if *s != MoveState::Traveling));
+            if stopped {
+                let place = places[rng.index(places.len())];
+                session.act(&Action::GoTo(place.into()));
+            }
         }
+        flush(&mut session, &mut writer).await?;
     }
     Ok(())
 }

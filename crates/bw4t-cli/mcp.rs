@@ -9,7 +9,7 @@ use std::time::Duration;
 use anyhow::{Context, Result, bail};
 use bw4t_agents::Strategy;
 use bw4t_mcp::{Docs, Link, LocalMatch, MAX_TOOL_SECONDS, RobotServer};
-use bw4t_protocol::Hello;
+use bw4t_protocol::SessionOptions;
 use bw4t_runner::TickLimit;
 use bw4t_sim::MatchConfig;
 use clap::Args;
@@ -137,10 +137,10 @@ pub(crate) fn run(args: &McpArgs) -> Result<()> {
         let (link, map, own) = match served {
             Some(addr) => {
                 let token = args.token.clone().or_else(|| std::env::var("BW4T_TOKEN").ok());
-                let mut hello = Hello::agent(name, token);
-                hello.match_name = args.match_name.clone();
-                hello.template = args.template.clone();
-                let link = Link::join(addr, hello, join_wait, log).await?;
+                let mut options = SessionOptions::agent(name, token);
+                options.match_name = args.match_name.clone();
+                options.template = args.template.clone();
+                let link = Link::join(addr, options, join_wait, log).await?;
                 let map = match (&args.map, link.match_info()) {
                     (Some(spec), _) => Some(crate::maps::load(spec)?),
                     (None, Some(info)) => crate::maps::load(&info.map).ok(),

@@ -5,7 +5,7 @@ use std::io::Write;
 use std::net::SocketAddr;
 use std::time::{Duration, Instant};
 
-use bw4t_protocol::{ClientMessage, Hello, MatchInfo, PlayerUsage, ServerMessage, decode_server, encode};
+use bw4t_protocol::{Closed, MatchInfo, PlayerUsage, SessionOptions};
 use serde_json::{Value, json};
 use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader};
 use tokio::net::TcpStream;
@@ -80,7 +80,7 @@ impl Link {
     /// handle is dropped.
     pub async fn join(
         addr: SocketAddr,
-        mut hello: Hello,
+        options: SessionOptions,
         wait: Duration,
         log: DecisionLog,
     ) -> Result<Link, JoinError> {
@@ -88,13 +88,9 @@ impl Link {
         let _ = stream.set_nodelay(true);
         let (reader, mut writer) = stream.into_split();
         let mut lines = BufReader::new(reader).lines();
-        hello.every_tick = true;
-        let hello_line = encode(&ClientMessage::Hello(hello));
-        writer
-            .write_all(hello_line.as_bytes())
-            .await
-            .map_err(|source| JoinError::Connect { addr, source })?;
-        let mut robot = Robot::new();
+        let mut robot = Robot::new(options);
+        let hello: String = std::iter::from_fn(|| robot.poll_transmit()).collect();
+        writer.write_all(hello.as_bytes()).await.map_err(|source| JoinError::Connect { addr, source })?;
         let seated = async {
             loop {
                 let line = match lines.next_line().await {
@@ -102,15 +98,12 @@ impl Link {
                     Ok(None) => return Err(JoinError::Refused("the server closed the connection".into())),
                     Err(e) => return Err(JoinError::Refused(format!("the connection failed: {e}"))),
                 };
-                let Ok(message) = decode_server(&line) else { continue };
-                let done = matches!(message, ServerMessage::Welcome(_) | ServerMessage::Lobby(_));
-                if let ServerMessage::Error(error) = &message {
-                    if error.fatal {
-                        return Err(JoinError::Refused(format!("{} ({})", error.message, error.code)));
-                    }
+                robot.handle_line(&line);
+                let session = robot.session();
+                if let Some(Closed::Refused(error)) = session.closed() {
+                    return Err(JoinError::Refused(format!("{} ({})", error.message, error.code)));
                 }
-                robot.handle(message);
-                if done {
+                if session.welcome().is_some() || session.queued().is_some() {
                     return Ok(());
                 }
             }
@@ -188,11 +181,7 @@ async fn drive(
         let deadline = waiting.as_ref().map(|w| w.deadline);
         tokio::select! {
             line = lines.next_line(), if connected => match line {
-                Ok(Some(line)) => {
-                    if let Ok(message) = decode_server(&line) {
-                        robot.handle(message);
-                    }
-                }
+                Ok(Some(line)) => robot.handle_line(&line),
                 Ok(None) => { connected = false; robot.disconnected("closed by the server"); }
                 Err(e) => { connected = false; robot.disconnected(&e.to_string()); }
             },
@@ -210,9 +199,7 @@ async fn drive(
                         usage.prompt_tokens = tokens.prompt;
                         usage.completion_tokens = tokens.completion;
                     }
-                    if robot.ended().is_none() {
-                        robot.push(ClientMessage::Report(usage));
-                    }
+                    robot.report(usage);
                     ms
                 };
                 match request {
@@ -240,8 +227,8 @@ async fn drive(
             },
             () = sleep_until(deadline) => robot.expire(),
         }
-        while let Some(message) = robot.poll_transmit() {
-            if connected && writer.write_all(encode(&message).as_bytes()).await.is_err() {
+        while let Some(line) = robot.poll_transmit() {
+            if connected && writer.write_all(line.as_bytes()).await.is_err() {
                 connected = false;
                 robot.disconnected("the connection failed");
             }
@@ -260,7 +247,9 @@ async fn drive(
         }
     }
     if connected {
-        let _ = writer.write_all(encode(&ClientMessage::Bye(Default::default())).as_bytes()).await;
+        robot.bye();
+        let bye: String = std::iter::from_fn(|| robot.poll_transmit()).collect();
+        let _ = writer.write_all(bye.as_bytes()).await;
     }
 }
 

@@ -6,7 +6,7 @@ use std::time::Duration;
 
 use bw4t_agents::Strategy;
 use bw4t_map::Map;
-use bw4t_protocol::{Hello, MatchResult, Mode};
+use bw4t_protocol::{MatchResult, Mode, SessionOptions};
 use bw4t_server::{Extras, HostConfig, Seat, ServerError};
 use bw4t_sim::MatchConfig;
 use tokio::task::JoinHandle;
@@ -35,8 +35,8 @@ pub struct LocalMatch {
 pub struct Started {
     /// The server's address on loopback.
     pub addr: SocketAddr,
-    /// The robot's `hello`.
-    pub hello: Hello,
+    /// What the robot's `hello` says.
+    pub hello: SessionOptions,
     /// The match, ending with its result.
     pub result: JoinHandle<Result<MatchResult, ServerError>>,
 }
@@ -63,7 +63,7 @@ impl LocalMatch {
         }
         let extras = Extras { seats, replay: self.replay, program: program(), ..Extras::default() };
         let result = tokio::spawn(bw4t_server::serve_with(listener, config, extras, std::future::pending()));
-        Ok(Started { addr, hello: Hello::agent(self.player, Some(token)), result })
+        Ok(Started { addr, hello: SessionOptions::agent(self.player, Some(token)), result })
     }
 }
 

@@ -10,8 +10,8 @@
 use std::collections::VecDeque;
 
 use bw4t_protocol::{
-    AckCode, ActId, ClientMessage, Knowledge, MatchInfo, Mode, Said, Say, ServerMessage, Snapshot,
-    act_message, percepts_delta,
+    AckCode, ClientSession, Knowledge, MatchInfo, PlayerUsage, Said, SessionError, SessionEvent,
+    SessionOptions, Snapshot,
 };
 use bw4t_sim::{Action, BlockId, PerceptDelta};
 
@@ -137,28 +137,39 @@ pub(crate) enum Busy {
 }
 
 /// One robot, driven by tool calls.
-#[derive(Debug, Default)]
+#[derive(Debug)]
 pub(crate) struct Robot {
+    /// The protocol's bookkeeping: hello, act ids, acks and results, `ready`.
+    session: ClientSession,
     knowledge: Knowledge,
-    info: Option<MatchInfo>,
-    robot: Option<u32>,
     tick: u64,
     started: bool,
-    /// The last tick told and not yet answered with `ready` (lockstep).
-    unanswered: Option<u64>,
     pending: Option<Pending>,
     /// A command given before the match started.
     queued: Option<Command>,
-    next_act: u64,
     ended: Option<String>,
-    transmit: VecDeque<ClientMessage>,
     finished: VecDeque<Report>,
 }
 
 impl Robot {
-    /// A robot not yet in a match.
-    pub(crate) fn new() -> Robot {
-        Robot::default()
+    /// A robot not yet in a match, whose first line out is its `hello`.
+    pub(crate) fn new(mut options: SessionOptions) -> Robot {
+        options.every_tick = true;
+        Robot {
+            session: ClientSession::new(options),
+            knowledge: Knowledge::default(),
+            tick: 0,
+            started: false,
+            pending: None,
+            queued: None,
+            ended: None,
+            finished: VecDeque::new(),
+        }
+    }
+
+    /// The protocol session.
+    pub(crate) fn session(&self) -> &ClientSession {
+        &self.session
     }
 
     /// What the robot knows.
@@ -168,12 +179,12 @@ impl Robot {
 
     /// The match, once welcomed.
     pub(crate) fn match_info(&self) -> Option<&MatchInfo> {
-        self.info.as_ref()
+        self.session.match_info()
     }
 
     /// The robot's id, once welcomed.
     pub(crate) fn robot_id(&self) -> Option<u32> {
-        self.robot
+        self.session.welcome().and_then(|w| w.robot)
     }
 
     /// The last tick told.
@@ -211,21 +222,11 @@ impl Robot {
             return Ok(());
         }
         // Actions and messages get an id, which their `ack` (and `result`) echo.
-        let message = match (&command, command.action()) {
-            (_, Some(action)) => Some(act_message(self.next_act + 1, &action)),
-            (Command::Say { to, said, text }, None) => Some(ClientMessage::Say(Say {
-                id: Some(ActId::Number(self.next_act + 1)),
-                to: to.clone(),
-                text: text.clone(),
-                said: said.clone(),
-            })),
+        let act = match (&command, command.action()) {
+            (_, Some(action)) => Some(self.session.act(&action)),
+            (Command::Say { to, said, text }, None) => Some(self.session.say(to, text.clone(), said.clone())),
             _ => None,
         };
-        let act = message.map(|message| {
-            self.next_act += 1;
-            self.transmit.push_back(message);
-            self.next_act
-        });
         let until = match command {
             Command::Wait { ticks } => ticks.map(|t| self.tick.saturating_add(t)),
             _ => None,
@@ -257,48 +258,49 @@ impl Robot {
         }
     }
 
-    /// Takes in one message from the server.
-    pub(crate) fn handle(&mut self, message: ServerMessage) {
-        match message {
-            ServerMessage::Welcome(welcome) => {
-                self.robot = welcome.robot;
-                self.info = Some(welcome.match_info);
-            }
-            ServerMessage::Percepts(percepts) => match percepts_delta(&percepts) {
-                Ok(delta) => self.on_percepts(&delta),
-                Err(e) => self.end(format!("the server sent percepts this client cannot read ({e})")),
-            },
-            ServerMessage::Ack(ack) => {
+    /// Takes in one line from the server (a line that is no message is skipped).
+    pub(crate) fn handle_line(&mut self, line: &str) {
+        match self.session.handle_line(line) {
+            Ok(()) | Err(SessionError::Line { .. }) => {}
+            Err(e @ SessionError::Percepts(_)) => self.end(e.to_string()),
+        }
+        while let Some(event) = self.session.poll_event() {
+            self.on_event(event);
+        }
+    }
+
+    fn on_event(&mut self, event: SessionEvent) {
+        let id = |request: Option<bw4t_protocol::Request>| request.map(|r| r.id);
+        match event {
+            SessionEvent::Percepts { delta, .. } => self.on_percepts(&delta),
+            SessionEvent::Ack { ack, request } => {
                 if !ack.ok {
                     let reason = match (ack.code, ack.reason) {
                         (Some(code), Some(words)) => format!("{code}: {words}"),
                         (Some(code), None) => format!("{code}: {}", explain(code)),
                         (None, words) => words.unwrap_or_else(|| "refused".into()),
                     };
-                    self.conclude(ack.id, Outcome::Rejected, Some(reason));
+                    self.conclude(id(request), Outcome::Rejected, Some(reason));
                 } else if self.pending.as_ref().is_some_and(|p| !p.command.durative()) {
-                    self.conclude(ack.id, Outcome::Done, None);
+                    self.conclude(id(request), Outcome::Done, None);
                 }
             }
-            ServerMessage::Result(result) => {
+            SessionEvent::Result { result, request } => {
                 let outcome = match result.outcome {
                     bw4t_protocol::Outcome::Arrived => Outcome::Arrived,
                     bw4t_protocol::Outcome::Collided => Outcome::Collided,
                     bw4t_protocol::Outcome::Superseded => Outcome::Superseded,
                 };
-                self.conclude(Some(result.id), outcome, None);
+                self.conclude(id(request), outcome, None);
             }
-            ServerMessage::MatchEnd(end) => self.end(format!("the match ended: {}", end.reason.as_str())),
-            ServerMessage::Bye(bye) => {
+            SessionEvent::MatchEnd(end) => self.end(format!("the match ended: {}", end.reason.as_str())),
+            SessionEvent::Bye(bye) => {
                 self.end(format!("the server closed the connection: {}", bye.reason.as_str()))
             }
-            ServerMessage::Error(error) if error.fatal => {
+            SessionEvent::Error(error) if error.fatal => {
                 self.end(format!("the server refused this player: {} ({})", error.message, error.code))
             }
-            ServerMessage::Error(_)
-            | ServerMessage::Pong(_)
-            | ServerMessage::Frame(_)
-            | ServerMessage::Lobby(_) => {}
+            SessionEvent::Welcome(_) | SessionEvent::Lobby(_) | SessionEvent::Error(_) => {}
         }
     }
 
@@ -307,14 +309,21 @@ impl Robot {
         self.end(format!("the connection to the match closed ({why})"));
     }
 
-    /// Queues a message of the driver's own (a `report`).
-    pub(crate) fn push(&mut self, message: ClientMessage) {
-        self.transmit.push_back(message);
+    /// Queues a `report` of how the robot is driven, unless the match is over.
+    pub(crate) fn report(&mut self, usage: PlayerUsage) {
+        if self.ended.is_none() {
+            self.session.report(usage);
+        }
     }
 
-    /// The next message to send.
-    pub(crate) fn poll_transmit(&mut self) -> Option<ClientMessage> {
-        self.transmit.pop_front()
+    /// Leaves the match with `bye`.
+    pub(crate) fn bye(&mut self) {
+        self.session.bye();
+    }
+
+    /// The next line to send, newline included.
+    pub(crate) fn poll_transmit(&mut self) -> Option<String> {
+        self.session.poll_transmit()
     }
 
     /// The next finished tool call.
@@ -325,9 +334,6 @@ impl Robot {
     fn on_percepts(&mut self, delta: &PerceptDelta) {
         self.tick = delta.tick;
         self.knowledge.apply(delta.tick, delta);
-        if self.lockstep() {
-            self.unanswered = Some(delta.tick);
-        }
         if !self.started {
             self.started = true;
             if let Some(command) = self.queued.take() {
@@ -357,9 +363,9 @@ impl Robot {
     }
 
     /// Notes how the command with act `id` ended (reported with the next percepts).
-    fn conclude(&mut self, id: Option<ActId>, outcome: Outcome, reason: Option<String>) {
+    fn conclude(&mut self, id: Option<u64>, outcome: Outcome, reason: Option<String>) {
         let Some(pending) = &mut self.pending else { return };
-        let ours = matches!((id, pending.act), (Some(ActId::Number(n)), Some(act)) if n == act);
+        let ours = id.is_some() && id == pending.act;
         if ours && pending.concluded.is_none() {
             pending.concluded = Some((outcome, reason));
         }
@@ -388,7 +394,6 @@ impl Robot {
             return;
         }
         self.ended = Some(reason.clone());
-        self.unanswered = None;
         if let Some(pending) = self.pending.take() {
             self.finish(pending, Outcome::MatchOver, Some(reason));
         } else if self.queued.take().is_some() {
@@ -398,13 +403,7 @@ impl Robot {
 
     /// Answers the last tick told, in lockstep.
     fn answer(&mut self) {
-        if let Some(tick) = self.unanswered.take() {
-            self.transmit.push_back(ClientMessage::ready(tick));
-        }
-    }
-
-    fn lockstep(&self) -> bool {
-        self.info.as_ref().is_some_and(|info| info.mode == Mode::Lockstep)
+        self.session.ready();
     }
 }
 

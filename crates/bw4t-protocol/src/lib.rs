@@ -10,6 +10,7 @@ mod messages;
 mod replay;
 mod result;
 mod schema;
+mod session;
 mod table;
 mod view;
 mod vocabulary;
@@ -25,6 +26,7 @@ pub use messages::*;
 pub use replay::{REPLAY_FORMAT, Recorder, ReplayEvent, ReplayHeader, ReplayLine, ReplayMeta};
 pub use result::{MatchResult, PlayerUsage, RobotExtra, RobotResult};
 pub use schema::schemas;
+pub use session::{ClientSession, Closed, Request, SessionError, SessionEvent, SessionOptions};
 pub use table::{
     ACTIONS, ActionRow, PERCEPTS, PerceptRow, Scope, SendType, action_row, percept_row, table_json,
 };

@@ -258,6 +258,16 @@ impl From<bw4t_sim::OrderOutcome> for Outcome {
     }
 }
 
+impl From<Outcome> for bw4t_sim::OrderOutcome {
+    fn from(outcome: Outcome) -> bw4t_sim::OrderOutcome {
+        match outcome {
+            Outcome::Arrived => bw4t_sim::OrderOutcome::Arrived,
+            Outcome::Collided => bw4t_sim::OrderOutcome::Collided,
+            Outcome::Superseded => bw4t_sim::OrderOutcome::Superseded,
+        }
+    }
+}
+
 words! {
     /// A robot's move state, as a frame shows it.
     MoveState {
@@ -336,6 +346,7 @@ mod tests {
         use bw4t_sim::OrderOutcome as O;
         for o in [O::Arrived, O::Collided, O::Superseded] {
             assert_eq!(Outcome::from(o).as_str(), o.name());
+            assert_eq!(bw4t_sim::OrderOutcome::from(Outcome::from(o)), o);
         }
         use bw4t_sim::MoveState as M;
         for m in [M::Arrived, M::Traveling, M::Collided] {

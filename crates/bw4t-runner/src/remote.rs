@@ -4,11 +4,7 @@
 use std::net::SocketAddr;
 
 use bw4t_agents::{ActionAck, Agent, Observation, OrderDone};
-use bw4t_protocol::{
-    ActId, ClientMessage, Hello, MatchResult, ServerMessage, act_message, decode_server, encode,
-    percepts_delta,
-};
-use bw4t_sim::OrderOutcome;
+use bw4t_protocol::{ClientSession, MatchResult, SessionEvent, SessionOptions};
 use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader};
 use tokio::net::TcpStream;
 
@@ -35,65 +31,57 @@ impl From<std::io::Error> for RemoteError {
 /// joins) and lets `agent` play until the match ends; returns the result the server sent.
 pub async fn play_remote(
     addr: SocketAddr,
-    hello: Hello,
+    options: SessionOptions,
     mut agent: Box<dyn Agent>,
 ) -> Result<MatchResult, RemoteError> {
     let stream = TcpStream::connect(addr).await?;
     stream.set_nodelay(true)?;
     let (reader, mut writer) = stream.into_split();
     let mut lines = BufReader::new(reader).lines();
-    writer.write_all(encode(&ClientMessage::Hello(hello)).as_bytes()).await?;
+    let mut session = ClientSession::new(options);
     let mut told = Observation::default();
-    let mut next_action = 0u64;
-    // `act` ids are the agent's action numbers, so acks and results map straight back.
-    while let Some(line) = lines.next_line().await? {
-        let message = decode_server(&line).map_err(|e| RemoteError::Protocol(e.to_string()))?;
-        match message {
-            ServerMessage::Ack(ack) => {
-                if let Some(ActId::Number(n)) = ack.id {
+    loop {
+        let out: String = std::iter::from_fn(|| session.poll_transmit()).collect();
+        writer.write_all(out.as_bytes()).await?;
+        let Some(line) = lines.next_line().await? else { break };
+        session.handle_line(&line).map_err(|e| RemoteError::Protocol(e.to_string()))?;
+        while let Some(event) = session.poll_event() {
+            // The agent numbers its actions from 0, the session its requests from 1, both in
+            // the order sent; the session sends nothing but the agent's actions.
+            match event {
+                SessionEvent::Ack { ack, request: Some(request) } => {
                     let result = if ack.ok {
                         Ok(())
                     } else {
                         Err(ack.code.map(|c| c.to_string()).unwrap_or_default())
                     };
-                    told.acks.push(ActionAck { action: n, result });
+                    told.acks.push(ActionAck { action: request.id - 1, result });
                 }
-            }
-            ServerMessage::Result(result) => {
-                let ActId::Number(n) = result.id else { continue };
-                let outcome = match result.outcome.as_str() {
-                    "arrived" => OrderOutcome::Arrived,
-                    "collided" => OrderOutcome::Collided,
-                    _ => OrderOutcome::Superseded,
-                };
-                told.done.push(OrderDone { action: n, outcome });
-            }
-            ServerMessage::Percepts(p) => {
-                let delta = percepts_delta(&p).map_err(|e| RemoteError::Protocol(e.to_string()))?;
-                // The same rule as in-process: decide when told something, or when the agent
-                // asked to be woken by now (on time if the hello asked for every tick).
-                let due = agent.wake_at().is_some_and(|tick| p.tick >= tick);
-                let decide = !delta.is_empty() || !told.done.is_empty() || due;
-                if !delta.is_empty() {
-                    told.percepts.push(delta);
+                SessionEvent::Result { result, request: Some(request) } => {
+                    told.done.push(OrderDone { action: request.id - 1, outcome: result.outcome.into() });
                 }
-                let mut out = String::new();
-                if decide {
-                    told.tick = p.tick;
-                    for action in agent.decide(&told) {
-                        out += &encode(&act_message(next_action, &action));
-                        next_action += 1;
+                SessionEvent::Percepts { delta, .. } => {
+                    // The same rule as in-process: decide when told something, or when the
+                    // agent asked to be woken by now (on time if the hello asked for every tick).
+                    let due = agent.wake_at().is_some_and(|tick| delta.tick >= tick);
+                    if !delta.is_empty() || !told.done.is_empty() || due {
+                        told.tick = delta.tick;
+                        if !delta.is_empty() {
+                            told.percepts.push(delta);
+                        }
+                        for action in agent.decide(&told) {
+                            session.act(&action);
+                        }
+                        told = Observation::default();
                     }
-                    told = Observation::default();
+                    session.ready();
                 }
-                out += &encode(&ClientMessage::ready(p.tick));
-                writer.write_all(out.as_bytes()).await?;
+                SessionEvent::MatchEnd(end) => return Ok(end.result),
+                SessionEvent::Error(e) if e.fatal => {
+                    return Err(RemoteError::Protocol(format!("{}: {}", e.code, e.message)));
+                }
+                _ => {}
             }
-            ServerMessage::MatchEnd(end) => return Ok(end.result),
-            ServerMessage::Error(e) if e.fatal => {
-                return Err(RemoteError::Protocol(format!("{}: {}", e.code, e.message)));
-            }
-            _ => {}
         }
     }
     Err(RemoteError::Protocol("the server closed the connection before the end".into()))

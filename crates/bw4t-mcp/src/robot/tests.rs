@@ -1,23 +1,35 @@
 //! The robot's rules, driven by hand-written server lines: what it sends, when it answers
 //! a tick, and how each kind of tool call ends.
 
-use bw4t_protocol::decode_server;
+use bw4t_protocol::SessionOptions;
 
 use super::{Busy, Command, Outcome, Robot};
 
 fn feed(robot: &mut Robot, line: &str) {
-    robot.handle(decode_server(line).expect("a server line"));
+    robot.handle_line(line);
 }
 
 fn sent(robot: &mut Robot) -> Vec<String> {
-    std::iter::from_fn(|| robot.poll_transmit()).map(|m| serde_json::to_string(&m).expect("json")).collect()
+    std::iter::from_fn(|| robot.poll_transmit()).map(|line| line.trim_end().to_string()).collect()
+}
+
+/// A robot whose `hello` (asking for every tick) is sent.
+fn new_robot() -> Robot {
+    let mut robot = Robot::new(SessionOptions::agent("Ann", None));
+    assert_eq!(
+        sent(&mut robot),
+        [
+            r#"{"type":"hello","protocol":"bw4t","versions":[1],"role":"agent","name":"Ann","every_tick":true}"#
+        ]
+    );
+    robot
 }
 
 const WELCOME: &str = r#"{"type":"welcome","version":1,"name":"Ann","robot":0,"session":"s","match":{"name":"default","map":"fixed","seed":1,"mode":"lockstep","tick_hz":20,"deadline_ms":0,"players_needed":1,"max_ticks":2000,"every_tick":true}}"#;
 const SNAPSHOT: &str = r#"{"type":"percepts","tick":0,"add":[["place","RoomA1"],["place","DropZone"],["ownName","Ann"],["bot",0],["sequence",["Red"]],["at","DropZone"],["in","DropZone"],["sequenceIndex",0],["state","arrived"]],"not":[],"full":true}"#;
 
 fn playing() -> Robot {
-    let mut robot = Robot::new();
+    let mut robot = new_robot();
     feed(&mut robot, WELCOME);
     feed(&mut robot, SNAPSHOT);
     assert!(sent(&mut robot).is_empty(), "nothing is answered before a tool call");
@@ -105,7 +117,7 @@ fn wait_ends_on_a_change_or_when_its_ticks_run_out() {
 
 #[test]
 fn a_call_before_the_start_waits_for_it_and_one_out_of_time_says_so() {
-    let mut robot = Robot::new();
+    let mut robot = new_robot();
     feed(&mut robot, WELCOME);
     robot.start(Command::GoTo("RoomA1".into())).expect("held");
     assert!(sent(&mut robot).is_empty(), "nothing to send before the first percepts");
@@ -133,7 +145,7 @@ fn the_match_end_ends_the_call_in_progress_and_every_later_one() {
 
 #[test]
 fn realtime_matches_are_never_answered_with_ready() {
-    let mut robot = Robot::new();
+    let mut robot = new_robot();
     feed(&mut robot, &WELCOME.replace("lockstep", "realtime"));
     feed(&mut robot, SNAPSHOT);
     robot.start(Command::GoTo("RoomA1".into())).expect("idle");
