@@ -53,6 +53,7 @@ const PAGE_FILES: &[(&str, &str, &str)] = &[
     ("/language.json", JSON, include_str!("../../../protocol/schema/language.json")),
     ("/client/beliefs.js", JS, include_str!("../../../protocol/clients/js/src/beliefs.js")),
     ("/client/table.js", JS, include_str!("../../../protocol/clients/js/src/table.js")),
+    ("/client/core.js", JS, include_str!("../../../protocol/clients/js/src/core.js")),
 ];
 
 /// Plain requests read or answered at once, by default; more are answered `503` at once.
