@@ -252,7 +252,7 @@ export class ActionHandle {
 export class Client extends EventEmitter {
   /** @type {net.Socket} */
   #socket;
-  /** The protocol session. */
+  /** The protocol session (core.js). @type {PlayerSession} */
   #core;
   #autoReady = true;
   /** Updates not yet taken by an iterator. @type {Update[]} */
