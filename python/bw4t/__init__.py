@@ -22,7 +22,7 @@ from the percept deltas and answer lockstep ``ready`` for the agent.
 from .aio import AsyncAction, AsyncClient
 from .beliefs import BeliefBase
 from .client import Action, Client
-from .core import DURATIVE_ACTIONS, VERSIONS, ProtocolCore
+from .core import DURATIVE_ACTIONS, VERSIONS, JoinOptions, ProtocolCore
 from .data import Ack, Fact, Lobby, MatchEnd, MatchInfo, Message, Result, Update, Welcome
 from .errors import (
     ActionLost,
@@ -56,6 +56,7 @@ __all__ = [
     "DURATIVE_ACTIONS",
     "Fact",
     "FatalServerError",
+    "JoinOptions",
     "Lobby",
     "MatchEnd",
     "MatchInfo",

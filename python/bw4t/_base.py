@@ -13,7 +13,7 @@ from __future__ import annotations
 from typing import Any, Callable, Dict, Generic, List, Optional, Tuple, TypeVar
 
 from .beliefs import BeliefBase
-from .core import ActionRecord, ProtocolCore
+from .core import ActionRecord, JoinOptions, ProtocolCore
 from .data import Lobby, MatchEnd, MatchInfo, Update, Welcome
 from .errors import Bw4tError, ConnectionClosed, ServerError
 
@@ -69,28 +69,11 @@ class ClientBase(Generic[A]):
     action records in its handle type (:meth:`_action_handle`).
     """
 
-    def __init__(
-        self,
-        host: str,
-        port: int,
-        name: Optional[str],
-        token: Optional[str],
-        every_tick: bool,
-        match: Optional[str] = None,
-        template: Optional[str] = None,
-        on_lobby: Optional[Callable[[Lobby], None]] = None,
-        words: bool = False,
-    ) -> None:
+    def __init__(self, host: str, port: int, options: JoinOptions) -> None:
         self.host = host
         self.port = port
-        self._name = name
-        self._token = token
-        self._every_tick = every_tick
-        self._words = words
-        self._match = match
-        self._template = template
+        self._options = options
         self._core = ProtocolCore()
-        self._core.on_lobby = on_lobby
 
     # ------------------------------------------------------------ transport
 
@@ -109,29 +92,21 @@ class ClientBase(Generic[A]):
 
     # ------------------------------------------------------------ connecting
 
-    def _send_hello(self, session: Optional[str], resume: bool) -> Callable[[], bool]:
-        """Send ``hello`` on a new connection; returns the condition that ends the
-        handshake (``welcome`` and the first full snapshot received).
-
-        ``resume``: taking the robot back, so the match is the one the session belongs
-        to (``welcome.match.name``), never a template.
-        """
-        if resume:
-            match, template = self._core.resume_match() or self._match, None
-        else:
-            match, template = self._match, self._template
-        hello, joined = self._core.begin_handshake(
-            self._name, self._token, session, self._every_tick, match, template, self._words
-        )
+    def _send_hello(self, options: JoinOptions) -> Callable[[], bool]:
+        """Send the ``hello`` of ``options`` on a new connection; returns the condition
+        that ends the handshake (``welcome`` and the first full snapshot received)."""
+        hello, joined = self._core.begin_handshake(options)
         self._send(hello)
         return joined
 
-    def _session_to_resume(self) -> str:
-        """The session token ``reconnect`` takes the robot back with."""
+    def _resume_options(self) -> JoinOptions:
+        """What ``reconnect`` says in its ``hello``: this client's options with its
+        session, in the match the session belongs to (``welcome.match.name``), never a
+        template."""
         session = self.session
         if session is None:
             raise Bw4tError("no session to reconnect with")
-        return session
+        return self._options.resuming(session, self._core.resume_match())
 
     def _flush_ready(self) -> None:
         """Send the ``ready`` still owed in lockstep, if any (a failure is noticed by
@@ -144,6 +119,11 @@ class ClientBase(Generic[A]):
                 pass
 
     # ------------------------------------------------------------------ info
+
+    @property
+    def options(self) -> JoinOptions:
+        """How this client joined (the name and token from ``BW4T_*`` filled in)."""
+        return self._options
 
     @property
     def welcome(self) -> Welcome:

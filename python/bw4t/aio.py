@@ -30,7 +30,7 @@ from ._base import ActionBase, ClientBase
 from .beliefs import BeliefBase
 from .core import (
     ActionRecord,
-    check_join,
+    JoinOptions,
     deadline_after,
     decode,
     encode,
@@ -78,19 +78,8 @@ class AsyncClient(ClientBase[AsyncAction]):
     :meth:`bw4t.Client.connect`). Use it as ``async with`` to close it at the end.
     """
 
-    def __init__(
-        self,
-        host: str,
-        port: int,
-        name: Optional[str],
-        token: Optional[str],
-        every_tick: bool,
-        match: Optional[str] = None,
-        template: Optional[str] = None,
-        on_lobby: Optional[Callable[[Lobby], None]] = None,
-        words: bool = False,
-    ) -> None:
-        super().__init__(host, port, name, token, every_tick, match, template, on_lobby, words)
+    def __init__(self, host: str, port: int, options: JoinOptions) -> None:
+        super().__init__(host, port, options)
         self._reader: Optional[asyncio.StreamReader] = None
         self._writer: Optional[asyncio.StreamWriter] = None
         self._task: Optional["asyncio.Task[None]"] = None
@@ -116,18 +105,19 @@ class AsyncClient(ClientBase[AsyncAction]):
         match: Optional[str] = None,
         template: Optional[str] = None,
         on_lobby: Optional[Callable[[Lobby], None]] = None,
+        options: Optional[JoinOptions] = None,
     ) -> "AsyncClient":
         """Connect and join a match; see :meth:`bw4t.Client.connect` (``on_lobby`` is a
         plain function, called from the task that reads the connection)."""
-        check_join(match, template)
-        host, port, name, token = resolve_address(host, port, name, token)
-        client = cls(host, port, name, token, every_tick, match, template, on_lobby, words)
-        await client._handshake(session, timeout)
+        join = JoinOptions.of(
+            options, name=name, token=token, session=session, every_tick=every_tick,
+            words=words, match=match, template=template, on_lobby=on_lobby,
+        ).from_environment()
+        client = cls(*resolve_address(host, port), join)
+        await client._handshake(join, timeout)
         return client
 
-    async def _handshake(
-        self, session: Optional[str], timeout: Optional[float], resume: bool = False
-    ) -> None:
+    async def _handshake(self, options: JoinOptions, timeout: Optional[float]) -> None:
         deadline = deadline_after(timeout)
         opening = asyncio.open_connection(self.host, self.port, limit=_LINE_LIMIT)
         reader, self._writer = await asyncio.wait_for(opening, timeout)
@@ -137,7 +127,7 @@ class AsyncClient(ClientBase[AsyncAction]):
         self._task = asyncio.ensure_future(self._read_loop(reader))
         core = self._core
         try:
-            joined = self._send_hello(session, resume)  # before the read task first runs
+            joined = self._send_hello(options)  # before the read task first runs
             await self._wait(core.seated_or_queued, time_left(deadline), False)
             if core.welcome is None:  # queued for a template: wait for a seat, unbounded
                 await self._wait(lambda: core.welcome is not None, None, False)
@@ -149,10 +139,10 @@ class AsyncClient(ClientBase[AsyncAction]):
 
     async def reconnect(self, timeout: Optional[float] = 30.0) -> Welcome:
         """Take the robot back after a drop; see :meth:`bw4t.Client.reconnect`."""
-        session = self._session_to_resume()
+        options = self._resume_options()
         await self._close_transport()
         self._core.connection_replaced()
-        await self._handshake(session, timeout, resume=True)
+        await self._handshake(options, timeout)
         return self.welcome
 
     async def close(self, bye: bool = True, timeout: float = 5.0) -> None:

@@ -21,7 +21,7 @@ from ._base import ActionBase, ClientBase
 from .beliefs import BeliefBase
 from .core import (
     ActionRecord,
-    check_join,
+    JoinOptions,
     deadline_after,
     decode,
     encode,
@@ -80,20 +80,8 @@ class Client(ClientBase[Action]):
     (non-fatal server errors), ``match_end`` (set when the match is over).
     """
 
-    def __init__(
-        self,
-        host: str,
-        port: int,
-        name: Optional[str],
-        token: Optional[str],
-        every_tick: bool,
-        timeout: Optional[float],
-        match: Optional[str] = None,
-        template: Optional[str] = None,
-        on_lobby: Optional[Callable[[Lobby], None]] = None,
-        words: bool = False,
-    ) -> None:
-        super().__init__(host, port, name, token, every_tick, match, template, on_lobby, words)
+    def __init__(self, host: str, port: int, options: JoinOptions, timeout: Optional[float]) -> None:
+        super().__init__(host, port, options)
         self._timeout = timeout
         self._sock: Optional[socket.socket] = None
         self._buffer = b""
@@ -115,6 +103,7 @@ class Client(ClientBase[Action]):
         match: Optional[str] = None,
         template: Optional[str] = None,
         on_lobby: Optional[Callable[[Lobby], None]] = None,
+        options: Optional[JoinOptions] = None,
     ) -> "Client":
         """Connect and join a match as a player.
 
@@ -133,21 +122,26 @@ class Client(ClientBase[Action]):
         match. Giving both raises :class:`ValueError` before connecting. ``on_lobby`` is
         called with every :class:`~bw4t.data.Lobby` received (also during ``connect``,
         while queued); an exception it raises ends the wait and closes the connection.
+
+        ``options``: all of ``name`` to ``on_lobby`` as one :class:`~bw4t.core.JoinOptions`
+        (then none of those arguments may be given).
         """
-        check_join(match, template)
-        host, port, name, token = resolve_address(host, port, name, token)
-        client = cls(host, port, name, token, every_tick, timeout, match, template, on_lobby, words)
-        client._handshake(session, timeout)
+        join = JoinOptions.of(
+            options, name=name, token=token, session=session, every_tick=every_tick,
+            words=words, match=match, template=template, on_lobby=on_lobby,
+        ).from_environment()
+        client = cls(*resolve_address(host, port), join, timeout)
+        client._handshake(join, timeout)
         return client
 
-    def _handshake(self, session: Optional[str], timeout: Optional[float], resume: bool = False) -> None:
+    def _handshake(self, options: JoinOptions, timeout: Optional[float]) -> None:
         deadline = deadline_after(timeout)
         self._buffer = b""
         self._sock = socket.create_connection((self.host, self.port), timeout=timeout)
         self._sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         core = self._core
         try:
-            joined = self._send_hello(session, resume)
+            joined = self._send_hello(options)
             self._wait(core.seated_or_queued, time_left(deadline), False)
             if core.welcome is None:  # queued for a template: wait for a seat, unbounded
                 self._wait(lambda: core.welcome is not None, None, False)
@@ -168,10 +162,10 @@ class Client(ClientBase[Action]):
         :class:`~bw4t.errors.FatalServerError` with ``bad_session`` when the grace
         period has passed.
         """
-        session = self._session_to_resume()
+        options = self._resume_options()
         self._close_socket()
         self._core.connection_replaced()
-        self._handshake(session, timeout, resume=True)
+        self._handshake(options, timeout)
         return self.welcome
 
     def close(self, bye: bool = True, timeout: float = 5.0) -> None:

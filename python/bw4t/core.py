@@ -12,7 +12,7 @@ import json
 import os
 import time
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Callable, Deque, Dict, List, Optional, Tuple
 
 from .beliefs import BeliefBase
@@ -36,19 +36,14 @@ DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 12300
 
 
-def resolve_address(
-    host: Optional[str], port: Optional[int], name: Optional[str], token: Optional[str]
-) -> Tuple[str, int, Optional[str], Optional[str]]:
-    """Fill missing connection settings from ``BW4T_HOST``, ``BW4T_PORT``, ``BW4T_NAME``
-    and ``BW4T_TOKEN`` (as set by ``bw4t run``), else the defaults ``127.0.0.1:12300``.
-    Empty variables count as unset."""
+def resolve_address(host: Optional[str], port: Optional[int]) -> Tuple[str, int]:
+    """Fill a missing address from ``BW4T_HOST`` and ``BW4T_PORT`` (as set by ``bw4t
+    run``), else the defaults ``127.0.0.1:12300``. Empty variables count as unset."""
     host = host or os.environ.get("BW4T_HOST") or DEFAULT_HOST
     if port is None:
         env_port = os.environ.get("BW4T_PORT")
         port = int(env_port) if env_port else DEFAULT_PORT
-    name = name or os.environ.get("BW4T_NAME") or None
-    token = token or os.environ.get("BW4T_TOKEN") or None
-    return host, int(port), name, token
+    return host, int(port)
 
 
 def check_join(match: Optional[str], template: Optional[str]) -> None:
@@ -59,6 +54,73 @@ def check_join(match: Optional[str], template: Optional[str]) -> None:
             f"give match= or template=, not both (match {match!r}, template {template!r}): "
             "match joins that live match, template queues for the next match of that template"
         )
+
+
+@dataclass(frozen=True)
+class JoinOptions:
+    """How a player joins a match: what its ``hello`` asks for, and who hears of the
+    ``lobby`` messages. One value for :meth:`bw4t.Client.connect`,
+    :meth:`bw4t.AsyncClient.connect` and :class:`ProtocolCore`, whose keyword arguments
+    of the same names are a shorthand for it.
+
+    ``match`` joins the live match of that name; ``template`` queues for the next match
+    of that template with a free seat; neither joins the server's default match. Giving
+    both raises :class:`ValueError`.
+    """
+
+    #: The player name wanted; ``None``: the server picks ``PlayerN``.
+    name: Optional[str] = None
+    #: The server's shared secret (``--token``).
+    token: Optional[str] = None
+    #: A ``session`` of an earlier ``welcome``: take that robot back.
+    session: Optional[str] = None
+    #: A ``percepts`` (so an update) every tick.
+    every_tick: bool = False
+    #: The robot's situation in English with every ``percepts``.
+    words: bool = False
+    #: The name of a live match to join.
+    match: Optional[str] = None
+    #: The name of a template: queued into its next match with a free seat.
+    template: Optional[str] = None
+    #: Called with each :class:`~bw4t.data.Lobby` as it is received.
+    on_lobby: Optional[Callable[[Lobby], None]] = None
+
+    def __post_init__(self) -> None:
+        check_join(self.match, self.template)
+
+    @classmethod
+    def of(cls, options: Optional["JoinOptions"] = None, **keywords: Any) -> "JoinOptions":
+        """``options``, or the options the keyword arguments name (those left at their
+        defaults are not counted); not both."""
+        given = {key: value for key, value in keywords.items() if value is not None and value is not False}
+        if options is None:
+            return cls(**given)
+        if given:
+            raise ValueError(f"give options= or its keyword arguments, not both (also given: {', '.join(given)})")
+        return options
+
+    def from_environment(self) -> "JoinOptions":
+        """The name and token not given taken from ``BW4T_NAME`` and ``BW4T_TOKEN`` (as
+        set by ``bw4t run``); empty variables count as unset."""
+        return replace(
+            self,
+            name=self.name or os.environ.get("BW4T_NAME") or None,
+            token=self.token or os.environ.get("BW4T_TOKEN") or None,
+        )
+
+    def resuming(self, session: str, match: Optional[str]) -> "JoinOptions":
+        """The options that take the robot of ``session`` back: in ``match``, the match
+        the session belongs to (else the one asked for), never by template."""
+        return replace(self, session=session, match=match or self.match, template=None)
+
+    def hello(self) -> Dict[str, Any]:
+        """The ``hello`` message (a player's); fields left at their defaults are left out."""
+        msg: Dict[str, Any] = {"type": "hello", "protocol": PROTOCOL, "versions": list(VERSIONS)}
+        for key in ("name", "token", "session", "every_tick", "words", "match", "template"):
+            value = getattr(self, key)
+            if value:
+                msg[key] = value
+        return msg
 
 
 def deadline_after(timeout: Optional[float]) -> Optional[float]:
@@ -210,44 +272,24 @@ class ProtocolCore:
         match: Optional[str] = None,
         template: Optional[str] = None,
         words: bool = False,
+        *,
+        options: Optional[JoinOptions] = None,
     ) -> Dict[str, Any]:
-        """The ``hello`` message (a player's), joining the live match ``match``, queued
-        for the template ``template``, or (neither) the server's default match.
-        ``words`` asks for the robot's situation in English with every ``percepts``.
+        """The ``hello`` message (a player's) of ``options``, or of the
+        :class:`JoinOptions` the other arguments name.
 
         Raises :class:`ValueError` if both ``match`` and ``template`` are given.
         """
-        check_join(match, template)
-        msg: Dict[str, Any] = {"type": "hello", "protocol": PROTOCOL, "versions": list(VERSIONS)}
-        if name:
-            msg["name"] = name
-        if token:
-            msg["token"] = token
-        if session:
-            msg["session"] = session
-        if every_tick:
-            msg["every_tick"] = True
-        if words:
-            msg["words"] = True
-        if match:
-            msg["match"] = match
-        if template:
-            msg["template"] = template
-        return msg
+        return JoinOptions.of(
+            options, name=name, token=token, session=session, every_tick=every_tick,
+            match=match, template=template, words=words,
+        ).hello()
 
-    def begin_handshake(
-        self,
-        name: Optional[str] = None,
-        token: Optional[str] = None,
-        session: Optional[str] = None,
-        every_tick: bool = False,
-        match: Optional[str] = None,
-        template: Optional[str] = None,
-        words: bool = False,
-    ) -> Tuple[Dict[str, Any], Callable[[], bool]]:
+    def begin_handshake(self, options: JoinOptions) -> Tuple[Dict[str, Any], Callable[[], bool]]:
         """Start over on a new connection: the ``hello`` to send, and the condition the
         handshake waits for (``welcome`` and the first full snapshot received)."""
-        hello = self.hello(name, token, session, every_tick, match, template, words)
+        hello = options.hello()
+        self.on_lobby = options.on_lobby
         self.welcome = None
         self.fatal = None
         self.in_queue = False

@@ -13,7 +13,7 @@ from typing import Callable, List
 
 import pytest
 
-from bw4t import AsyncClient, Client, FatalServerError, Lobby, ProtocolCore, Timeout
+from bw4t import AsyncClient, Client, FatalServerError, JoinOptions, Lobby, ProtocolCore, Timeout
 from fake_server import FakeConnection, FakeServer, fatal, lobby, snapshot, welcome
 from conftest import WAIT, Server, run_threads
 
@@ -110,6 +110,51 @@ def test_async_reconnect_names_the_sessions_match(fake_server: FakeFn) -> None:
     first, second = server.next_connection().received[0], server.next_connection().received[0]
     assert first["template"] == "ladder" and "match" not in first
     assert second["match"] == "ladder-4" and "template" not in second and second["session"]
+
+
+def test_join_options_say_what_the_keyword_arguments_say(fake_server: FakeFn) -> None:
+    server = fake_server(lambda conn: seat(conn, match="ladder-3", template="ladder"))
+    seen: List[Lobby] = []
+    options = JoinOptions(name="Ann", template="ladder", words=True, every_tick=True, on_lobby=seen.append)
+    client = Client.connect(server.host, server.port, options=options, timeout=WAIT)
+    client.close(bye=False)
+    by_keywords = Client.connect(
+        server.host, server.port, name="Ann", template="ladder", words=True, every_tick=True, timeout=WAIT
+    )
+    by_keywords.close(bye=False)
+    first, second = server.next_connection().received[0], server.next_connection().received[0]
+    assert first == second == options.hello()
+    assert first["template"] == "ladder" and first["words"] is True and first["every_tick"] is True
+    assert client.options == options and by_keywords.options == JoinOptions(
+        name="Ann", template="ladder", words=True, every_tick=True
+    )
+    assert ProtocolCore().hello(options=options) == ProtocolCore().hello("Ann", every_tick=True, template="ladder", words=True)
+
+
+def test_join_options_refuse_what_cannot_go_together(fake_server: FakeFn) -> None:
+    with pytest.raises(ValueError, match="not both"):
+        JoinOptions(match="team-a", template="ladder")
+    server = fake_server(lambda conn: seat(conn))
+    with pytest.raises(ValueError, match="options= or its keyword arguments"):
+        Client.connect(server.host, server.port, name="Bob", options=JoinOptions(name="Ann"), timeout=WAIT)
+
+    async def main() -> None:
+        await AsyncClient.connect(server.host, server.port, words=True, options=JoinOptions(), timeout=WAIT)
+
+    with pytest.raises(ValueError, match="options= or its keyword arguments"):
+        asyncio.run(main())
+    # Neither attempt connected: the first connection the server sees is this one.
+    Client.connect(server.host, server.port, options=JoinOptions(name="Cy"), timeout=WAIT).close(bye=False)
+    assert server.next_connection().received[0]["name"] == "Cy"
+
+
+def test_join_options_resuming_keep_all_but_the_template() -> None:
+    options = JoinOptions(name="Ann", token="secret", template="ladder", words=True)
+    resumed = options.resuming("00112233445566778899aabb", "ladder-3")
+    assert resumed == JoinOptions(
+        name="Ann", token="secret", session="00112233445566778899aabb", match="ladder-3", words=True
+    )
+    assert JoinOptions(match="team-a").resuming("s", None).match == "team-a"
 
 
 def lobby_script(conn: FakeConnection) -> None:

@@ -1,6 +1,7 @@
 // A person plays from the page: joins with the form, drives the robot with clicks and keys,
 // fetches a block of the needed colour and delivers it, beside a built-in agent, in the one
-// match of `bw4t serve --once` (the page at / shows it; no lobby).
+// match of `bw4t serve --once` (the page at / shows it; no lobby). And alone in a lockstep
+// match that waits every tick for the page's `ready`.
 
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
@@ -170,5 +171,40 @@ test('a human joins from the page and delivers a block beside a built-in agent',
     assert.deepEqual(browser.errors, []);
   } finally {
     await screenshot(page, 'player');
+  }
+});
+
+test('in a lockstep match the page answers every tick with one ready', { timeout: 120_000 }, async (t) => {
+  const dir = tempDir('player-lockstep');
+  t.after(() => fs.rmSync(dir, { recursive: true, force: true }));
+  const mapFile = path.join(dir, 'two-reds.toml');
+  fs.writeFileSync(mapFile, MAP);
+  // Every tick waits for the player's ready, for ever: the clock moves only as the page answers.
+  const server = await startBw4t([
+    'serve', '--once', '--http', '0', '--port', '0', '--map', mapFile, '--robots', '1',
+    '--mode', 'lockstep', '--deadline-ms', '0', '--every-tick', '--seed', '1', '--max-ticks', '100000',
+  ]);
+  t.after(() => stop(server.proc));
+  const browser = await openBrowser();
+  t.after(() => browser.close());
+  const { page } = browser;
+
+  try {
+    await page.goto(server.url);
+    await page.waitForSelector('#status[data-status="connected"]');
+    await page.fill('#join-name', 'Lena');
+    await page.click('#join-button');
+    await page.waitForFunction(() => document.querySelector('#at').textContent.trim() === 'Hall');
+    await waitForNumber(page, '#tick', { above: 20 });
+
+    // An order is carried out over the ticks the page answers.
+    await page.locator('[data-place="RoomA"]').dispatchEvent('click');
+    assert.deepEqual(await outcome(page, 'goTo', 30_000), { kind: 'result', outcome: 'arrived' });
+    assert.equal(await text(page, '#in'), 'RoomA');
+    // No ready was late, early or missing: the server reported no error.
+    assert.equal(await page.locator('#log li[data-kind="error"]').count(), 0, await text(page, '#log'));
+    assert.deepEqual(browser.errors, []);
+  } finally {
+    await screenshot(page, 'player-lockstep');
   }
 });

@@ -8,12 +8,13 @@ function socketUrl() {
   return `${location.protocol === 'https:' ? 'wss' : 'ws'}://${location.host}/ws`;
 }
 
-/** Opens the WebSocket, says `hello` and hands every server message to onMessage.
- * The contract is one message per text frame; several lines in one frame are accepted
- * too, as the TCP protocol would send them. */
+/** Opens the WebSocket, says `hello` (a message, or its JSON line) once it is open and
+ * hands every server message to onMessage. The contract is one message per text frame;
+ * several lines in one frame are accepted too, as the TCP protocol would send them.
+ * What is sent before the socket is open, or after it closed, is dropped. */
 export function openSocket(hello, onMessage, onClose) {
   const ws = new WebSocket(socketUrl());
-  ws.addEventListener('open', () => ws.send(JSON.stringify(hello)));
+  ws.addEventListener('open', () => ws.send(typeof hello === 'string' ? hello : JSON.stringify(hello)));
   ws.addEventListener('message', (event) => {
     if (typeof event.data !== 'string') return;
     for (const line of event.data.split('\n')) {
@@ -29,11 +30,15 @@ export function openSocket(hello, onMessage, onClose) {
     }
   });
   ws.addEventListener('close', (event) => onClose(event));
+  const sendLine = (line) => {
+    if (ws.readyState === WebSocket.OPEN) ws.send(line);
+  };
   return {
     ws,
     send(message) {
-      if (ws.readyState === WebSocket.OPEN) ws.send(JSON.stringify(message));
+      sendLine(JSON.stringify(message));
     },
+    sendLine,
     close() {
       ws.close();
     },
@@ -52,12 +57,16 @@ export function operatorToken() {
   return params.get(TOKEN_PARAMS.operator) || (page.lobby ? sessionStorage.getItem(OPERATOR_TOKEN_KEY) : null) || null;
 }
 
-/** A `hello` with the credential of its role from the page's address (the operator's
- * also from the lobby), if given. */
+/** The credential of a role (`agent`, `spectator`, `operator`) from the page's address
+ * (the operator's also from the lobby), or null. */
+export function tokenOf(role) {
+  return (role === 'operator' ? operatorToken() : params.get(TOKEN_PARAMS[role])) || null;
+}
+
+/** A `hello` with the credential of its role, if given. */
 export function helloFor(extra) {
   const hello = { type: 'hello', protocol: 'bw4t', versions: [1], ...extra };
-  const role = extra.role || 'agent';
-  const token = role === 'operator' ? operatorToken() : params.get(TOKEN_PARAMS[role]);
+  const token = tokenOf(extra.role || 'agent');
   if (token) hello.token = token;
   return hello;
 }

@@ -1,11 +1,13 @@
 // The human player: a person drives one robot and sees only what its percepts say.
 //
-// The beliefs are the JavaScript client's own belief base (protocol/clients/js, served at
-// /client/), kept exactly as protocol/README.md says: a full snapshot clears them; `not`
-// facts are removed, then `add` facts stored; `at`, `state` and `sequenceIndex` are
-// single-valued; `message` facts are events, shown once and never stored. The view shows
-// only these beliefs and the colours of blocks seen earlier, which the player was told
-// and may remember (Beliefs.colourOf).
+// The protocol is the JavaScript client's own session (protocol/clients/js/src/core.js,
+// served at /client/ with the files it imports), driven over the WebSocket: it builds the
+// hello, numbers the actions, matches acks and results to them and says when `ready` is
+// due. Its beliefs are kept exactly as protocol/README.md says: a full snapshot clears
+// them; `not` facts are removed, then `add` facts stored; `at`, `state` and
+// `sequenceIndex` are single-valued; `message` facts are events, shown once and never
+// stored. The view shows only these beliefs and the colours of blocks seen earlier, which
+// the player was told and may remember (Beliefs.colourOf).
 //
 // The hello asks for `words` (not when embedded, unless the embedding page's hello does):
 // each `percepts` then carries the robot's situation in English, the same text language
@@ -17,14 +19,14 @@
 // benchmarks. Embedded in the study page, the view reports what happens (embed.js).
 
 import { Beliefs } from './client/beliefs.js';
-import { DURATIVE } from './client/table.js';
+import { PlayerSession } from './client/core.js';
 import { $, el, linkTo, setText } from './dom.js';
 import { loadMap, page, setView } from './page.js';
 import { zoneAt } from './geometry.js';
 import { colourCss, perceivedScene, visibleBlocks } from './renderer.js';
 import { sentenceOf } from './language.js';
 import { addMessage, endMatch, log, setStatus, setTick, setWatchNote, showMatch, showSequence } from './panels.js';
-import { helloFor, openSocket } from './connection.js';
+import { helloFor, openSocket, tokenOf } from './connection.js';
 import { spectator, spectatorScene, startSpectator, stopSpectator } from './spectator.js';
 import { hideWaiting, showLobby, showRefusal } from './waiting.js';
 import { embedded, report, setReportTick } from './embed.js';
@@ -48,13 +50,17 @@ const latency = {
 };
 window.bw4tLatency = latency;
 
+/** The beliefs shown before any join. */
+const noBeliefs = new Beliefs();
+
 export const player = {
   socket: null,
+  core: null, // the protocol session over `socket`; its requests' tags: {words, say, inputAt}
   name: null,
   robot: null,
-  beliefs: new Beliefs(),
-  nextId: 1,
-  pending: new Map(), // request id -> {words, durative, say, inputAt}: for the log until answered
+  get beliefs() {
+    return this.core?.beliefs ?? noBeliefs;
+  },
   retriedWithName: false,
   extra: {}, // more fields of the hello (the study page's)
   overviewSocket: null, // the overview's frames, when the player sees the whole map
@@ -95,28 +101,47 @@ export function joinAsPlayer(name, template = null, extra = {}) {
 
 /** Where a player's `hello` asks to play: the named match, a template, or neither. */
 function destination() {
-  if (page.matchName) return { ...player.extra, match: page.matchName };
-  if (player.template) return { ...player.extra, template: player.template };
-  return { ...player.extra };
+  if (page.matchName) return { match: page.matchName };
+  if (player.template) return { template: player.template };
+  return {};
 }
 
-/** Opens a player's WebSocket with fresh beliefs; `identity`: `{name}` or `{session}`. */
+/** Opens a player's WebSocket with a new protocol session (fresh beliefs); `identity`:
+ * `{name}` or `{session}`. The embedding page's fields go into the hello too, over the
+ * page's own choices (but the token of the page's address, and where to play). */
 function connectPlayer(identity) {
-  player.beliefs = new Beliefs();
   stopOverview();
+  const hello = { words: !embedded, ...identity, ...player.extra, ...destination() };
+  const { name, session, words, match, template, token = null, ...fields } = hello;
+  const core = new PlayerSession({ name, session, words, match, template, token: tokenOf('agent') ?? token, fields });
+  core.start();
+  const [helloLine] = core.takeLines();
   // Messages from a socket that was replaced (its trailing `bye`) are not this player's.
   const onMessage = (message) => player.socket === socket && onPlayerMessage(message);
-  const hello = helloFor({ words: !embedded, ...identity, ...destination() });
-  const socket = openSocket(hello, onMessage, () => {
+  const socket = openSocket(helloLine, onMessage, () => {
     if (player.socket !== socket) return; // replaced on purpose (a new join, a retry)
     if (!page.ended && $('#status').dataset.status !== 'error') setStatus('disconnected');
     if (!page.ended) log('error', 'connection closed');
   });
   player.socket = socket;
+  player.core = core;
 }
 
+/** Sends what the protocol session has to send. */
+function flush() {
+  for (const line of player.core.takeLines()) player.socket.sendLine(line);
+}
+
+/** A server message: through the protocol session, then shown. */
 function onPlayerMessage(message) {
-  switch (message.type) {
+  const core = player.core;
+  for (const event of core.receive(message)) onPlayerEvent(event, message);
+  if (player.core === core) flush(); // not after a retry replaced the connection
+}
+
+/** What the protocol session made of `message`. */
+function onPlayerEvent(event, message) {
+  switch (event.type) {
     case 'welcome':
       player.name = message.name;
       player.robot = message.robot;
@@ -128,7 +153,7 @@ function onPlayerMessage(message) {
         page.matchName = message.match.name;
         if (!embedded) history.replaceState(null, '', linkTo({ match: page.matchName, play: message.name }));
       }
-      sessionStorage.setItem(sessionKey(message.name), message.session);
+      sessionStorage.setItem(sessionKey(message.name), player.core.session);
       showMatch(message.match);
       setText($('#me'), `${message.name} (robot ${message.robot})`);
       setStatus('connected');
@@ -151,30 +176,27 @@ function onPlayerMessage(message) {
       onPercepts(message);
       break;
     case 'ack': {
-      const request = player.pending.get(message.id) || { words: `#${message.id ?? '?'}` };
+      const action = event.request?.action;
+      const request = event.request?.tag ?? { words: `#${message.id ?? '?'}` };
       if (request.inputAt !== undefined) latency.samples.push(performance.now() - request.inputAt);
       report('ack', { id: message.id, ok: message.ok, ...(message.ok ? {} : { code: message.code }) });
       if (message.ok) {
-        log('ok', `${request.words}: accepted`, message.tick, { action: request.action });
+        log('ok', `${request.words}: accepted`, message.tick, { action });
         // Players are not sent their own messages: show an accepted one in the chat here.
         if (request.say) addMessage(message.tick, player.name, request.say.to, request.say.text, request.say.said);
-        // A durative order stays pending until its result; anything else is done.
-        if (!request.durative) player.pending.delete(message.id);
       } else {
         log('reject', `${request.words}: rejected, ${message.code}: ${message.reason || ''}`, message.tick, {
-          action: request.action,
+          action,
           code: message.code,
         });
-        player.pending.delete(message.id);
       }
       break;
     }
     case 'result': {
-      const request = player.pending.get(message.id) || { words: `#${message.id}` };
-      player.pending.delete(message.id);
+      const request = event.request?.tag ?? { words: `#${message.id}` };
       report('done', { id: message.id, outcome: message.outcome });
       log('result', `${request.words}: ${message.outcome}`, message.tick, {
-        action: request.action,
+        action: event.request?.action,
         outcome: message.outcome,
       });
       break;
@@ -235,13 +257,13 @@ function onPlayerError(message) {
   setStatus('error', message.code);
 }
 
-/** A `percepts`: the beliefs, the messages in it, `ready`, the panels. */
+/** A `percepts` (the session has applied it to the beliefs): the messages in it,
+ * `ready`, the panels. */
 function onPercepts(percepts) {
   setReportTick(percepts.tick);
   if (percepts.full || percepts.add?.length || percepts.not?.length) {
     report('percepts', { full: percepts.full === true, add: percepts.add || [], del: percepts.not || [] });
   }
-  player.beliefs.apply(percepts);
   // Messages are events in `add`: `["message", from, text]`, or for a message of the
   // language `["message", from, sentence, said]` (read here, whatever the belief base keeps).
   for (const fact of percepts.add || []) {
@@ -253,8 +275,8 @@ function onPercepts(percepts) {
       sentence: line.sentence,
     });
   }
-  // In lockstep the match waits for this; in realtime it is accepted and ignored.
-  player.socket.send({ type: 'ready', tick: percepts.tick });
+  // In lockstep the match waits for this (the session sends it only then).
+  player.core.ready(percepts.tick);
   setTick(percepts.tick, page.match ? percepts.tick / page.match.tick_hz : undefined);
   if (typeof percepts.words === 'string') showWords(percepts);
   showPlayerPanel();
@@ -431,14 +453,21 @@ function reportInput(input) {
 function act(action, args = [], input = null) {
   if (!player.socket || page.ended) return;
   reportInput(input);
-  const id = player.nextId++;
   let words = [action, ...args].join(' ');
   const colour = action === 'goToBlock' ? player.beliefs.colourOf(args[0]) : undefined;
   if (colour) words += ` (${colour})`;
-  player.pending.set(id, { words, action, durative: DURATIVE.has(action), inputAt: input?.at });
-  player.socket.send({ type: 'act', id, action, args });
-  report('act', { id, action, args });
-  log('sent', words, undefined, { action });
+  sent(player.core.act(action, args, { words, inputAt: input?.at }), words, args);
+}
+
+/** A request the protocol session made: sent and logged, or why it could not be. */
+function sent(request, words, args) {
+  if (request.failure) {
+    log('error', `${words}: not sent, ${request.failure.message}`, undefined, { action: request.action });
+    return;
+  }
+  flush();
+  report('act', { id: request.id, action: request.action, args });
+  log('sent', words, undefined, { action: request.action });
 }
 
 /** Sends a message (`to`: a player's name or `all`): `said`, a message of the language,
@@ -446,14 +475,17 @@ function act(action, args = [], input = null) {
 function say(to, { said = null, text = null }, input = null) {
   if (!player.socket || page.ended) return;
   reportInput(input);
-  const id = player.nextId++;
   const content = said ? { said } : { text };
   const words = `say to ${to}: ${said ? sentenceOf(said) || JSON.stringify(said) : text}`;
-  player.pending.set(id, { words, action: 'say', say: { to, text: text ?? '', said }, inputAt: input?.at });
-  player.socket.send({ type: 'say', id, to, ...content });
-  report('act', { id, action: 'say', args: [to, said || text] });
-  report('message_sent', { to, ...content });
-  log('sent', words, undefined, { action: 'say' });
+  let request;
+  try {
+    request = player.core.say(to, said || text, { words, say: { to, text: text ?? '', said }, inputAt: input?.at });
+  } catch (err) {
+    log('error', `${words}: not sent, ${err.message}`, undefined, { action: 'say' }); // over the line limit
+    return;
+  }
+  sent(request, words, [to, said || text]);
+  if (!request.failure) report('message_sent', { to, ...content });
 }
 
 /** The controls: buttons, keys, clicks on the map, the join and chat forms. */

@@ -39,6 +39,7 @@ const PAGE_FILES: &[(&str, &str, &str)] = &[
     ("/language.json", JSON, include_str!("../../../../protocol/schema/language.json")),
     ("/client/beliefs.js", JS, include_str!("../../../../protocol/clients/js/src/beliefs.js")),
     ("/client/table.js", JS, include_str!("../../../../protocol/clients/js/src/table.js")),
+    ("/client/core.js", JS, include_str!("../../../../protocol/clients/js/src/core.js")),
 ];
 
 /// What the web server serves besides the page.

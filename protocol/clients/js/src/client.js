@@ -1,14 +1,17 @@
-// A player connection to a bw4t server: handshake, belief base, actions, messages,
-// lockstep pacing and per-tick updates. Written from protocol/PROTOCOL.md.
+// A player connection to a bw4t server over TCP: the promises, the per-tick update
+// iterator and the timing of lockstep `ready`s around the protocol session of core.js,
+// which does the protocol itself. Written from protocol/PROTOCOL.md.
 
 import net from 'node:net';
 import { EventEmitter } from 'node:events';
-import { Beliefs } from './beliefs.js';
-import { DURATIVE } from './table.js';
+import { PlayerSession, joinConflict } from './core.js';
 import { BW4TError, ActionRejected } from './errors.js';
 
 /** @typedef {import('./beliefs.js').Fact} Fact */
 /** @typedef {import('./beliefs.js').ChatMessage} ChatMessage */
+/** @typedef {import('./beliefs.js').Beliefs} Beliefs */
+/** @typedef {import('./core.js').Update} Update */
+/** @typedef {import('./core.js').SessionError} SessionError */
 
 /**
  * @typedef {object} ConnectOptions
@@ -127,27 +130,6 @@ import { BW4TError, ActionRejected } from './errors.js';
  */
 
 /**
- * Everything one tick brought: the messages received since the previous update,
- * ended by that tick's `percepts`.
- * @typedef {object} Update
- * @property {number} tick the tick of the `percepts`
- * @property {boolean} full whether it was a full snapshot
- * @property {Fact[]} add the `add` list as received (messages included)
- * @property {Fact[]} not the `not` list as received
- * @property {ChatMessage[]} messages the `message` events, oldest first
- * @property {Ack[]} acks acks received since the previous update
- * @property {ActResult[]} results results received since the previous update
- * @property {ServerErrorMessage[]} errors non-fatal errors received since the previous update
- * @property {string|null} words the `percepts`' `words`: the robot's situation after it in
- *   a few short lines of English, for people and language models (the wording may change
- *   between releases); `null` unless connected with `words: true`
- * @property {Beliefs} beliefs the client's belief base (live: the state after this update
- *   unless later updates are already queued)
- */
-
-const MAX_LINE_BYTES = 65536;
-
-/**
  * `setTimeout`, or nothing for an endless wait (`Infinity`).
  * @param {number} ms
  * @param {() => void} fire
@@ -158,18 +140,11 @@ function timer(ms, fire) {
 }
 
 /**
- * Refuse a `hello` that names both a match and a template (the server would answer
- * `bad_message`): a player joins one match, or is queued for a template.
- * @param {{match?: string, template?: string}} options
+ * The `BW4TError` of a session's error.
+ * @param {SessionError} error
  */
-function checkJoin({ match, template }) {
-  if (match && template) {
-    throw new BW4TError(
-      'bad_options',
-      `give match or template, not both (match "${match}", template "${template}"): match joins ` +
-        'that live match, template queues for the next match of that template',
-    );
-  }
+function errorOf(error) {
+  return new BW4TError(error.code, error.message, { fatal: error.fatal });
 }
 
 /**
@@ -201,20 +176,16 @@ class Deferred {
  * connection or the match ends first.
  */
 export class ActionHandle {
-  /**
-   * @param {number} id
-   * @param {string} action
-   * @param {any[]} args
-   */
-  constructor(id, action, args) {
+  /** @param {import('./core.js').Request} request */
+  constructor(request) {
     /** The request id. */
-    this.id = id;
+    this.id = request.id;
     /** The action (`say` for `say`). */
-    this.action = action;
+    this.action = request.action;
     /** The arguments. */
-    this.args = args;
+    this.args = request.args;
     /** Whether the action has a `result` (goTo, goToBlock). */
-    this.durative = DURATIVE.has(action);
+    this.durative = request.durative;
     /** @type {Deferred<Ack>} */
     this._ack = new Deferred();
     /** @type {Deferred<ActResult|null>} */
@@ -281,18 +252,8 @@ export class ActionHandle {
 export class Client extends EventEmitter {
   /** @type {net.Socket} */
   #socket;
-  #buffer = '';
-  #nextId = 1;
-  /** @type {Map<number|string, ActionHandle>} */
-  #handles = new Map();
-  /** Handles whose `result` arrived (or accepted pickUp/putDown), settled when the tick's `percepts` arrives. @type {Array<[ActionHandle, ActResult|null]>} */
-  #resultsToSettle = [];
-  /** What arrived since the last `percepts`. */
-  #group = { acks: /** @type {Ack[]} */ ([]), results: /** @type {ActResult[]} */ ([]), errors: /** @type {ServerErrorMessage[]} */ ([]) };
-  /** The tick of the last `percepts` received. */
-  #lastTick = -1;
-  /** Whether a `percepts` arrived that no `ready` sent after it answers yet. */
-  #unanswered = false;
+  /** The protocol session (core.js). @type {PlayerSession} */
+  #core;
   #autoReady = true;
   /** Updates not yet taken by an iterator. @type {Update[]} */
   #queue = [];
@@ -303,54 +264,77 @@ export class Client extends EventEmitter {
   #handling = null;
   /** The last update built. @type {Update|null} */
   #latest = null;
-  /** @type {Array<Deferred<Update>>} */
-  #resyncs = [];
-  /** @type {Array<[any, Deferred<object>]>} */
-  #pings = [];
   /** @type {Deferred<Client>} */
   #handshake = new Deferred();
-  #joined = false;
-  /** The options given to `connect()` (defaults resolved), for `reconnect()`. @type {ConnectOptions} */
+  /** The options given to `connect()`, defaults resolved. @type {ConnectOptions} */
   #options;
   /** The handshake's timer; stopped while queued for a template. @type {NodeJS.Timeout|undefined} */
   #handshakeTimer;
-  #queued = false;
   /** @type {Deferred<MatchResult|null>} */
   #finished = new Deferred();
-  #ended = false;
-  #byeSent = false;
   /** @type {Deferred<void>} */
   #closedDeferred = new Deferred();
 
-  /** The belief base, kept from every `percepts`. */
-  beliefs = new Beliefs();
+  /** `error`, once made. @type {BW4TError|null} */
+  #error = null;
+
+  /** Whether the connection is closed. */
+  closed = false;
+
+  /** The fatal error that ended the connection, if any. @type {BW4TError|null} */
+  get error() {
+    const failure = this.#core.error;
+    if (failure) this.#error ??= errorOf(failure);
+    return this.#error;
+  }
+
+  /** The belief base, kept from every `percepts`. @type {Beliefs} */
+  get beliefs() {
+    return this.#core.beliefs;
+  }
   /** The `welcome` message. @type {Welcome|null} */
-  welcome = null;
+  get welcome() {
+    return this.#core.welcome;
+  }
   /** The player's name. @type {string|null} */
-  name = null;
+  get name() {
+    return this.#core.name;
+  }
   /** The robot's id. @type {number|null} */
-  robot = null;
+  get robot() {
+    return this.#core.robot;
+  }
   /** The session, for reconnecting. @type {string|null} */
-  session = null;
+  get session() {
+    return this.#core.session;
+  }
   /** About the match (`welcome.match`). @type {MatchInfo|null} */
-  match = null;
+  get match() {
+    return this.#core.match;
+  }
   /** The latest `lobby` received (kept after the match started). @type {Lobby|null} */
-  lobby = null;
+  get lobby() {
+    return this.#core.lobby;
+  }
   /** The tick of the last `percepts` received. @type {number|null} */
-  tick = null;
+  get tick() {
+    return this.#core.tick;
+  }
   /**
    * The robot's situation in words from the last `percepts` received (`I am Ann (robot 0),
    * in RoomC1. ...`), or `null` (not connected with `words: true`). @type {string|null}
    */
-  words = null;
+  get words() {
+    return this.#core.words;
+  }
   /** The match result, once `match_end` arrived. @type {MatchResult|null} */
-  result = null;
+  get result() {
+    return this.#core.result;
+  }
   /** `match_end.reason`: `completed`, `max_ticks` or `interrupted`. @type {string|null} */
-  endReason = null;
-  /** The fatal error that ended the connection, if any. @type {BW4TError|null} */
-  error = null;
-  /** Whether the connection is closed. */
-  closed = false;
+  get endReason() {
+    return this.#core.endReason;
+  }
 
   /**
    * Connect, say `hello` and wait for `welcome` and the first snapshot.
@@ -367,7 +351,8 @@ export class Client extends EventEmitter {
     if (!Number.isInteger(port) || port < 0 || port > 65535) {
       throw new BW4TError('connect_failed', `bad port ${String(options.port ?? env.BW4T_PORT)}`);
     }
-    checkJoin(options);
+    const conflict = joinConflict(options);
+    if (conflict) throw new BW4TError('bad_options', conflict);
     const socket = await new Promise((resolve, reject) => {
       const s = net.connect({ host, port });
       const connecting = timer(timeoutMs, () => {
@@ -386,18 +371,8 @@ export class Client extends EventEmitter {
     });
     const resolved = { ...options, host, port, name, token, timeoutMs };
     const client = new Client(socket, options.autoReady ?? true, resolved);
-    client.#send({
-      type: 'hello',
-      protocol: 'bw4t',
-      versions: [1],
-      name,
-      token,
-      session: options.session,
-      every_tick: options.everyTick ? true : undefined,
-      words: options.words ? true : undefined,
-      match: options.match || undefined,
-      template: options.template || undefined,
-    });
+    client.#core.start();
+    client.#flush();
     client.#armHandshakeTimer();
     try {
       return await client.#handshake.promise;
@@ -431,8 +406,7 @@ export class Client extends EventEmitter {
   async reconnect(options = {}) {
     if (!this.session) throw new BW4TError('not_connected', 'no session to reconnect with');
     this.close();
-    const { template: _template, ...kept } = this.#options;
-    return Client.connect({ ...kept, session: this.session, match: this.match?.name || kept.match, ...options });
+    return Client.connect(this.#core.reconnectOptions(options));
   }
 
   /**
@@ -446,40 +420,51 @@ export class Client extends EventEmitter {
     this.#socket = socket;
     this.#autoReady = autoReady;
     this.#options = options;
+    this.#core = new PlayerSession(options);
     socket.setNoDelay(true);
     socket.setEncoding('utf8');
-    socket.on('data', (chunk) => this.#onData(String(chunk)));
+    socket.on('data', (chunk) => {
+      for (const event of this.#core.receiveChunk(String(chunk))) this.#onEvent(event);
+    });
     socket.on('error', (err) => {
-      if (!this.error && !this.#ended && !this.#byeSent) {
-        this.error = new BW4TError('connection_closed', `connection failed: ${err.message}`, { cause: err });
-      }
+      const before = this.#core.error;
+      this.#core.lost(`connection failed: ${err.message}`);
+      const failure = this.#core.error;
+      if (failure && failure !== before) this.#error = new BW4TError(failure.code, failure.message, { cause: err });
     });
     socket.on('close', () => this.#onClose());
   }
 
   // ---- sending -------------------------------------------------------------------
 
-  /**
-   * @param {object} message
-   * @returns {boolean} whether it was written
-   */
-  #send(message) {
-    const line = JSON.stringify(message);
-    if (Buffer.byteLength(line) > MAX_LINE_BYTES) {
-      throw new RangeError(`message of ${Buffer.byteLength(line)} bytes is longer than the protocol's 64 KiB line limit`);
-    }
-    if (this.closed || this.#socket.destroyed || !this.#socket.writable) return false;
-    this.#socket.write(line + '\n');
-    return true;
+  /** Write what the session has to send. */
+  #flush() {
+    const lines = this.#core.takeLines();
+    if (lines.length === 0 || this.closed || this.#socket.destroyed || !this.#socket.writable) return;
+    this.#socket.write(lines.map((line) => line + '\n').join(''));
   }
 
-  /** Why a new request cannot be sent, if it cannot. */
-  #unavailable() {
-    if (this.error) return this.error;
-    if (this.#ended || this.closed || this.#byeSent) {
-      return new BW4TError(this.result ? 'match_over' : 'not_connected', 'the connection is over', { fatal: false });
+  /**
+   * The client's error for one of the session's (the one that ended it is `client.error`).
+   * @param {SessionError} error
+   */
+  #errorFor(error) {
+    return error === this.#core.error ? /** @type {BW4TError} */ (this.error) : errorOf(error);
+  }
+
+  /**
+   * A handle on a request the session made (failed at once if it could not be sent).
+   * @param {import('./core.js').Request} request
+   */
+  #handleFor(request) {
+    const handle = new ActionHandle(request);
+    if (request.failure) {
+      handle._fail(this.#errorFor(request.failure));
+      return handle;
     }
-    return null;
+    request.tag = handle;
+    this.#flush();
+    return handle;
   }
 
   /**
@@ -490,21 +475,7 @@ export class Client extends EventEmitter {
    * @returns {ActionHandle}
    */
   act(action, ...args) {
-    const id = this.#nextId++;
-    const handle = new ActionHandle(id, action, args);
-    const unavailable = this.#unavailable();
-    if (unavailable) {
-      handle._fail(unavailable);
-      return handle;
-    }
-    this.#handles.set(id, handle);
-    try {
-      this.#send({ type: 'act', id, action, args });
-    } catch (err) {
-      this.#handles.delete(id);
-      throw err;
-    }
-    return handle;
+    return this.#handleFor(this.#core.act(action, args));
   }
 
   /**
@@ -555,21 +526,7 @@ export class Client extends EventEmitter {
    * @returns {ActionHandle}
    */
   say(to, text) {
-    const id = this.#nextId++;
-    const handle = new ActionHandle(id, 'say', [to, text]);
-    const unavailable = this.#unavailable();
-    if (unavailable) {
-      handle._fail(unavailable);
-      return handle;
-    }
-    this.#handles.set(id, handle);
-    try {
-      this.#send(typeof text === 'object' ? { type: 'say', id, to, said: text } : { type: 'say', id, to, text });
-    } catch (err) {
-      this.#handles.delete(id);
-      throw err;
-    }
-    return handle;
+    return this.#handleFor(this.#core.say(to, text));
   }
 
   /**
@@ -580,13 +537,9 @@ export class Client extends EventEmitter {
    */
   resync() {
     const deferred = /** @type {Deferred<Update>} */ (new Deferred());
-    const unavailable = this.#unavailable();
-    if (unavailable) {
-      deferred.reject(unavailable);
-      return deferred.promise;
-    }
-    this.#resyncs.push(deferred);
-    this.#send({ type: 'resync' });
+    const unavailable = this.#core.resync(deferred);
+    if (unavailable) deferred.reject(this.#errorFor(unavailable));
+    this.#flush();
     return deferred.promise;
   }
 
@@ -595,15 +548,11 @@ export class Client extends EventEmitter {
    * @param {number|string} [id]
    * @returns {Promise<object>}
    */
-  ping(id = `p${this.#nextId++}`) {
+  ping(id) {
     const deferred = new Deferred();
-    const unavailable = this.#unavailable();
-    if (unavailable) {
-      deferred.reject(unavailable);
-      return deferred.promise;
-    }
-    this.#pings.push([id, deferred]);
-    this.#send({ type: 'ping', id });
+    const unavailable = this.#core.ping(id, deferred);
+    if (unavailable) deferred.reject(this.#errorFor(unavailable));
+    this.#flush();
     return deferred.promise;
   }
 
@@ -614,8 +563,9 @@ export class Client extends EventEmitter {
    * of the latest `percepts` and no `ready` has been sent since that `percepts` arrived.
    * @param {number} [tick] default: the latest tick received
    */
-  ready(tick = this.#lastTick) {
-    this.#sendReady(tick);
+  ready(tick) {
+    this.#core.ready(tick);
+    this.#flush();
   }
 
   /**
@@ -625,10 +575,8 @@ export class Client extends EventEmitter {
    */
   async bye(timeoutMs = 5000) {
     if (this.closed) return;
-    if (!this.#byeSent && !this.#ended) {
-      this.#byeSent = true;
-      this.#send({ type: 'bye' });
-    }
+    this.#core.bye();
+    this.#flush();
     let timer;
     await Promise.race([
       this.#closedDeferred.promise,
@@ -642,7 +590,7 @@ export class Client extends EventEmitter {
 
   /** Close the connection at once (the robot stays for the server's grace period). */
   close() {
-    if (!this.#ended && !this.error) this.#byeSent = true; // closing on purpose is not an error
+    this.#core.closing();
     this.#socket.destroy();
   }
 
@@ -657,7 +605,7 @@ export class Client extends EventEmitter {
 
   /** Whether the match has ended (`match_end`) or the connection is over. */
   get ended() {
-    return this.#ended || this.closed;
+    return this.#core.ended || this.closed;
   }
 
   // ---- updates and pacing --------------------------------------------------------
@@ -680,7 +628,7 @@ export class Client extends EventEmitter {
     if (this.#iterating) throw new Error('updates() is already being iterated');
     this.#iterating = true;
     // Start from the current state: the updates not yet answered, else the latest one.
-    if (this.#queue.length === 0 && this.#latest && !this.#ended) this.#queue.push(this.#latest);
+    if (this.#queue.length === 0 && this.#latest && !this.#core.ended) this.#queue.push(this.#latest);
     const finishHandling = () => {
       if (this.#handling) {
         const tick = this.#handling.tick;
@@ -706,7 +654,7 @@ export class Client extends EventEmitter {
             this.#handling = update;
             return { value: update, done: false };
           }
-          if (this.#ended || this.closed) {
+          if (this.#core.ended || this.closed) {
             this.#iterating = false;
             return { value: undefined, done: true };
           }
@@ -729,17 +677,14 @@ export class Client extends EventEmitter {
     for (const wake of wakers) wake();
   }
 
-  /** @param {number} tick */
+  /**
+   * Lockstep: the `ready` for `tick`, if the session owes one (see `PlayerSession.ready`).
+   * @param {number} tick
+   */
   #sendReady(tick) {
-    if (this.match?.mode !== 'lockstep') return;
-    if (this.#ended || this.closed || this.error) return;
-    // One `ready` answers every `percepts` received before it (for that tick): a resync
-    // reply for the tick being handled needs no second one, but a `percepts` that comes
-    // after the tick's `ready` (the tick-0 delta naming later players) gets its own.
-    // An older tick is over: its `ready` would be `late_ready`.
-    if (!this.#unanswered || tick !== this.#lastTick) return;
-    this.#unanswered = false;
-    this.#send({ type: 'ready', tick });
+    if (this.closed) return;
+    this.#core.ready(tick);
+    this.#flush();
   }
 
   /** @param {Update} update */
@@ -749,161 +694,107 @@ export class Client extends EventEmitter {
     if (i >= 0) this.#queue.splice(i, 1);
     // A resync in flight: its reply (of this tick, if the server waits for us) comes
     // first, and the ready after it answers both.
-    if (this.#resyncs.length > 0) return;
+    if (this.#core.resyncsPending > 0) return;
     this.#sendReady(update.tick);
   }
 
   // ---- receiving -----------------------------------------------------------------
 
-  /** @param {string} chunk */
-  #onData(chunk) {
-    this.#buffer += chunk;
-    let newline;
-    while ((newline = this.#buffer.indexOf('\n')) >= 0) {
-      let line = this.#buffer.slice(0, newline);
-      this.#buffer = this.#buffer.slice(newline + 1);
-      if (line.endsWith('\r')) line = line.slice(0, -1);
-      if (line.trim() === '') continue;
-      let message;
-      try {
-        message = JSON.parse(line);
-      } catch {
-        this.emit('serverError', { type: 'error', code: 'bad_json', message: `unparsable line from the server: ${line.slice(0, 200)}`, fatal: false });
-        continue;
-      }
-      if (message === null || typeof message !== 'object' || typeof message.type !== 'string') continue;
-      this.#dispatch(message);
-    }
-  }
-
-  /** @param {any} message */
-  #dispatch(message) {
-    this.emit('server', message);
-    switch (message.type) {
+  /** @param {import('./core.js').SessionEvent} event */
+  #onEvent(event) {
+    switch (event.type) {
+      case 'server':
+        this.emit('server', event.message);
+        break;
+      case 'bad_line':
+        this.emit('serverError', {
+          type: 'error',
+          code: 'bad_json',
+          message: `unparsable line from the server: ${event.line.slice(0, 200)}`,
+          fatal: false,
+        });
+        break;
       case 'welcome':
-        this.welcome = message;
-        this.name = message.name ?? null;
-        this.robot = message.robot ?? null;
-        this.session = message.session ?? null;
-        this.match = message.match ?? null;
-        if (this.#queued) {
-          // Seated after waiting in a template's queue: the handshake's bound starts again.
-          this.#queued = false;
-          if (!this.#joined) this.#armHandshakeTimer();
-        }
+        // Seated after waiting in a template's queue: the handshake's bound starts again.
+        if (event.afterQueue && !this.#core.joined) this.#armHandshakeTimer();
+        break;
+      case 'queued':
+        // Waiting for a seat in a template's queue can take long: it is not bounded.
+        clearTimeout(this.#handshakeTimer);
         break;
       case 'lobby':
-        this.#onLobby(message);
-        break;
-      case 'percepts':
-        this.#onPercepts(message);
+        this.#onLobby(event.lobby);
         break;
       case 'ack':
-        this.#onAck(message);
+        event.request?.tag?._onAck(event.ack);
         break;
-      case 'result':
-        this.#onResult(message);
+      case 'settled':
+        event.request.tag?._onResult(event.result);
+        break;
+      case 'percepts':
+        this.#onPercepts(event.update, event.resynced);
+        break;
+      case 'joined':
+        this.#handshake.resolve(this);
         break;
       case 'error':
-        this.#onError(message);
+        if (!event.error.fatal) this.emit('serverError', event.error);
         break;
-      case 'pong': {
-        const i = this.#pings.findIndex(([id]) => id === message.id);
-        if (i >= 0) this.#pings.splice(i, 1)[0][1].resolve(message);
+      case 'pong':
+        event.tag?.resolve(event.pong);
+        break;
+      case 'abandoned': {
+        // Nothing more will be answered, the handshake included.
+        const error = this.#errorFor(event.error);
+        this.#handshake.reject(error);
+        for (const request of event.requests) request.tag?._fail(error);
+        for (const deferred of event.resyncs) deferred.reject(error);
+        for (const deferred of event.pings) deferred.reject(error);
+        this.#wake();
         break;
       }
       case 'match_end':
-        this.result = message.result ?? null;
-        this.endReason = message.reason ?? null;
-        this.#ended = true;
-        this.#failPending(new BW4TError('match_over', `the match ended (${message.reason})`, { fatal: false }));
         this.#finished.resolve(this.result);
         this.#wake();
         break;
       case 'bye':
-        if (message.reason === 'goodbye' || message.reason === 'match_over') {
-          this.#ended = true;
-        } else if (!this.error) {
-          this.error = new BW4TError(message.reason ?? 'bye', 'the server closed the connection');
-        }
         this.#wake();
         break;
       default:
-        break; // unknown types are ignored (Versioning)
+        break;
     }
   }
 
-  /** @param {any} message */
-  #onPercepts(message) {
-    const messages = this.beliefs.apply(message);
-    this.tick = message.tick;
-    this.words = typeof message.words === 'string' ? message.words : null;
-    this.#lastTick = message.tick;
-    this.#unanswered = true;
-    /** @type {Update} */
-    const update = {
-      tick: message.tick,
-      full: message.full === true,
-      add: message.add ?? [],
-      not: message.not ?? [],
-      messages,
-      acks: this.#group.acks,
-      results: this.#group.results,
-      errors: this.#group.errors,
-      words: this.words,
-      beliefs: this.beliefs,
-    };
-    this.#group = { acks: [], results: [], errors: [] };
-    // Results settle now, so that code awaiting them sees this tick's beliefs.
-    const settle = this.#resultsToSettle;
-    this.#resultsToSettle = [];
-    for (const [handle, result] of settle) handle._onResult(result);
-
-    let resyncReply = false;
-    if (update.full && this.#resyncs.length > 0) {
-      resyncReply = true;
-      for (const deferred of this.#resyncs.splice(0)) deferred.resolve(update);
-    }
+  /**
+   * A `percepts` applied: its update emitted, queued for the iterator (or answered by
+   * itself), and the resyncs it answers resolved.
+   * @param {Update} update
+   * @param {Array<Deferred<Update>>} resynced
+   */
+  #onPercepts(update, resynced) {
+    for (const deferred of resynced) deferred.resolve(update);
     this.#latest = update;
     this.emit('update', update);
-    if (this.welcome) {
-      this.#joined = true;
-      this.#handshake.resolve(this);
-    }
-
     // A resync reply for the tick the iterator's handler is working on belongs to that
     // tick: it is returned by resync() and not yielded again.
-    if (resyncReply && this.#iterating && this.#handling?.tick === update.tick) return;
+    if (resynced.length > 0 && this.#iterating && this.#handling?.tick === update.tick) return;
     this.#queue.push(update);
     if (this.#iterating) this.#wake();
     else setImmediate(() => this.#autoReadyFor(update));
   }
 
   /**
-   * A `lobby`: kept, emitted and passed to `onLobby`. It comes only before the first tick
-   * and changes nothing of the tick's state (no update, no `ready`).
-   * @param {any} message
+   * A `lobby`: passed to `onLobby` and emitted. It comes only before the first tick and
+   * changes nothing of the tick's state (no update, no `ready`).
+   * @param {Lobby} lobby
    */
-  #onLobby(message) {
-    /** @type {Lobby} */
-    const lobby = {
-      ...message,
-      players: Array.isArray(message.players) ? message.players : [],
-      awaited: message.awaited ?? 0,
-      started: message.started === true,
-    };
-    this.lobby = lobby;
-    if (!this.welcome && lobby.queued !== undefined && !this.#queued) {
-      // Waiting for a seat in a template's queue can take long: it is not bounded.
-      this.#queued = true;
-      clearTimeout(this.#handshakeTimer);
-    }
+  #onLobby(lobby) {
     const onLobby = this.#options.onLobby;
     if (onLobby) {
       try {
         onLobby(lobby);
       } catch (err) {
-        if (this.#joined) throw err;
+        if (this.#core.joined) throw err;
         this.#handshake.reject(err instanceof Error ? err : new Error(String(err)));
         return;
       }
@@ -911,62 +802,9 @@ export class Client extends EventEmitter {
     this.emit('lobby', lobby);
   }
 
-  /** @param {Ack} message */
-  #onAck(message) {
-    this.#group.acks.push(message);
-    if (message.id === undefined) return;
-    const handle = this.#handles.get(message.id);
-    if (!handle) return;
-    if (!message.ok || !handle.durative) this.#handles.delete(message.id);
-    handle._onAck(message);
-    if (!message.ok || handle.durative) return;
-    // An accepted pickUp/putDown changes what the robot holds, so a percepts follows:
-    // its `result` settles when that is applied. A message changes nothing for the sender.
-    if (handle.action === 'pickUp' || handle.action === 'putDown') this.#resultsToSettle.push([handle, null]);
-    else handle._onResult(null);
-  }
-
-  /** @param {ActResult} message */
-  #onResult(message) {
-    this.#group.results.push(message);
-    const handle = this.#handles.get(message.id);
-    if (!handle) return;
-    this.#handles.delete(message.id);
-    this.#resultsToSettle.push([handle, message]);
-  }
-
-  /** @param {ServerErrorMessage} message */
-  #onError(message) {
-    if (message.fatal) {
-      if (!this.error) {
-        this.error = new BW4TError(message.code, message.message, { fatal: true });
-      }
-      this.#handshake.reject(this.error);
-      this.#failPending(this.error);
-      this.#wake();
-      return;
-    }
-    this.#group.errors.push(message);
-    this.emit('serverError', message);
-  }
-
-  /** @param {Error} error */
-  #failPending(error) {
-    for (const [handle, result] of this.#resultsToSettle.splice(0)) handle._onResult(result);
-    for (const handle of this.#handles.values()) handle._fail(error);
-    this.#handles.clear();
-    for (const deferred of this.#resyncs.splice(0)) deferred.reject(error);
-    for (const [, deferred] of this.#pings.splice(0)) deferred.reject(error);
-  }
-
   #onClose() {
     this.closed = true;
-    if (!this.error && !this.#ended && !this.#byeSent) {
-      this.error = new BW4TError('connection_closed', 'the server closed the connection without bye');
-    }
-    const error = this.error ?? new BW4TError(this.result ? 'match_over' : 'not_connected', 'the connection is closed', { fatal: false });
-    this.#handshake.reject(error);
-    this.#failPending(error);
+    for (const event of this.#core.closed()) this.#onEvent(event);
     if (this.error) this.#finished.reject(this.error);
     else this.#finished.resolve(this.result);
     this.#closedDeferred.resolve();
