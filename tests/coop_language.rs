@@ -6,9 +6,9 @@ use std::sync::{Arc, Mutex};
 
 use bw4t_agents::{Agent, CLAIM_LAPSE_TICKS, Observation, Strategy};
 use bw4t_map::{Colour, Map};
-use bw4t_protocol::{EndReason, Said};
+use bw4t_protocol::{EndReason, Knowledge, Said};
 use bw4t_runner::{Seat, play_headless};
-use bw4t_sim::{Action, Beliefs, MatchConfig, Percept, Receiver};
+use bw4t_sim::{Action, MatchConfig, Receiver};
 
 use crate::util::shipped_map;
 
@@ -47,7 +47,7 @@ type Shared = Arc<Mutex<Record>>;
 struct Spy {
     name: String,
     inner: Box<dyn Agent>,
-    beliefs: Beliefs,
+    knowledge: Knowledge,
     /// The tick of the last decision and the positions it claimed.
     last_claims: (u64, Vec<usize>),
     record: Shared,
@@ -55,25 +55,19 @@ struct Spy {
 
 impl Agent for Spy {
     fn decide(&mut self, obs: &Observation) -> Vec<Action> {
+        let mut heard = Vec::new();
         for delta in &obs.percepts {
-            self.beliefs.apply(delta);
+            self.knowledge.apply(delta.tick, delta);
+            heard.extend_from_slice(self.knowledge.latest_messages());
         }
-        let heard = self.beliefs.take_messages();
-        let facts = self.beliefs.facts();
-        let holding = facts.iter().any(|p| matches!(p, Percept::Holding(_)));
-        let index = facts
-            .iter()
-            .find_map(|p| match p {
-                Percept::SequenceIndex(i) => Some(*i as usize),
-                _ => None,
-            })
-            .unwrap_or(0);
-        let team = 1 + facts.iter().filter(|p| matches!(p, Percept::Player(_))).count();
+        let holding = self.knowledge.holding().is_some();
+        let index = self.knowledge.sequence_index() as usize;
+        let team = 1 + self.knowledge.players().count();
         let mut record = self.record.lock().expect("record");
-        for (from, text) in heard {
-            let Some(pos) = Said::from_text(&text).as_ref().and_then(claimed) else { continue };
+        for message in heard {
+            let Some(pos) = message.said().and_then(claimed) else { continue };
             let same_tick = self.last_claims.0 + 1 == obs.tick && self.last_claims.1.contains(&pos);
-            if same_tick && holding && *from < *self.name {
+            if same_tick && holding && *message.from < *self.name {
                 record.lost_while_holding.push((obs.tick, self.name.clone(), pos));
             }
         }
@@ -110,7 +104,7 @@ fn spy(name: &str, strategy: Strategy, record: &Shared) -> Seat {
     let spy = Spy {
         name: name.into(),
         inner: strategy.agent(name),
-        beliefs: Beliefs::default(),
+        knowledge: Knowledge::new(),
         last_claims: (u64::MAX - 1, Vec::new()),
         record: record.clone(),
     };
@@ -218,7 +212,7 @@ type Lines = fn(&[String], &[Colour]) -> Vec<(u64, Receiver, Said)>;
 /// A player that does not move: it says its lines at their ticks and records what it hears.
 struct Talker {
     name: String,
-    beliefs: Beliefs,
+    knowledge: Knowledge,
     lines: Lines,
     /// The lines not said yet, once the first percepts came.
     pending: Option<Vec<(u64, Receiver, Said)>>,
@@ -227,27 +221,19 @@ struct Talker {
 
 impl Agent for Talker {
     fn decide(&mut self, obs: &Observation) -> Vec<Action> {
-        for delta in &obs.percepts {
-            self.beliefs.apply(delta);
-        }
         let mut heard = self.heard.lock().expect("heard");
-        for (from, text) in self.beliefs.take_messages() {
-            let said =
-                Said::from_text(&text).unwrap_or_else(|| panic!("{} heard free text {text}", self.name));
-            heard.push((obs.tick, from.to_string(), said));
+        for delta in &obs.percepts {
+            self.knowledge.apply(delta.tick, delta);
+            for message in self.knowledge.latest_messages() {
+                let said = message.said().cloned();
+                let said = said.unwrap_or_else(|| panic!("{} heard free text {}", self.name, message.text));
+                heard.push((obs.tick, message.from.to_string(), said));
+            }
         }
         let pending = self.pending.get_or_insert_with(|| {
-            let mut rooms = Vec::new();
-            let mut sequence = Vec::new();
-            for fact in self.beliefs.facts() {
-                match fact {
-                    Percept::Place(p) if p.starts_with("Room") => rooms.push(p.to_string()),
-                    Percept::Sequence(s) => sequence = s.to_vec(),
-                    _ => {}
-                }
-            }
-            rooms.sort();
-            (self.lines)(&rooms, &sequence)
+            let rooms: Vec<String> =
+                self.knowledge.places().filter(|p| p.starts_with("Room")).map(str::to_string).collect();
+            (self.lines)(&rooms, self.knowledge.sequence())
         });
         let (due, later): (Vec<_>, Vec<_>) =
             std::mem::take(pending).into_iter().partition(|(at, _, _)| *at <= obs.tick);
@@ -266,7 +252,7 @@ fn play_with_talker(seed: u64, lines: Lines) -> (EndReason, u64, Vec<Sent>, Hear
     let heard = Arc::new(Mutex::new(Vec::new()));
     let talker = Talker {
         name: "Asker".into(),
-        beliefs: Beliefs::default(),
+        knowledge: Knowledge::new(),
         lines,
         pending: None,
         heard: heard.clone(),

@@ -544,7 +544,7 @@ async fn completing_the_sequence_ends_the_match_for_everyone() {
     // With every_tick, Ann was sent (and answered) every tick; the last showed the sequence done.
     let (ticks, complete) = {
         let seen = ann.seen.lock().expect("lock");
-        (seen.tick, seen.beliefs.holds(&bw4t_sim::Percept::SequenceIndex(1)))
+        (seen.tick, seen.knowledge.holds(&bw4t_sim::Percept::SequenceIndex(1)))
     };
     assert_eq!(ticks, result.ticks);
     assert!(complete, "the last percepts show the sequence complete");
@@ -564,7 +564,7 @@ async fn a_robot_whose_player_stays_away_leaves_after_the_grace_period() {
     ann.wait_fact("player(Bob)").await;
     bob.disconnect().await;
     ann.wait("Bob's robot to leave", |s| {
-        (!s.beliefs.facts().iter().any(|p| p.to_string() == "player(Bob)")).then_some(())
+        (!s.knowledge.facts().iter().any(|p| p.to_string() == "player(Bob)")).then_some(())
     })
     .await;
     // The name is free again.

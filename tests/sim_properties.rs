@@ -1,7 +1,8 @@
 use std::collections::BTreeSet;
 
 use bw4t_map::SeededRng;
-use bw4t_sim::{Action, Beliefs, Match, MatchConfig, Percept, RandomPlay, Receiver, RobotId};
+use bw4t_protocol::Knowledge;
+use bw4t_sim::{Action, Match, MatchConfig, Percept, RandomPlay, Receiver, RobotId};
 
 use crate::util::shipped_map;
 
@@ -32,9 +33,9 @@ fn applied_deltas_equal_the_snapshot_after_every_tick() {
         let mut game = Match::new(&map, &MatchConfig::default(), seed).expect("match");
         let mut rng = SeededRng::new(seed ^ 0xfeed);
         let n_robots = 1 + (seed as usize % 6);
-        let mut clients: Vec<(RobotId, Beliefs, usize)> = Vec::new();
+        let mut clients: Vec<(RobotId, Knowledge, usize)> = Vec::new();
         for i in 0..n_robots {
-            clients.push((game.join(&format!("P{i}")).expect("join"), Beliefs::default(), 0));
+            clients.push((game.join(&format!("P{i}")).expect("join"), Knowledge::new(), 0));
         }
         let mut play = RandomPlay::new(seed);
         for tick in 0..500 {
@@ -46,10 +47,10 @@ fn applied_deltas_equal_the_snapshot_after_every_tick() {
             }
             if tick % 131 == 70 {
                 if let Ok(id) = game.join(&format!("Late{tick}")) {
-                    clients.push((id, Beliefs::default(), 0));
+                    clients.push((id, Knowledge::new(), 0));
                 }
             }
-            for (id, beliefs, heard) in clients.iter_mut() {
+            for (id, knowledge, heard) in clients.iter_mut() {
                 let roll = rng.below(10);
                 let delta = match roll {
                     0 => continue, // this client is slow this tick
@@ -57,14 +58,15 @@ fn applied_deltas_equal_the_snapshot_after_every_tick() {
                     _ => game.poll_percepts(*id),
                 }
                 .expect("robot in match");
-                beliefs.apply(&delta);
-                *heard += beliefs.take_messages().len();
+                knowledge.apply(delta.tick, &delta);
+                *heard += knowledge.latest_messages().len();
                 let want: BTreeSet<Percept> = game.perceived(*id).expect("robot").into_iter().collect();
-                assert_eq!(beliefs.facts(), &want, "seed {seed} tick {tick} robot {id}");
+                assert_eq!(knowledge.facts(), want, "seed {seed} tick {tick} robot {id}");
             }
         }
-        for (id, beliefs, _) in clients.iter_mut() {
-            beliefs.apply(&game.poll_percepts(*id).expect("robot"));
+        for (id, knowledge, _) in clients.iter_mut() {
+            let delta = game.poll_percepts(*id).expect("robot");
+            knowledge.apply(delta.tick, &delta);
             assert!(
                 game.poll_percepts(*id).expect("robot").is_empty(),
                 "seed {seed}: a second poll repeats facts"

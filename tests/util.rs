@@ -1,7 +1,8 @@
 use std::collections::BTreeMap;
 
 use bw4t_map::Map;
-use bw4t_sim::{Action, Beliefs, Match, MatchConfig, OrderOutcome, Percept, Receiver, RobotId};
+use bw4t_protocol::Knowledge;
+use bw4t_sim::{Action, Match, MatchConfig, OrderOutcome, Percept, Receiver, RobotId};
 
 /// A map shipped in `maps/`, by file name without extension.
 pub fn shipped_map(name: &str) -> Map {
@@ -45,11 +46,11 @@ pub fn original_map_text(file: &str) -> String {
     std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
-/// A match with players joined in order, each polled into its own belief base every tick.
+/// A match with players joined in order, each polled into its own knowledge every tick.
 pub struct Scenario {
     pub game: Match,
     robots: BTreeMap<String, RobotId>,
-    beliefs: BTreeMap<String, Beliefs>,
+    knowledge: BTreeMap<String, Knowledge>,
     heard: BTreeMap<String, Vec<String>>,
     last: BTreeMap<String, Result<(), String>>,
     ended: BTreeMap<String, OrderOutcome>,
@@ -68,7 +69,7 @@ impl Scenario {
         let mut s = Scenario {
             game,
             robots,
-            beliefs: BTreeMap::new(),
+            knowledge: BTreeMap::new(),
             heard: BTreeMap::new(),
             last: BTreeMap::new(),
             ended: BTreeMap::new(),
@@ -84,10 +85,12 @@ impl Scenario {
     fn poll(&mut self) {
         for (name, &id) in &self.robots {
             let delta = self.game.poll_percepts(id).expect("robot in match");
-            let beliefs = self.beliefs.entry(name.clone()).or_default();
-            beliefs.apply(&delta);
+            let knowledge = self.knowledge.entry(name.clone()).or_default();
+            knowledge.apply(delta.tick, &delta);
             let heard = self.heard.entry(name.clone()).or_default();
-            heard.extend(beliefs.take_messages().into_iter().map(|(f, t)| format!("message({f},{t})")));
+            heard.extend(
+                knowledge.latest_messages().iter().map(|h| format!("message({},{})", h.from, h.text)),
+            );
         }
     }
 
@@ -101,7 +104,7 @@ impl Scenario {
     }
 
     pub fn sees(&self, name: &str, fact: &str) -> bool {
-        self.beliefs[name].facts().iter().any(|p| p.to_string() == fact)
+        self.knowledge[name].facts().iter().any(|p| p.to_string() == fact)
     }
 
     fn act(&mut self, name: &str, action: Action) {
@@ -112,10 +115,8 @@ impl Scenario {
 
     /// The lowest-id block of `colour` this player sees.
     fn block_of_colour(&self, name: &str, colour: &str) -> Option<u32> {
-        self.beliefs[name].facts().iter().find_map(|p| match p {
-            Percept::Color(b, c) if c.name().eq_ignore_ascii_case(colour) => Some(*b),
-            _ => None,
-        })
+        let visible = self.knowledge[name].visible();
+        visible.iter().find(|(_, c)| c.name().eq_ignore_ascii_case(colour)).map(|(b, _)| *b)
     }
 
     /// Runs one script line; panics with the line when it does not hold.
@@ -217,8 +218,8 @@ impl Scenario {
     }
 
     pub fn facts(&self, name: &str) -> Vec<String> {
-        let facts = self.beliefs[name].facts().iter();
-        facts.filter(|p| !matches!(p, Percept::Place(_))).map(|p| p.to_string()).collect()
+        let facts = self.knowledge[name].facts();
+        facts.iter().filter(|p| !matches!(p, Percept::Place(_))).map(|p| p.to_string()).collect()
     }
 }
 
@@ -461,7 +462,7 @@ pub fn delta_of(p: &bw4t_protocol::Percepts) -> PerceptDelta {
 /// What an auto-playing client has seen so far.
 #[derive(Default)]
 pub struct Seen {
-    pub beliefs: Beliefs,
+    pub knowledge: Knowledge,
     pub heard: Vec<String>,
     pub acks: Vec<bw4t_protocol::Ack>,
     pub results: Vec<bw4t_protocol::ActResult>,
@@ -547,12 +548,12 @@ impl AutoPlayer {
                     while let Some(event) = session.poll_event() {
                         match event {
                             SessionEvent::Percepts { delta, .. } => {
-                                s.beliefs.apply(&delta);
+                                s.knowledge.apply(delta.tick, &delta);
                                 let heard: Vec<String> = s
-                                    .beliefs
-                                    .take_messages()
-                                    .into_iter()
-                                    .map(|(f, t)| format!("{f}:{t}"))
+                                    .knowledge
+                                    .latest_messages()
+                                    .iter()
+                                    .map(|h| format!("{}:{}", h.from, h.text))
                                     .collect();
                                 s.heard.extend(heard);
                                 s.tick = delta.tick;
@@ -613,14 +614,14 @@ impl AutoPlayer {
         .await;
         found.unwrap_or_else(|_| {
             let facts: Vec<String> =
-                seen.lock().expect("lock").beliefs.facts().iter().map(|p| p.to_string()).collect();
+                seen.lock().expect("lock").knowledge.facts().iter().map(|p| p.to_string()).collect();
             panic!("timed out waiting for {what}; facts: {facts:?}")
         })
     }
 
     /// Waits until the player perceives `fact` (in the spec's notation, e.g. `in(RoomC1)`).
     pub async fn wait_fact(&mut self, fact: &str) {
-        self.wait(fact, |s| s.beliefs.facts().iter().any(|p| p.to_string() == fact).then_some(())).await
+        self.wait(fact, |s| s.knowledge.facts().iter().any(|p| p.to_string() == fact).then_some(())).await
     }
 
     /// Waits for the `result` of an action.
@@ -641,10 +642,8 @@ impl AutoPlayer {
 
     /// The lowest-id block of `colour` the player sees.
     pub fn block_of(&self, colour: &str) -> Option<u32> {
-        self.seen.lock().expect("lock").beliefs.facts().iter().find_map(|p| match p {
-            Percept::Color(b, c) if c.name() == colour => Some(*b),
-            _ => None,
-        })
+        let seen = self.seen.lock().expect("lock");
+        seen.knowledge.visible().iter().find(|(_, c)| c.name() == colour).map(|(b, _)| *b)
     }
 }
 

@@ -5,7 +5,8 @@
 use std::collections::{BTreeMap, BTreeSet};
 
 use bw4t_map::Colour;
-use bw4t_sim::{Action, Beliefs};
+use bw4t_protocol::Knowledge;
+use bw4t_sim::Action;
 
 use crate::view::{DROP_ZONE, View, rotated};
 use crate::{Agent, Observation};
@@ -13,10 +14,9 @@ use crate::{Agent, Observation};
 /// A player that works alone.
 pub struct Baseline {
     name: String,
-    beliefs: Beliefs,
+    knowledge: Knowledge,
     /// Blocks seen lying in rooms: id -> (room, colour).
     known: BTreeMap<u32, (String, Colour)>,
-    colours: BTreeMap<u32, Colour>,
     explored: BTreeSet<String>,
     /// Where the held block was picked up, to put it back there.
     picked_in: Option<String>,
@@ -30,9 +30,8 @@ impl Baseline {
     pub fn new(name: &str) -> Self {
         Baseline {
             name: name.to_string(),
-            beliefs: Beliefs::default(),
+            knowledge: Knowledge::new(),
             known: BTreeMap::new(),
-            colours: BTreeMap::new(),
             explored: BTreeSet::new(),
             picked_in: None,
             next_action: 0,
@@ -49,7 +48,7 @@ impl Baseline {
     fn plan(&mut self, v: &View) -> Vec<Action> {
         let needed = v.sequence.get(v.index).copied();
         if let Some(held) = v.holding {
-            if self.colours.get(&held).copied() == needed {
+            if self.knowledge.colour_of(held) == needed {
                 if v.in_drop_zone() {
                     self.picked_in = None;
                     return vec![Action::PutDown];
@@ -125,9 +124,8 @@ impl Baseline {
 impl Agent for Baseline {
     fn decide(&mut self, obs: &Observation) -> Vec<Action> {
         for delta in &obs.percepts {
-            self.beliefs.apply(delta);
+            self.knowledge.apply(delta.tick, delta);
         }
-        self.beliefs.take_messages();
         for ack in &obs.acks {
             if ack.result.is_err() && Some(ack.action) == self.moving {
                 self.moving = None;
@@ -138,7 +136,7 @@ impl Agent for Baseline {
                 self.moving = None;
             }
         }
-        let v = View::read(&self.beliefs);
+        let v = View::read(&self.knowledge);
         if v.room.is_none() {
             self.last_hall.clone_from(&v.at);
         }
@@ -147,7 +145,6 @@ impl Agent for Baseline {
             self.known.retain(|_, (r, _)| *r != room);
             for (id, colour) in &v.visible {
                 self.known.insert(*id, (room.clone(), *colour));
-                self.colours.insert(*id, *colour);
             }
         }
         let actions = if v.complete() || self.moving.is_some() { Vec::new() } else { self.plan(&v) };

@@ -1,16 +1,16 @@
-//! What an agent knows from its percepts, in a form its strategy can query.
+//! The robot's situation as its strategy queries it, read from its [`Knowledge`] once per
+//! decision.
 
 use std::collections::{BTreeMap, BTreeSet};
 
 use bw4t_map::Colour;
-use bw4t_sim::{Beliefs, MoveState, Percept};
+pub(crate) use bw4t_map::DROP_ZONE;
+use bw4t_protocol::Knowledge;
 
-/// The name of the drop zone, fixed by the spec.
-pub(crate) const DROP_ZONE: &str = "DropZone";
 /// Where robots wait for their turn at the drop zone, when the map has it.
 pub(crate) const FRONT_DROP_ZONE: &str = "FrontDropZone";
 
-/// The robot's situation, read from its beliefs.
+/// The robot's situation, read from its knowledge.
 #[derive(Debug, Default)]
 pub(crate) struct View {
     pub places: Vec<String>,
@@ -19,7 +19,6 @@ pub(crate) struct View {
     pub index: usize,
     pub at: Option<String>,
     pub room: Option<String>,
-    pub state: Option<MoveState>,
     pub holding: Option<u32>,
     pub at_block: Option<u32>,
     /// Blocks visible in the robot's room.
@@ -28,29 +27,19 @@ pub(crate) struct View {
 }
 
 impl View {
-    pub(crate) fn read(beliefs: &Beliefs) -> View {
-        let mut v = View::default();
-        for p in beliefs.facts() {
-            match p {
-                Percept::Place(n) => v.places.push(n.to_string()),
-                Percept::Player(n) => v.players.push(n.to_string()),
-                Percept::Sequence(s) => v.sequence = s.to_vec(),
-                Percept::SequenceIndex(i) => v.index = *i as usize,
-                Percept::At(n) => v.at = Some(n.to_string()),
-                Percept::In(n) => v.room = Some(n.to_string()),
-                Percept::State(s) => v.state = Some(*s),
-                Percept::Holding(b) => v.holding = Some(*b),
-                Percept::AtBlock(b) => v.at_block = Some(*b),
-                Percept::Color(b, c) => {
-                    v.visible.insert(*b, *c);
-                }
-                Percept::Occupied(n) => {
-                    v.occupied.insert(n.to_string());
-                }
-                _ => {}
-            }
+    pub(crate) fn read(knowledge: &Knowledge) -> View {
+        View {
+            places: knowledge.places().map(str::to_string).collect(),
+            players: knowledge.players().map(str::to_string).collect(),
+            sequence: knowledge.sequence().to_vec(),
+            index: knowledge.sequence_index() as usize,
+            at: knowledge.at().map(str::to_string),
+            room: knowledge.room().map(str::to_string),
+            holding: knowledge.holding().map(|(block, _)| block),
+            at_block: knowledge.at_block().map(|(block, _)| block),
+            visible: knowledge.visible().iter().copied().collect(),
+            occupied: knowledge.occupied().map(str::to_string).collect(),
         }
-        v
     }
 
     /// Rooms that may hold blocks. The interface does not say which places are rooms; the

@@ -70,24 +70,25 @@ impl Codec {
     pub(crate) fn observe(&self, seen: &Seen, game: &Match, max_ticks: u64, out: &mut [f32]) {
         let d = &self.spaces.dims;
         let c = d.colours;
+        let known = &seen.knowledge;
         out.fill(0.0);
-        if let Some(at) = seen.at {
+        if let Some(at) = known.at_zone() {
             out[self.obs[o::AT] + at] = 1.0;
         }
-        out[self.obs[o::IN_ROOM]] = f32::from(u8::from(seen.room.is_some()));
-        if let Some(b) = seen.holding {
+        out[self.obs[o::IN_ROOM]] = f32::from(u8::from(known.room_zone().is_some()));
+        if let Some((_, colour)) = known.holding() {
             out[self.obs[o::HOLDING]] = 1.0;
-            if let Some(colour) = seen.colour_of(b) {
+            if let Some(colour) = colour {
                 out[self.obs[o::HELD_COLOUR] + colour as usize] = 1.0;
             }
         }
-        for (k, &(_, colour)) in seen.visible.iter().enumerate() {
+        for (k, &(_, colour)) in known.visible().iter().enumerate() {
             out[self.obs[o::ROOM_COLOURS] + colour as usize] += 1.0;
             if k < d.slots {
                 out[self.obs[o::SLOTS] + k * c + colour as usize] = 1.0;
             }
         }
-        out[self.obs[o::AT_BLOCK]] = f32::from(u8::from(seen.at_block.is_some()));
+        out[self.obs[o::AT_BLOCK]] = f32::from(u8::from(known.at_block().is_some()));
         let sequence = game.sequence();
         for (i, colour) in sequence.iter().take(d.sequence).enumerate() {
             out[self.obs[o::SEQUENCE] + i * c + *colour as usize] = 1.0;
@@ -96,9 +97,9 @@ impl Codec {
         out[self.obs[o::SEQUENCE_INDEX] + index] = 1.0;
         out[self.obs[o::DELIVERED]..self.obs[o::DELIVERED] + index].fill(1.0);
         for (slot, &zone) in self.rooms.iter().enumerate() {
-            out[self.obs[o::OCCUPIED] + slot] = f32::from(u8::from(seen.occupied[zone]));
+            out[self.obs[o::OCCUPIED] + slot] = f32::from(u8::from(known.zone_occupied(zone)));
         }
-        let state = match seen.state {
+        let state = match known.state().unwrap_or(MoveState::Arrived) {
             MoveState::Arrived => 0,
             MoveState::Traveling => 1,
             MoveState::Collided => 2,
@@ -114,23 +115,25 @@ impl Codec {
     /// action that is valid now.
     pub(crate) fn mask(&self, seen: &Seen, others: bool, out: &mut [u8]) {
         let d = &self.spaces.dims;
+        let known = &seen.knowledge;
+        let (visible, holding) = (known.visible(), known.holding().is_some());
         out.fill(0);
         out[self.act[a::WAIT]] = 1;
         for (p, &ok) in self.walkable.iter().enumerate() {
             out[self.act[a::GO_TO] + p] = u8::from(ok);
         }
-        out[self.act[a::GO_TO_BLOCK]..self.act[a::GO_TO_BLOCK] + seen.visible.len().min(d.slots)].fill(1);
-        out[self.act[a::PICK_UP]] = u8::from(seen.at_block.is_some() && seen.holding.is_none());
-        out[self.act[a::PUT_DOWN]] = u8::from(seen.holding.is_some());
+        out[self.act[a::GO_TO_BLOCK]..self.act[a::GO_TO_BLOCK] + visible.len().min(d.slots)].fill(1);
+        out[self.act[a::PICK_UP]] = u8::from(known.at_block().is_some() && !holding);
+        out[self.act[a::PUT_DOWN]] = u8::from(holding);
         if !others {
             return;
         }
         out[self.act[a::WILL_GET]..self.act[a::WILL_GET] + d.colours].fill(1);
-        if seen.room.is_some() {
-            for &(_, colour) in &seen.visible {
+        if known.room_zone().is_some() {
+            for &(_, colour) in visible {
                 out[self.act[a::CONTAINS] + colour as usize] = 1;
             }
-            out[self.act[a::EMPTY]] = u8::from(seen.visible.is_empty());
+            out[self.act[a::EMPTY]] = u8::from(visible.is_empty());
         }
         out[self.act[a::GOING_TO]..self.act[a::GOING_TO] + d.rooms].fill(1);
     }
@@ -140,10 +143,11 @@ impl Codec {
         let (segment, i) = self.segment_of(action)?;
         let zones = game.map().zones();
         let say = |said: Said| Some(Action::SendMessage { to: Receiver::All, text: said.to_text() });
-        let room_name = || seen.room.map(|r| zones[r].name.clone());
+        let known = &seen.knowledge;
+        let room_name = || known.room_zone().map(|r| zones[r].name.clone());
         match segment {
             a::GO_TO => Some(Action::GoTo(zones[i].name.clone())),
-            a::GO_TO_BLOCK => seen.visible.get(i).map(|&(b, _)| Action::GoToBlock(b)),
+            a::GO_TO_BLOCK => known.visible().get(i).map(|&(b, _)| Action::GoToBlock(b)),
             a::PICK_UP => Some(Action::PickUp(None)),
             a::PUT_DOWN => Some(Action::PutDown),
             a::WILL_GET => say(Said { colour: Some(Colour::ALL[i].name().into()), ..Said::new("will_get") }),

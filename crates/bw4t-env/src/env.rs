@@ -164,7 +164,7 @@ impl Env {
                 Seat::Learner => learners.push(Learner {
                     name,
                     robot,
-                    seen: Seen::new(config.map.zones().len()),
+                    seen: Seen::new(&config.map),
                     pending: None,
                     outcome: ActionOutcome::Waited,
                     delta: None,
@@ -185,7 +185,7 @@ impl Env {
         for learner in &mut self.learners {
             learner.delta = self.game.poll_percepts(learner.robot);
             if let Some(delta) = &learner.delta {
-                learner.seen.apply(&self.config.map, delta);
+                learner.seen.apply(delta);
             }
         }
     }

@@ -4,7 +4,7 @@
 use crate::colour::Colour;
 use crate::geometry::{Door, Rect, Vec2};
 
-/// Index of a zone in [`Map::zones`].
+/// Index of a zone in [`Map::zones`](crate::Map::zones).
 pub type ZoneIdx = usize;
 
 /// The name of the one room that is the drop zone.

@@ -31,12 +31,12 @@ impl View {
             "holding": knowledge.holding().map(block),
             "at_block": knowledge.at_block().map(block),
             "move_state": knowledge.state().map(|s| s.name()),
-            "visible_blocks": knowledge.visible().into_iter().map(|(id, c)| block((id, Some(c)))).collect::<Vec<_>>(),
+            "visible_blocks": knowledge.visible().iter().map(|&(id, c)| block((id, Some(c)))).collect::<Vec<_>>(),
             "sequence": colours(knowledge.sequence()),
             "sequence_index": knowledge.sequence_index(),
             "next_colour": knowledge.next_colour().map(Colour::name),
-            "occupied_rooms": knowledge.occupied(),
-            "players": knowledge.players(),
+            "occupied_rooms": knowledge.occupied().collect::<Vec<_>>(),
+            "players": knowledge.players().collect::<Vec<_>>(),
             "ended": robot.ended().is_some(),
         });
         let words = match (robot.started(), robot.ended()) {

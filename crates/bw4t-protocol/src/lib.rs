@@ -5,6 +5,7 @@
 
 mod codec;
 mod convert;
+mod knowledge;
 mod language;
 mod messages;
 mod replay;
@@ -21,6 +22,7 @@ pub use convert::{
     ActError, FactError, act_message, action_from_act, action_to_act, fact_to_percept, message_text,
     percept_to_fact, percepts_delta, receiver,
 };
+pub use knowledge::{Heard, Knowledge, RoomSeen, RoomTold, is_room};
 pub use language::{Group, KINDS, KindRow, MessagePolicy, Said, SaidError, Slot, kind_row, language_json};
 pub use messages::*;
 pub use replay::{REPLAY_FORMAT, Recorder, ReplayEvent, ReplayHeader, ReplayLine, ReplayMeta};
@@ -34,7 +36,7 @@ pub use view::map_layout;
 pub use vocabulary::{
     AckCode, AgentStatus, ByeReason, EndReason, ErrorCode, Leaving, Mode, MoveState, Outcome,
 };
-pub use words::{Heard, Knowledge, RoomSeen, RoomTold, Snapshot, is_room};
+pub use words::Snapshot;
 
 /// The protocol's name, as sent in `hello`.
 pub const PROTOCOL: &str = "bw4t";

@@ -12,11 +12,9 @@
 //! - *events* (`message`): in `add` exactly once; never in `not`, never part of the state.
 //!
 //! A client keeps the state by applying `not`, then `add`, of each delta in order (a `full`
-//! delta first clears everything). [`Beliefs`] does exactly that.
+//! delta first clears everything); `bw4t_protocol::Knowledge` is the model that does.
 
-use std::collections::BTreeSet;
 use std::fmt;
-use std::mem::discriminant;
 use std::sync::Arc;
 
 use bw4t_map::Colour;
@@ -179,59 +177,6 @@ impl PerceptDelta {
     }
 }
 
-/// The facts a client holds after applying deltas in order, plus the messages received.
-#[derive(Clone, Debug, Default)]
-pub struct Beliefs {
-    facts: BTreeSet<Percept>,
-    messages: Vec<(Arc<str>, Arc<str>)>,
-}
-
-impl Beliefs {
-    /// Applies one delta: a full one replaces everything; otherwise `not`, then `add`.
-    pub fn apply(&mut self, delta: &PerceptDelta) {
-        if delta.full {
-            self.facts.clear();
-        }
-        for p in &delta.not {
-            self.facts.remove(p);
-        }
-        for p in &delta.add {
-            match (p.send_type(), p) {
-                (SendType::Event, Percept::Message { from, text }) => {
-                    self.messages.push((from.clone(), text.clone()))
-                }
-                (SendType::OnChange, _) => {
-                    self.facts.retain(|q| discriminant(q) != discriminant(p));
-                    self.facts.insert(p.clone());
-                }
-                _ => {
-                    self.facts.insert(p.clone());
-                }
-            }
-        }
-    }
-
-    /// Every fact currently held, in a fixed order.
-    pub fn facts(&self) -> &BTreeSet<Percept> {
-        &self.facts
-    }
-
-    /// Whether `p` holds.
-    pub fn holds(&self, p: &Percept) -> bool {
-        self.facts.contains(p)
-    }
-
-    /// Messages received so far, oldest first, as (sender, text).
-    pub fn messages(&self) -> &[(Arc<str>, Arc<str>)] {
-        &self.messages
-    }
-
-    /// Takes the messages received so far.
-    pub fn take_messages(&mut self) -> Vec<(Arc<str>, Arc<str>)> {
-        std::mem::take(&mut self.messages)
-    }
-}
-
 /// The changeable facts of one robot, in a compact form that is cheap to compare.
 /// Variant order is the order facts are generated in, so generated lists come out sorted.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
@@ -301,23 +246,5 @@ mod tests {
         diff(&before, &now, |f| added.push(f), |f| removed.push(f));
         assert_eq!(added, [Fact::At(2), Fact::Holding(7)]);
         assert_eq!(removed, [Fact::In(4), Fact::Color(7)]);
-    }
-
-    #[test]
-    fn beliefs_replace_single_valued_facts_and_keep_messages_apart() {
-        let name = |s: &str| -> Arc<str> { Arc::from(s) };
-        let mut beliefs = Beliefs::default();
-        beliefs.apply(&PerceptDelta {
-            add: vec![Percept::At(name("FrontA1")), Percept::In(name("RoomA1"))],
-            ..PerceptDelta::default()
-        });
-        beliefs.apply(&PerceptDelta {
-            add: vec![Percept::At(name("RoomA1")), Percept::Message { from: name("Bob"), text: name("hi") }],
-            not: vec![Percept::In(name("RoomA1"))],
-            ..PerceptDelta::default()
-        });
-        let facts: Vec<_> = beliefs.facts().iter().cloned().collect();
-        assert_eq!(facts, [Percept::At(name("RoomA1"))]);
-        assert_eq!(beliefs.messages(), &[(name("Bob"), name("hi"))]);
     }
 }

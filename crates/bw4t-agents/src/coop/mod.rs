@@ -93,8 +93,8 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::sync::Arc;
 
 use bw4t_map::Colour;
-use bw4t_protocol::Said;
-use bw4t_sim::{Action, Beliefs, OrderOutcome, Receiver};
+use bw4t_protocol::{Knowledge, Said};
+use bw4t_sim::{Action, OrderOutcome, Receiver};
 
 use crate::view::{DROP_ZONE, View, rotated};
 use crate::{Agent, Observation};
@@ -156,12 +156,11 @@ enum Manner {
 pub struct Cooperative {
     name: String,
     manner: Manner,
-    beliefs: Beliefs,
-    /// What rooms are believed to hold: room -> colour -> count (a room known to be empty
-    /// maps to nothing).
+    /// What its percepts told it, block colours once seen included.
+    knowledge: Knowledge,
+    /// What rooms are believed to hold, from what it saw and what the team reported, by
+    /// the rules above: room -> colour -> count (a room known to be empty maps to nothing).
     rooms: BTreeMap<String, BTreeMap<Colour, u32>>,
-    /// The colour of every block ever seen, so a held block's colour is known.
-    colours: BTreeMap<u32, Colour>,
     explored: BTreeSet<String>,
     /// Room -> the player exploring it and since when.
     exploring: BTreeMap<String, (String, u64)>,
@@ -207,9 +206,8 @@ impl Cooperative {
         Cooperative {
             name: name.to_string(),
             manner,
-            beliefs: Beliefs::default(),
+            knowledge: Knowledge::new(),
             rooms: BTreeMap::new(),
-            colours: BTreeMap::new(),
             explored: BTreeSet::new(),
             exploring: BTreeMap::new(),
             claims: BTreeMap::new(),
@@ -240,10 +238,11 @@ impl Cooperative {
 
     /// Takes in one batch of messages (those of one percept delta). `reported` holds the
     /// (sender, room) pairs whose report has begun in this batch.
-    fn hear_batch(&mut self, v: &View, messages: Vec<(Arc<str>, Arc<str>)>) {
+    fn hear_batch(&mut self, v: &View, messages: Vec<bw4t_protocol::Heard>) {
         let mut reported: BTreeSet<(Arc<str>, String)> = BTreeSet::new();
-        for (from, text) in messages {
-            let Some(heard) = Said::from_text(&text).as_ref().and_then(Heard::read) else { continue };
+        for message in messages {
+            let Some(heard) = message.said().and_then(Heard::read) else { continue };
+            let from = message.from;
             if self.manner == Manner::Ignoring && !heard.is_coordination() {
                 continue;
             }
@@ -319,7 +318,7 @@ impl Cooperative {
     /// Answers a question or follows a request of `from` (the requests group).
     fn answer(&mut self, v: &View, from: &str, heard: Heard) {
         let asker = Receiver::Player(from.to_string());
-        let held = v.holding.and_then(|b| self.colours.get(&b).copied());
+        let held = v.holding.and_then(|b| self.knowledge.colour_of(b));
         // Whether a question without an answer was surely put to this player alone.
         let alone = v.players.iter().all(|p| p == from);
         match heard {
@@ -386,7 +385,7 @@ impl Cooperative {
             .own_window(v)
             .find(|p| v.sequence[*p] == colour && self.claims.get(p).is_none_or(|c| c.who == self.name));
         let Some(pos) = open else { return "could_not" };
-        match v.holding.map(|b| self.colours.get(&b).copied()) {
+        match v.holding.map(|b| self.knowledge.colour_of(b)) {
             Some(held) if held == Some(colour) => {
                 self.give_up_claim();
                 self.claim(pos, colour, None);
@@ -539,9 +538,6 @@ impl Cooperative {
     /// What the robot sees in its room is the truth about that room: record it, and tell
     /// the team when it differs from what was believed, on a first visit, or when sent.
     fn observe_room(&mut self, v: &View) {
-        for (id, colour) in &v.visible {
-            self.colours.insert(*id, *colour);
-        }
         let Some(room) = v.room.clone() else { return };
         if room == DROP_ZONE {
             return;
@@ -612,7 +608,7 @@ impl Cooperative {
                         self.release(pos);
                         self.task = Task::Idle;
                     } else if let Some(held) = v.holding {
-                        if self.colours.get(&held) == Some(&colour) {
+                        if self.knowledge.colour_of(held) == Some(colour) {
                             self.task = Task::Deliver { pos };
                         } else {
                             self.release(pos);
@@ -651,7 +647,7 @@ impl Cooperative {
                         continue;
                     }
                     // An earlier open position of the same colour comes first.
-                    let colour = self.colours.get(&held).copied();
+                    let colour = self.knowledge.colour_of(held);
                     let earlier = (v.index..pos)
                         .find(|p| Some(v.sequence[*p]) == colour && !self.claims.contains_key(p));
                     if let (Some(earlier), Some(colour)) = (earlier, colour) {
@@ -687,7 +683,7 @@ impl Cooperative {
                         self.task = Task::Idle;
                         continue;
                     };
-                    let colour = self.colours.get(&held).copied();
+                    let colour = self.knowledge.colour_of(held);
                     if let (Some(pos), Some(colour)) = (self.open_position(v, colour), colour) {
                         // Needed again on the way: keep it.
                         self.claim(pos, colour, None);
@@ -739,7 +735,7 @@ impl Cooperative {
     fn choose_with(&mut self, v: &View, skip: Option<&str>) {
         if let Some(held) = v.holding {
             // A block in hand is bound by the window like a new fetch.
-            let colour = self.colours.get(&held).copied();
+            let colour = self.knowledge.colour_of(held);
             self.task = match (self.open_position(v, colour), colour) {
                 (Some(pos), Some(colour)) => {
                     self.claim(pos, colour, None);
@@ -834,8 +830,8 @@ impl Agent for Cooperative {
         self.tick = obs.tick;
         let mut batches = Vec::new();
         for delta in &obs.percepts {
-            self.beliefs.apply(delta);
-            batches.push(self.beliefs.take_messages());
+            self.knowledge.apply(delta.tick, delta);
+            batches.push(self.knowledge.latest_messages().to_vec());
         }
         for ack in &obs.acks {
             if ack.result.is_err() && Some(ack.action) == self.moving {
@@ -853,7 +849,7 @@ impl Agent for Cooperative {
                 }
             }
         }
-        let v = View::read(&self.beliefs);
+        let v = View::read(&self.knowledge);
         if v.room.is_none() {
             self.last_hall.clone_from(&v.at);
         }
