@@ -1,10 +1,15 @@
 //! The server's own policy (how many connections, how long a `hello` may take, how many
-//! lines a client's queue holds, which pages may open WebSockets) and why a match could
-//! not be served. How each match runs is its [`HostConfig`](bw4t_host::HostConfig).
+//! lines a client's queue holds, which pages may open WebSockets), why a match could not
+//! be served, and the name the server gives itself in what it writes. How each match runs is its [`HostConfig`](bw4t_host::HostConfig).
 
 use std::time::Duration;
 
 use bw4t_host::HostError;
+
+/// The program name written into replays and exports: `bw4t VERSION`.
+pub fn program() -> String {
+    format!("bw4t {}", env!("CARGO_PKG_VERSION"))
+}
 
 /// How the server treats connections, whatever match they join.
 #[derive(Clone, Debug)]

@@ -24,7 +24,7 @@ pub use arena::{
     ResultsStore, SeatPlan, Template, Totals, check_match_name,
 };
 pub use bw4t_host::{DEFAULT_MATCH, HostConfig, HostStatus, REPLAY_DIGEST_EVERY, Seat};
-pub use config::{ServerConfig, ServerError};
+pub use config::{ServerConfig, ServerError, program};
 pub use connection::{LISTEN_BACKLOG, listen};
 pub use http::websocket::parse_origin;
 pub use http::{
@@ -33,8 +33,3 @@ pub use http::{
 pub use lateness::TickLateness;
 pub use secret::random_token;
 pub use serve::{Extras, Web, serve, serve_arena, serve_with};
-
-/// The program name written into replays: `bw4t VERSION`.
-pub fn program() -> String {
-    format!("bw4t {}", env!("CARGO_PKG_VERSION"))
-}
