@@ -4,7 +4,7 @@ use bw4t_protocol::{Mode, ServerMessage};
 use bw4t_sim::{Action, Match, MatchConfig, RobotId};
 use serde_json::json;
 
-use crate::util::{AutoPlayer, Client, TestServer, delta_of, lockstep, shipped_map};
+use crate::util::{AutoPlayer, Client, TestServer, delta_of, lockstep, shipped_map, two_rooms};
 
 /// BW4T-FACTS section 6, played over TCP: a closed door, a delivery, and messages.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -246,8 +246,8 @@ async fn bad_input_is_answered_and_the_connection_stays_open() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn refusals_are_fatal_and_name_the_reason() {
-    let twin = "area = [30, 30]\n[[spawn]]\nname = \"S\"\nat = [5, 5]\n[[zone]]\nname = \"Hall\"\ntype = \"corridor\"\ncentre = [15, 5]\nsize = [30, 10]\nneighbours = [\"DropZone\"]\n[[zone]]\nname = \"DropZone\"\ntype = \"room\"\ncentre = [15, 15]\nsize = [10, 10]\ndoors = [[15, 10]]\n";
-    let mut config = bw4t_server::HostConfig::new(bw4t_map::Map::from_native(twin).expect("map"));
+    let one_spawn = two_rooms(|parts| parts.spawns.truncate(1));
+    let mut config = bw4t_server::HostConfig::new(one_spawn);
     config.token = Some("sesame".into());
     // Two seats but one spawn point: the last refusal is the map's.
     config.robots = 2;
@@ -488,40 +488,9 @@ async fn hostile_clients_do_not_change_what_a_good_player_receives() {
     assert_eq!(alone.len(), among.len(), "the streams have different lengths");
 }
 
-const ONE_BLOCK_MAP: &str = r#"
-    name = "oneblock"
-    area = [30, 30]
-    sequence = ["Red"]
-    [[spawn]]
-    name = "S1"
-    at = [5, 5]
-    [[spawn]]
-    name = "S2"
-    at = [9, 5]
-    [[zone]]
-    name = "Hall"
-    type = "corridor"
-    centre = [15, 5]
-    size = [30, 10]
-    neighbours = ["DropZone", "RoomA"]
-    [[zone]]
-    name = "DropZone"
-    type = "room"
-    centre = [25, 15]
-    size = [10, 10]
-    doors = [[25, 10]]
-    [[zone]]
-    name = "RoomA"
-    type = "room"
-    centre = [15, 15]
-    size = [10, 10]
-    doors = [[15, 10]]
-    blocks = ["Red"]
-"#;
-
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn completing_the_sequence_ends_the_match_for_everyone() {
-    let mut config = bw4t_server::HostConfig::new(bw4t_map::Map::from_native(ONE_BLOCK_MAP).expect("map"));
+    let mut config = bw4t_server::HostConfig::new(two_rooms(|_| ()));
     config.mode = Mode::Lockstep;
     let server = TestServer::start(config).await;
     let mut ann = AutoPlayer::join_with(server.addr, json!({"name": "Ann", "every_tick": true})).await;
@@ -552,7 +521,7 @@ async fn completing_the_sequence_ends_the_match_for_everyone() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_robot_whose_player_stays_away_leaves_after_the_grace_period() {
-    let mut config = bw4t_server::HostConfig::new(bw4t_map::Map::from_native(ONE_BLOCK_MAP).expect("map"));
+    let mut config = bw4t_server::HostConfig::new(two_rooms(|_| ()));
     config.mode = Mode::Realtime;
     config.game.ticks_per_second = 100;
     config.robots = 2;

@@ -1,4 +1,4 @@
-use bw4t_map::Map;
+use bw4t_map::{Map, Rect, Spawn, Vec2, Zone, ZoneKind};
 use bw4t_sim::{JoinError, Match, MatchConfig};
 
 use crate::util::{check, check_fixed};
@@ -280,40 +280,22 @@ fn players_leave_and_others_are_told() {
     assert_eq!(all, [("Bot1".to_string(), 0, true), ("Bot2".to_string(), 1, false)]);
 }
 
-/// A room with its door on top and two spawn points symmetric about it, so two robots
-/// reach the door in the same tick.
-const TWIN_MAP: &str = r#"
-    name = "twin"
-    area = [30, 30]
-    [[spawn]]
-    name = "Left"
-    at = [11, 5]
-    [[spawn]]
-    name = "Right"
-    at = [19, 5]
-    [[zone]]
-    name = "Hall"
-    type = "corridor"
-    centre = [15, 5]
-    size = [30, 10]
-    neighbours = ["DropZone", "RoomA"]
-    [[zone]]
-    name = "DropZone"
-    type = "room"
-    centre = [25, 15]
-    size = [10, 10]
-    doors = [[25, 10]]
-    [[zone]]
-    name = "RoomA"
-    type = "room"
-    centre = [15, 15]
-    size = [10, 10]
-    doors = [[15, 10]]
-"#;
+/// The two-room map without blocks or sequence, with two spawn points `offset` to either
+/// side of RoomA's door (x = 15), so two robots walking there reach the door in the same tick.
+fn twin(offset: f32) -> Map {
+    crate::util::two_rooms(|parts| {
+        let door = parts.zones.iter().find(|z| z.name == "RoomA").expect("RoomA").doors[0].centre;
+        parts.spawns = [("Left", -offset), ("Right", offset)]
+            .map(|(name, dx)| Spawn { name: name.into(), pos: Vec2::new(door.x + dx, 5.0) })
+            .into();
+        parts.sequence.clear();
+        parts.zones.iter_mut().for_each(|z| z.blocks.clear());
+    })
+}
 
 #[test]
 fn when_two_robots_reach_a_free_room_in_one_tick_the_lower_id_wins() {
-    let map = Map::from_native(TWIN_MAP).expect("twin map");
+    let map = twin(4.0);
     let s = check(
         &map,
         &MatchConfig::default(),
@@ -335,8 +317,7 @@ fn when_two_robots_reach_a_free_room_in_one_tick_the_lower_id_wins() {
 
 #[test]
 fn robots_pass_through_each_other_unless_collisions_are_on() {
-    let map = Map::from_native(&TWIN_MAP.replace("[11, 5]", "[3, 5]").replace("[19, 5]", "[27, 5]"))
-        .expect("twin map");
+    let map = twin(12.0);
     let script = "
         Ann goTo Hall
         Bob goTo Hall
@@ -359,7 +340,7 @@ fn robots_pass_through_each_other_unless_collisions_are_on() {
 
 #[test]
 fn joining_checks_names_and_spawn_points() {
-    let map = Map::from_native(TWIN_MAP).expect("twin map");
+    let map = twin(4.0);
     let mut game = Match::new(&map, &MatchConfig::default(), 1).expect("match");
     for bad in ["", "1abc", "a b", "ünï", "x-y", "all"] {
         assert_eq!(game.join(bad), Err(JoinError::InvalidName(bad.to_string())));
@@ -462,11 +443,17 @@ fn speed_and_tick_rate_are_configurable() {
 
 #[test]
 fn places_no_robot_can_reach_are_rejected() {
-    let text = TWIN_MAP.replace(
-        "neighbours = [\"DropZone\", \"RoomA\"]",
-        "neighbours = [\"DropZone\", \"RoomA\", \"Wall\"]\n[[zone]]\nname = \"Wall\"\ntype = \"blockade\"\ncentre = [5, 15]\nsize = [10, 10]",
-    );
-    let map = Map::from_native(&text).expect("map with a blockade");
+    let map = crate::util::two_rooms(|parts| {
+        parts.zones[0].neighbours.push("Wall".into());
+        parts.zones.push(Zone {
+            name: "Wall".into(),
+            kind: ZoneKind::Blockade,
+            rect: Rect::new(Vec2::new(5.0, 15.0), Vec2::new(10.0, 10.0)),
+            doors: Vec::new(),
+            neighbours: Vec::new(),
+            blocks: Vec::new(),
+        });
+    });
     check(
         &map,
         &MatchConfig::default(),

@@ -1,6 +1,6 @@
 use std::collections::BTreeMap;
 
-use bw4t_map::Map;
+use bw4t_map::{Map, MapParts};
 use bw4t_protocol::Knowledge;
 use bw4t_sim::{Action, Match, MatchConfig, OrderOutcome, Percept, Receiver, RobotId};
 
@@ -20,6 +20,17 @@ pub fn fixture_path(file: &str) -> std::path::PathBuf {
 pub fn fixture_text(file: &str) -> String {
     let path = fixture_path(file);
     std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// The two-room test map (`tests/fixtures/two-rooms.toml`): a hall over the drop zone and
+/// RoomA, which holds the one red block of the sequence; spawn points at (5, 5) and (9, 5).
+pub const TWO_ROOMS: &str = include_str!("fixtures/two-rooms.toml");
+
+/// The two-room test map with `edit` applied to what its file says.
+pub fn two_rooms(edit: impl FnOnce(&mut MapParts)) -> Map {
+    let mut parts = Map::from_native(TWO_ROOMS).expect("the two-room fixture").parts().clone();
+    edit(&mut parts);
+    Map::new(parts).expect("the edited two-room map")
 }
 
 /// The variable that names a folder of original BW4T map files (the original distribution's

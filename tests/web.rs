@@ -714,3 +714,101 @@ async fn bad_requests_get_a_status_that_names_the_problem() {
     assert!(plain_ws.starts_with("HTTP/1.1 404 "), "no match, no /ws: {plain_ws}");
     task.abort();
 }
+
+/// The page decides which zone a point is in (a click, a hover, a robot's row) by the map's
+/// own rule: `zoneAt` of the served geometry.js, given the served /map.json, names the zone
+/// `Map::zone_at` names, at every point of a half-unit grid (shared edges and corners among
+/// them) on every shipped map and on the two-room map with a small zone laid over its hall
+/// after it in file order, where the first zone wins even though it is not the smallest.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_page_locates_points_as_the_map_does() {
+    use bw4t_map::{Map, Rect, Vec2, Zone, ZoneKind};
+    let over_the_hall = crate::util::two_rooms(|parts| {
+        parts.zones.push(Zone {
+            name: "Nook".into(),
+            kind: ZoneKind::Corridor,
+            rect: Rect::new(Vec2::new(4.0, 6.0), Vec2::new(4.0, 4.0)),
+            doors: Vec::new(),
+            neighbours: vec!["Hall".into()],
+            blocks: Vec::new(),
+        });
+    });
+    let mut maps: Vec<Map> = std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/maps"))
+        .expect("maps/")
+        .map(|entry| entry.expect("entry").path())
+        .filter(|path| path.extension().is_some_and(|e| e == "toml"))
+        .map(|path| {
+            let name = path.file_stem().and_then(|s| s.to_str()).expect("a map name").to_string();
+            crate::util::shipped_map(&name)
+        })
+        .collect();
+    maps.push(over_the_hall);
+
+    let mut geometry = None;
+    let (mut cases, mut grids, mut expected) = (Vec::new(), Vec::new(), Vec::<Vec<Option<String>>>::new());
+    for map in &maps {
+        let (server, http) = web_server_with(HostConfig::new(map.clone()), 0).await;
+        let layout: Value = serde_json::from_str(&get(http, "/map.json").await.body).expect("map.json");
+        geometry.get_or_insert(get(http, "/geometry.js").await.body);
+        server.stop().await;
+        // Half units hit every edge exactly, and are exact in f32 and f64 alike.
+        let on_half_units = |v: f32| (v * 2.0).fract() == 0.0;
+        assert!(
+            map.zones().iter().all(|z| {
+                let (min, max) = (z.rect.min(), z.rect.max());
+                [min.x, min.y, max.x, max.y].into_iter().all(on_half_units)
+            }),
+            "map '{}' has an edge off the half-unit grid",
+            map.name()
+        );
+        let (lo, hi) = map
+            .zones()
+            .iter()
+            .fold((Vec2::ZERO, map.area()), |(lo, hi), z| (lo.min(z.rect.min()), hi.max(z.rect.max())));
+        let steps =
+            |from: f32, to: f32| ((from - 1.0) * 2.0).floor() as i32..=((to + 1.0) * 2.0).ceil() as i32;
+        let points: Vec<Vec2> = steps(lo.y, hi.y)
+            .flat_map(|y| steps(lo.x, hi.x).map(move |x| Vec2::new(x as f32 / 2.0, y as f32 / 2.0)))
+            .collect();
+        expected.push(points.iter().map(|&p| map.zone_at(p).map(|i| map.zones()[i].name.clone())).collect());
+        let xy: Vec<[f32; 2]> = points.iter().map(|p| [p.x, p.y]).collect();
+        cases.push(json!({"map": layout, "points": xy}));
+        grids.push(points);
+    }
+    assert!(
+        expected.last().expect("the nook map").iter().any(|z| z.as_deref() == Some("Hall"))
+            && !expected.last().expect("the nook map").iter().any(|z| z.as_deref() == Some("Nook")),
+        "the hall, first in file order, covers the nook"
+    );
+
+    let dir = std::env::temp_dir().join(format!("bw4t-zone-at-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    std::fs::write(dir.join("geometry.mjs"), geometry.expect("geometry.js")).expect("write");
+    std::fs::write(dir.join("cases.json"), serde_json::to_string(&cases).expect("json")).expect("write");
+    let script = "import { readFileSync } from 'node:fs';\n\
+        import { buildMap, zoneAt } from './geometry.mjs';\n\
+        const cases = JSON.parse(readFileSync(new URL('./cases.json', import.meta.url), 'utf8'));\n\
+        const names = cases.map(({ map, points }) => {\n\
+          const built = buildMap(map);\n\
+          return points.map(([x, y]) => zoneAt(built, x, y)?.name ?? null);\n\
+        });\n\
+        process.stdout.write(JSON.stringify(names));\n";
+    std::fs::write(dir.join("locate.mjs"), script).expect("write");
+    let mut node = std::process::Command::new("node");
+    node.arg(dir.join("locate.mjs"));
+    let out = crate::util::output_within(node, WAIT, "node (Node.js 20 or newer, as ./test.sh requires)");
+    assert!(out.status.success(), "node failed: {}", String::from_utf8_lossy(&out.stderr));
+    let page: Vec<Vec<Option<String>>> = serde_json::from_slice(&out.stdout).expect("node's answer");
+    let _ = std::fs::remove_dir_all(&dir);
+
+    assert_eq!(page.len(), maps.len());
+    for (((map, points), page), expected) in maps.iter().zip(&grids).zip(&page).zip(&expected) {
+        assert_eq!(page.len(), points.len(), "map '{}'", map.name());
+        let disagree: Vec<String> = (points.iter().zip(page).zip(expected))
+            .filter(|((_, page), map)| page != map)
+            .map(|((p, page), map)| format!("{p}: page {page:?}, map {map:?}"))
+            .take(10)
+            .collect();
+        assert!(disagree.is_empty(), "map '{}': the page and the map disagree at {disagree:?}", map.name());
+    }
+}

@@ -36,14 +36,11 @@ export function buildMap(json) {
   };
 }
 
-/** The zone under a map point: the smallest box containing it (zones should not overlap,
- * but a small zone drawn over a big one must win if they do). */
+/** The zone under a map point, by the map's own rule (`Map::zone_at`, whose grid is in
+ * crates/bw4t-map/src/locate.rs): the first zone in file order (the order of /map.json)
+ * whose box holds the point, a box holding its left and top edges but not its right and
+ * bottom ones, so that a point on an edge two zones share is in exactly one. The server
+ * locates robots by the same rule; tests/web.rs checks that the two agree. */
 export function zoneAt(map, x, y) {
-  let best = null;
-  for (const z of map.zones) {
-    if (x >= z.x && x < z.x + z.w && y >= z.y && y < z.y + z.h) {
-      if (!best || z.w * z.h < best.w * best.h) best = z;
-    }
-  }
-  return best;
+  return map.zones.find((z) => x >= z.x && x < z.x + z.w && y >= z.y && y < z.y + z.h) ?? null;
 }

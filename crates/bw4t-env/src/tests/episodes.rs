@@ -9,42 +9,19 @@ use super::{Buffers, default_map};
 use crate::bench::choose;
 use crate::{Env, EnvConfig, RewardMode, Spaces};
 
-/// Two spawn points, a drop zone and one room with a block of each colour used.
-const SMALL: &str = r#"
-    name = "small"
-    area = [30, 30]
-    sequence = ["Red", "Blue"]
-    random_sequence = 0
-    random_blocks = 0
-    [[spawn]]
-    name = "S1"
-    at = [5, 5]
-    [[spawn]]
-    name = "S2"
-    at = [9, 5]
-    [[zone]]
-    name = "Hall"
-    type = "corridor"
-    centre = [15, 5]
-    size = [30, 10]
-    neighbours = ["DropZone", "RoomA"]
-    [[zone]]
-    name = "DropZone"
-    type = "room"
-    centre = [25, 15]
-    size = [10, 10]
-    doors = [[25, 10]]
-    [[zone]]
-    name = "RoomA"
-    type = "room"
-    centre = [15, 15]
-    size = [10, 10]
-    doors = [[15, 10]]
-    blocks = ["Green", "Red", "Blue"]
-"#;
+/// The workspace's two-room test map (two spawn points, a drop zone and RoomA) with a
+/// sequence of two colours and a block of each colour used, plus one nobody wants.
+fn small_map() -> Map {
+    let text = include_str!("../../../../tests/fixtures/two-rooms.toml");
+    let mut parts = Map::from_native(text).expect("the two-room fixture").parts().clone();
+    parts.sequence = vec![Colour::Red, Colour::Blue];
+    let room = parts.zones.iter_mut().find(|z| z.name == "RoomA").expect("RoomA");
+    room.blocks = vec![Colour::Green, Colour::Red, Colour::Blue];
+    Map::new(parts).expect("the small map")
+}
 
 fn small(learners: usize) -> EnvConfig {
-    EnvConfig::parallel(Map::from_native(SMALL).expect("map"), learners)
+    EnvConfig::parallel(small_map(), learners)
 }
 
 fn segment<'a>(spaces: &Spaces, obs: &'a [f32], name: &str) -> &'a [f32] {

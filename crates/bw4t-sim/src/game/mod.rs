@@ -466,35 +466,8 @@ mod tests {
     use super::*;
     use crate::action::Action;
 
-    const MAP: &str = r#"
-        name = "churn"
-        area = [30, 30]
-        [[spawn]]
-        name = "S1"
-        at = [5, 5]
-        [[spawn]]
-        name = "S2"
-        at = [9, 5]
-        [[zone]]
-        name = "Hall"
-        type = "corridor"
-        centre = [15, 5]
-        size = [30, 10]
-        neighbours = ["DropZone", "RoomA"]
-        [[zone]]
-        name = "DropZone"
-        type = "room"
-        centre = [25, 15]
-        size = [10, 10]
-        doors = [[25, 10]]
-        [[zone]]
-        name = "RoomA"
-        type = "room"
-        centre = [15, 15]
-        size = [10, 10]
-        doors = [[15, 10]]
-        blocks = ["Red"]
-    "#;
+    /// The workspace's two-room test map: a hall, the drop zone and RoomA, two spawn points.
+    const MAP: &str = include_str!("../../../../tests/fixtures/two-rooms.toml");
 
     fn game() -> Match {
         let map = Map::from_native(MAP).expect("map");
