@@ -264,6 +264,7 @@ async fn the_operator_makes_lists_inspects_and_stops_matches_through_the_api() {
     let (status, body) = http(server.http, "GET", "/api/matches", None, None).await;
     assert_eq!(status, 200);
     let listed = json_of(&body);
+    assert!(serde_json::from_value::<bw4t_protocol::MatchList>(listed.clone()).is_ok(), "{listed}");
     let demo = listed["matches"]
         .as_array()
         .expect("list")

@@ -186,7 +186,10 @@ async fn the_page_and_the_map_layout_are_served() {
     }
     let info: Value = serde_json::from_str(&get(http, "/info.json").await.body).expect("json");
     assert_eq!(info["mode"], "live");
+    assert!(matches!(serde_json::from_value(info), Ok(bw4t_protocol::ServerInfo::Live { .. })));
     let layout: Value = serde_json::from_str(&get(http, "/map.json").await.body).expect("json");
+    let typed: bw4t_protocol::MapLayout = serde_json::from_value(layout.clone()).expect("a map layout");
+    assert_eq!(typed.robot, bw4t_map::ROBOT_SIZE, "the page draws robots of the map crate's size");
     let zones = layout["zones"].as_array().expect("zones");
     let room = zones.iter().find(|z| z["name"] == "RoomA1").expect("RoomA1");
     assert_eq!(
@@ -419,7 +422,7 @@ async fn the_replay_viewer_serves_every_ticks_frame() {
         bw4t_server::ReplayAsk::View { robot, tick } => frames.lock().expect("lock").view_json(robot, tick),
     });
     let site = bw4t_server::Site {
-        map_json: bw4t_protocol::map_layout(&map).to_string(),
+        map_json: serde_json::to_string(&bw4t_protocol::MapLayout::of(&map)).expect("json"),
         info_json: json!({"mode": "replay"}).to_string(),
         replay: Some((json!({"ticks": game.tick()}).to_string(), source)),
     };

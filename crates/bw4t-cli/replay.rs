@@ -154,7 +154,7 @@ fn view(file: &Path, bind: std::net::IpAddr, port: u16) -> Result<u8> {
         "players": header.robots,
         "messages": messages,
     });
-    let map_json = bw4t_protocol::map_layout(frames.map()).to_string();
+    let map_json = serde_json::to_string(&bw4t_protocol::MapLayout::of(frames.map()))?;
     let frames = Mutex::new(frames);
     let source: bw4t_server::FrameSource = Arc::new(move |ask| {
         let mut frames = frames.lock().ok()?;
@@ -165,9 +165,10 @@ fn view(file: &Path, bind: std::net::IpAddr, port: u16) -> Result<u8> {
     });
     let site = bw4t_server::Site {
         map_json,
-        info_json:
-            serde_json::json!({"mode": "replay", "protocol": bw4t_protocol::VERSION, "map": header.map})
-                .to_string(),
+        info_json: serde_json::to_string(&bw4t_protocol::ServerInfo::Replay {
+            protocol: bw4t_protocol::VERSION,
+            map: header.map.clone(),
+        })?,
         replay: Some((info.to_string(), source)),
     };
     let runtime = tokio::runtime::Builder::new_multi_thread()

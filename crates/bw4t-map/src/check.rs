@@ -13,7 +13,7 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use crate::colour::Colour;
 use crate::format::{MapLoadError, parse_parts};
-use crate::geometry::{Door, Orientation, Rect, Vec2};
+use crate::geometry::{Door, Orientation, ROBOT_SIZE, Rect, Vec2};
 use crate::limits::{in_range, within_counts};
 use crate::parts::{DROP_ZONE, MapParts, Zone, ZoneKind};
 use crate::problem::{Problem, point, zone_place};
@@ -116,9 +116,6 @@ pub fn check_parts(parts: &MapParts, robots: Option<usize>) -> Vec<Problem> {
 fn spawn_place(idx: usize, name: &str) -> String {
     format!("spawn {} '{name}'", idx + 1)
 }
-
-/// Half the side of a robot (robots are 2 x 2).
-const ROBOT_HALF: f32 = 1.0;
 
 /// How close a door's centre may come to the end of its edge (half the opening).
 const DOOR_HALF: f32 = Door::WIDTH / 2.0;
@@ -260,10 +257,9 @@ impl<'a> Checker<'a> {
                 }
                 None => {}
             }
-            // Robots are 2 x 2: closer than that on both axes, they would start overlapping.
-            let earlier = spawns[..i]
-                .iter()
-                .position(|s| (s.pos - spawn.pos).abs().max_element() < 2.0 * ROBOT_HALF - SLACK);
+            // Closer than a robot's side on both axes, two robots would start overlapping.
+            let earlier =
+                spawns[..i].iter().position(|s| (s.pos - spawn.pos).abs().max_element() < ROBOT_SIZE - SLACK);
             if let Some(j) = earlier {
                 self.warning(
                     &place,

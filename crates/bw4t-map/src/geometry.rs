@@ -2,6 +2,9 @@
 
 pub use glam::Vec2;
 
+/// The side of a robot's square, in map units: every robot is 2 x 2.
+pub const ROBOT_SIZE: f32 = 2.0;
+
 /// An axis-aligned box, given by its centre and size as in map files.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Rect {

@@ -26,7 +26,7 @@ pub use colour::{Colour, UnknownColour};
 pub use content::{BLOCK_SPACING, Content, ContentError, PlacedBlock, block_area, spot_is_clear};
 pub use format::{MapFormat, MapLoadError, parse_parts};
 pub use generate::{MAX_COLUMNS, MAX_ROWS, generate};
-pub use geometry::{Door, Orientation, Rect, Vec2};
+pub use geometry::{Door, Orientation, ROBOT_SIZE, Rect, Vec2};
 pub use limits::{
     MAX_BLOCKS_PER_ROOM, MAX_COORDINATE, MAX_MAP_BYTES, MAX_SPAWNS, MAX_ZONES, coordinate_problem,
 };

@@ -5,6 +5,7 @@
 
 mod codec;
 mod convert;
+mod http;
 mod knowledge;
 mod language;
 mod messages;
@@ -22,6 +23,10 @@ pub use convert::{
     ActError, FactError, act_message, action_from_act, action_to_act, fact_to_percept, message_text,
     percept_to_fact, percepts_delta, receiver,
 };
+pub use http::{
+    DoorLayout, MapLayout, MatchList, MatchState, MatchSummary, ServerInfo, TemplateInfo, Watch,
+    ZoneKindWord, ZoneLayout,
+};
 pub use knowledge::{Heard, Knowledge, RoomSeen, RoomTold, is_room};
 pub use language::{Group, KINDS, KindRow, MessagePolicy, Said, SaidError, Slot, kind_row, language_json};
 pub use messages::*;
@@ -32,7 +37,6 @@ pub use session::{ClientSession, Closed, Request, SessionError, SessionEvent, Se
 pub use table::{
     ACTIONS, ActionRow, PERCEPTS, PerceptRow, Scope, SendType, action_row, percept_row, table_json,
 };
-pub use view::map_layout;
 pub use vocabulary::{
     AckCode, AgentStatus, ByeReason, EndReason, ErrorCode, Leaving, Mode, MoveState, Outcome,
 };

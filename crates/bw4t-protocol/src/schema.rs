@@ -3,12 +3,15 @@
 use schemars::schema_for;
 use serde_json::{Value, json};
 
+use crate::http::{MapLayout, MatchList, MatchSummary, ServerInfo};
 use crate::messages::{ClientMessage, ServerMessage};
 use crate::vocabulary::{AckCode, AgentStatus, ByeReason, EndReason, ErrorCode, Leaving, MoveState, Outcome};
 
 /// Every message's schema as (relative path, schema): `client/hello.json`, `server/welcome.json`, ...,
 /// `vocabulary.json`, every word list of the protocol and of bw4t's result files, and
-/// `table.json`, the percepts and actions ([`PERCEPTS`](crate::PERCEPTS), [`ACTIONS`](crate::ACTIONS)).
+/// `table.json`, the percepts and actions ([`PERCEPTS`](crate::PERCEPTS), [`ACTIONS`](crate::ACTIONS)),
+/// and the web port's JSON replies under `http/` ([`MapLayout`], [`ServerInfo`], [`MatchList`],
+/// [`MatchSummary`]).
 pub fn schemas() -> Vec<(String, Value)> {
     let mut out = vec![
         ("vocabulary.json".to_string(), vocabulary()),
@@ -49,7 +52,29 @@ pub fn schemas() -> Vec<(String, Value)> {
             out.push((format!("{side}/{name}.json"), schema));
         }
     }
+    out.extend(http());
     out
+}
+
+/// The web port's replies: `http/map.json`, `http/info.json`, `http/matches.json` and
+/// `http/match.json`.
+fn http() -> Vec<(String, Value)> {
+    [
+        ("map", "GET /map.json: the map's layout", schema_for!(MapLayout)),
+        ("info", "GET /info.json: what the server serves", schema_for!(ServerInfo)),
+        ("matches", "GET /api/matches: the matches listed", schema_for!(MatchList)),
+        ("match", "GET /api/matches/NAME: one match's summary", schema_for!(MatchSummary)),
+    ]
+    .into_iter()
+    .map(|(name, title, schema)| {
+        let mut schema = serde_json::to_value(schema).unwrap_or_default();
+        if let Some(object) = schema.as_object_mut() {
+            object.insert("$id".into(), format!("https://bw4t.invalid/protocol/v1/http/{name}.json").into());
+            object.insert("title".into(), title.into());
+        }
+        (format!("http/{name}.json"), schema)
+    })
+    .collect()
 }
 
 /// One schema whose `$defs` are the word lists ([`crate::vocabulary`]).

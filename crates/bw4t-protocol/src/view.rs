@@ -1,8 +1,6 @@
-//! Whole-match views for spectators and the browser page: frames and the map's layout.
+//! The whole-match view for spectators and the browser page: a [`Frame`] of a match now.
 
-use bw4t_map::{Map, ZoneKind};
 use bw4t_sim::{BlockPlace, Match};
-use serde_json::{Value, json};
 
 use crate::messages::{Frame, FrameBlock, FrameMessage, FrameRobot};
 
@@ -48,44 +46,4 @@ impl Frame {
             messages,
         }
     }
-}
-
-/// The map's layout for drawing: zones as top-left boxes in map units (y down), doors with
-/// the opening each makes in its wall, the walls themselves (`[x1, y1, x2, y2]`, from
-/// [`Map::walls`]), spawn points. The page draws what it is given.
-pub fn map_layout(map: &Map) -> Value {
-    let zones: Vec<Value> = map
-        .zones()
-        .iter()
-        .map(|z| {
-            let (min, size) = (z.rect.min(), z.rect.size);
-            let kind = match z.kind {
-                ZoneKind::Room => "room",
-                ZoneKind::Corridor => "corridor",
-                ZoneKind::Charging => "charging",
-                ZoneKind::Blockade => "blockade",
-            };
-            let doors: Vec<Value> = z
-                .doors
-                .iter()
-                .map(|d| {
-                    let r = d.rect();
-                    let (a, b) = d.opening();
-                    json!({"x": r.min().x, "y": r.min().y, "w": r.size.x, "h": r.size.y, "opening": [a.x, a.y, b.x, b.y]})
-                })
-                .collect();
-            json!({"name": z.name, "kind": kind, "x": min.x, "y": min.y, "w": size.x, "h": size.y, "doors": doors})
-        })
-        .collect();
-    json!({
-        "name": map.name(),
-        "area": [map.area().x, map.area().y],
-        "zones": zones,
-        "walls": map.walls().iter().map(|w| {
-            let (a, b) = w.ends();
-            [a.x, a.y, b.x, b.y]
-        }).collect::<Vec<_>>(),
-        "spawns": map.spawns().iter().map(|s| [s.pos.x, s.pos.y]).collect::<Vec<_>>(),
-        "drop_zone": map.zones()[map.drop_zone()].name,
-    })
 }

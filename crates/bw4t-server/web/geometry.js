@@ -1,8 +1,8 @@
 // The map's geometry for drawing and clicking.
 //
 // /map.json gives zones as top-left boxes in map units, y downwards, doors as boxes on a
-// room's edge with the opening each makes, and the walls as segments (bw4t-map computes
-// them). From it we derive only the drawing bounds; the openings are drawn as bars when
+// room's edge with the opening each makes, the walls as segments (bw4t-map computes
+// them) and the side of a robot's square. From it we derive only the drawing bounds; the openings are drawn as bars when
 // the room is occupied.
 
 export function buildMap(json) {
@@ -29,6 +29,7 @@ export function buildMap(json) {
     zones,
     byName: new Map(zones.map((z) => [z.name, z])),
     dropZone: json.drop_zone,
+    robot: json.robot, // the side of a robot's square
     spawns: json.spawns || [],
     bounds: { x: minX, y: minY, w: maxX - minX, h: maxY - minY },
     walls: json.walls,

@@ -22,7 +22,6 @@ export const colourCss = (name) => COLOURS[name] || '#8a8a8a';
 /** The colours' names (the message menu offers them). */
 export const COLOUR_NAMES = Object.keys(COLOURS);
 
-const ROBOT = 2; // robots are 2 x 2 map units
 const BLOCK = 1; // blocks 1 x 1
 const CHIP = 1.6; // a block the player sees, drawn as a chip in its room
 const CHIP_GAP = 0.5;
@@ -229,23 +228,24 @@ export class Renderer {
     this.chipBoxes = [];
     if (scene.inRoom && scene.chips?.length) this.drawChips(ctx, scene.inRoom, scene.chips, scene.atBlock);
 
-    // Robots: 2 x 2 squares, the held block's colour inside, the name above.
+    // Robots: squares of the layout's size, the held block's colour inside, the name above.
+    const robot = this.map.robot;
     const label = this.fontUnits(this.scale * 1.0);
     ctx.font = `600 ${label}px system-ui, sans-serif`;
     ctx.textAlign = 'center';
     ctx.textBaseline = 'bottom';
     for (const r of scene.robots || []) {
-      const x = r.x - ROBOT / 2;
-      const y = r.y - ROBOT / 2;
+      const x = r.x - robot / 2;
+      const y = r.y - robot / 2;
       ctx.fillStyle = '#2a2f36';
-      ctx.fillRect(x, y, ROBOT, ROBOT);
+      ctx.fillRect(x, y, robot, robot);
       if (r.holdingColor) {
         ctx.fillStyle = colourCss(r.holdingColor);
         ctx.fillRect(r.x - 0.55, r.y - 0.55, 1.1, 1.1);
       }
       ctx.strokeStyle = r.state === 'collided' ? '#ff3b30' : r.state === 'traveling' ? '#ffffff' : '#9aa3ad';
       ctx.lineWidth = 2 * unit;
-      ctx.strokeRect(x, y, ROBOT, ROBOT);
+      ctx.strokeRect(x, y, robot, robot);
       const w = ctx.measureText(r.name).width;
       ctx.fillStyle = 'rgba(20,22,26,0.7)';
       ctx.fillRect(r.x - w / 2 - 2 * unit, y - label - 2 * unit, w + 4 * unit, label + 2 * unit);

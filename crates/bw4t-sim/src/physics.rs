@@ -5,12 +5,12 @@
 //! whether it blocks is decided per query (a filter predicate), so no collider is ever
 //! switched on or off and the broad phase stays untouched by door changes.
 
-use bw4t_map::{Map, Vec2};
+use bw4t_map::{Map, ROBOT_SIZE, Vec2};
 use rapier2d::control::{CharacterLength, KinematicCharacterController};
 use rapier2d::prelude::*;
 
-/// Half the side of a robot's 2 x 2 square.
-pub const ROBOT_HALF: f32 = 1.0;
+/// Half the side of a robot's square ([`ROBOT_SIZE`]).
+pub const ROBOT_HALF: f32 = ROBOT_SIZE / 2.0;
 /// Half the thickness of a wall (walls are centred on their room's edge).
 pub(crate) const WALL_HALF: f32 = 0.05;
 /// The gap the character controller keeps to obstacles.

@@ -2,6 +2,7 @@
 //! participant's arrival, state, answers, trial starts and events; the operator's list
 //! of participants. Every refusal is a 4xx whose `error` names the problem.
 
+use bw4t_protocol::{MatchState, MatchSummary};
 use http::{Method, StatusCode};
 use serde_json::{Value, json};
 
@@ -315,7 +316,7 @@ impl StudyServer {
     /// The id of the live match named `name`, else of its latest finished run.
     async fn match_id_of(&self, name: &str) -> Option<String> {
         let summary = self.inner.arena.summary(name, true).await?;
-        summary["id"].as_str().map(str::to_string)
+        summary.id
     }
 
     /// Whether the live match of `match_id`'s name is that very match. The page reports a
@@ -329,7 +330,7 @@ impl StudyServer {
             // Counted before looking, so an end in between is not waited for.
             let ended = arena.ended_so_far();
             let summary = arena.summary(name, true).await;
-            if !summary.is_some_and(|s| s["id"] == match_id && s["state"] != "finished") {
+            if !summary.is_some_and(|s| is_live_run(&s, match_id)) {
                 return false;
             }
             if tokio::time::timeout_at(deadline, arena.ended(ended + 1)).await.is_err() {
@@ -451,7 +452,7 @@ impl StudyServer {
             // A match that has ended is no longer live.
             if let (Some(name), Some(id)) = (row["match"].as_str(), row["match_id"].as_str()) {
                 let live = self.inner.arena.summary(name, true).await;
-                if !live.is_some_and(|s| s["id"] == id && s["state"] != "finished") {
+                if !live.is_some_and(|s| is_live_run(&s, id)) {
                     row.as_object_mut().map(|r| r.remove("match"));
                 }
             }
@@ -459,6 +460,11 @@ impl StudyServer {
         }
         json!({ "participants": out })
     }
+}
+
+/// Whether `summary` (the operator's) is of the live run `id`.
+fn is_live_run(summary: &MatchSummary, id: &str) -> bool {
+    summary.id.as_deref() == Some(id) && summary.state != MatchState::Finished
 }
 
 /// A participant id for a link that carries none: `anon-` and 12 hex digits.

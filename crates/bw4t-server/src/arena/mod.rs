@@ -14,7 +14,9 @@ use std::time::Duration;
 
 use bw4t_agents::Agent;
 use bw4t_map::Map;
-use bw4t_protocol::{EndReason, MatchResult, Mode};
+use bw4t_protocol::{
+    EndReason, MapLayout, MatchResult, MatchState, MatchSummary, Mode, ServerInfo, TemplateInfo, Watch,
+};
 use bw4t_tournament::Row;
 use tokio::sync::{mpsc, oneshot, watch};
 
@@ -560,7 +562,7 @@ impl Arena {
     /// finished ones, newest first. Each live
     /// match answers for itself; one that does not answer at once is listed as waiting
     /// at tick 0.
-    pub async fn list(&self, operator: bool) -> Vec<serde_json::Value> {
+    pub async fn list(&self, operator: bool) -> Vec<MatchSummary> {
         let (asks, finished) = {
             let state = self.lock();
             let asks: Vec<StatusAsked> =
@@ -576,7 +578,7 @@ impl Arena {
     }
 
     /// One match's summary: the live one of that name, else the latest finished.
-    pub async fn summary(&self, name: &str, operator: bool) -> Option<serde_json::Value> {
+    pub async fn summary(&self, name: &str, operator: bool) -> Option<MatchSummary> {
         let asked = {
             let state = self.lock();
             match state.live.get(name) {
@@ -632,7 +634,7 @@ impl Arena {
     }
 
     /// The summary of the finished match with this id, if the lobby still lists it.
-    pub fn finished_summary(&self, id: &str, operator: bool) -> Option<serde_json::Value> {
+    pub fn finished_summary(&self, id: &str, operator: bool) -> Option<MatchSummary> {
         self.lock().finished.iter().find(|f| f.id == id).map(|f| summary_of_finished(f, operator))
     }
 
@@ -756,7 +758,7 @@ impl Arena {
         let mut layouts = self.inner.layouts.lock().unwrap_or_else(|p| p.into_inner());
         let layout = layouts
             .entry(map.name().to_string())
-            .or_insert_with(|| bw4t_protocol::map_layout(&map).to_string().into());
+            .or_insert_with(|| serde_json::to_string(&MapLayout::of(&map)).unwrap_or_default().into());
         Some(layout.clone())
     }
 
@@ -771,7 +773,7 @@ impl Arena {
     }
 
     /// `/info.json` of a live server.
-    pub fn info(&self) -> serde_json::Value {
+    pub fn info(&self) -> ServerInfo {
         let state = self.lock();
         let templates: Vec<_> = self
             .inner
@@ -779,17 +781,20 @@ impl Arena {
             .templates
             .iter()
             .filter(|t| t.names.is_empty())
-            .map(|t| serde_json::json!({"name": t.name, "robots": t.config.robots, "map": t.maps[0].name()}))
+            .map(|t| TemplateInfo {
+                name: t.name.clone(),
+                robots: t.config.robots,
+                map: t.maps[0].name().to_string(),
+            })
             .collect();
         let default = self.default_match(&state);
-        serde_json::json!({
-            "mode": "live",
-            "protocol": bw4t_protocol::VERSION,
-            "map": default.as_ref().and_then(|n| state.live.get(n)).map(|l| l.map.name()),
-            "default_match": default,
-            "lobby": !self.inner.config.once,
-            "templates": templates,
-        })
+        ServerInfo::Live {
+            protocol: bw4t_protocol::VERSION,
+            map: default.as_ref().and_then(|n| state.live.get(n)).map(|l| l.map.name().to_string()),
+            default_match: default,
+            lobby: !self.inner.config.once,
+            templates,
+        }
     }
 
     /// Ends every match (`interrupted`) and waits until each has recorded its end.
@@ -867,32 +872,39 @@ pub fn check_match_name(name: &str) -> Result<(), ArenaError> {
     }
 }
 
-fn summary_of_live(name: &str, live: &LiveMatch, operator: bool) -> serde_json::Value {
-    let mut summary = serde_json::json!({
-        "name": name,
-        "template": live.template,
-        "map": live.map.name(),
-        "mode": live.mode,
-        "state": "waiting",
-        "players": [],
-        "robots": live.robots,
-        "awaited": 0,
-        "tick": 0,
-        "sequence": [0, 0],
-        "watch": if live.watch_open { "open" } else { "token" },
-        "run": live.run,
-    });
-    if operator {
-        summary["seed"] = live.seed.into();
-        summary["id"] = live.id.clone().into();
+/// Whether anyone may watch: the summaries' `watch`.
+fn watch_of(open: bool) -> Watch {
+    if open { Watch::Open } else { Watch::Token }
+}
+
+/// A live match's summary before its task says where it is (waiting at tick 0).
+fn summary_of_live(name: &str, live: &LiveMatch, operator: bool) -> MatchSummary {
+    MatchSummary {
+        name: name.to_string(),
+        template: live.template.clone(),
+        map: live.map.name().to_string(),
+        mode: live.mode,
+        state: MatchState::Waiting,
+        players: Vec::new(),
+        robots: live.robots,
+        awaited: 0,
+        tick: 0,
+        sequence: [0, 0],
+        watch: watch_of(live.watch_open),
+        paused: None,
+        end_reason: None,
+        run: live.run,
+        seed: operator.then_some(live.seed),
+        id: operator.then(|| live.id.clone()),
+        connections: None,
+        result: None,
     }
-    summary
 }
 
 /// A live match's summary, its status asked of its task (taken without waiting on the
 /// task: one whose queue is full is listed as waiting at tick 0).
 struct StatusAsked {
-    summary: serde_json::Value,
+    summary: MatchSummary,
     answer: Option<oneshot::Receiver<HostStatus>>,
 }
 
@@ -904,7 +916,7 @@ impl StatusAsked {
     }
 
     /// The summary with the status the match gave within a second.
-    async fn answered(mut self, operator: bool) -> serde_json::Value {
+    async fn answered(mut self, operator: bool) -> MatchSummary {
         let status = match self.answer {
             Some(rx) => tokio::time::timeout(Duration::from_secs(1), rx).await.ok().and_then(Result::ok),
             None => None,
@@ -914,38 +926,37 @@ impl StatusAsked {
     }
 }
 
-fn fill_status(summary: &mut serde_json::Value, status: &HostStatus, operator: bool) {
-    summary["state"] = (if status.started { "playing" } else { "waiting" }).into();
-    summary["players"] = status.players.clone().into();
-    summary["awaited"] = status.awaited.into();
-    summary["tick"] = status.tick.into();
-    summary["paused"] = status.paused.into();
-    summary["sequence"] = serde_json::json!([status.sequence.0, status.sequence.1]);
+fn fill_status(summary: &mut MatchSummary, status: &HostStatus, operator: bool) {
+    summary.state = if status.started { MatchState::Playing } else { MatchState::Waiting };
+    summary.players = status.players.clone();
+    summary.awaited = status.awaited;
+    summary.tick = status.tick;
+    summary.paused = Some(status.paused);
+    summary.sequence = [status.sequence.0, status.sequence.1];
     if operator {
-        summary["connections"] = status.connections.into();
+        summary.connections = Some(status.connections);
     }
 }
 
-fn summary_of_finished(f: &Finished, operator: bool) -> serde_json::Value {
-    let mut summary = serde_json::json!({
-        "name": f.name,
-        "template": f.template,
-        "map": f.map,
-        "mode": f.mode,
-        "state": "finished",
-        "players": f.players,
-        "robots": f.robots,
-        "awaited": 0,
-        "tick": f.tick,
-        "sequence": [f.sequence.0, f.sequence.1],
-        "watch": if f.watch_open { "open" } else { "token" },
-        "end_reason": f.end_reason,
-        "run": f.run,
-    });
-    if operator {
-        summary["seed"] = f.seed.into();
-        summary["id"] = f.id.clone().into();
-        summary["result"] = f.id.clone().into();
+fn summary_of_finished(f: &Finished, operator: bool) -> MatchSummary {
+    MatchSummary {
+        name: f.name.clone(),
+        template: f.template.clone(),
+        map: f.map.clone(),
+        mode: f.mode,
+        state: MatchState::Finished,
+        players: f.players.clone(),
+        robots: f.robots,
+        awaited: 0,
+        tick: f.tick,
+        sequence: [f.sequence.0, f.sequence.1],
+        watch: watch_of(f.watch_open),
+        paused: None,
+        end_reason: Some(f.end_reason),
+        run: f.run,
+        seed: operator.then_some(f.seed),
+        id: operator.then(|| f.id.clone()),
+        connections: None,
+        result: operator.then(|| f.id.clone()),
     }
-    summary
 }

@@ -3,7 +3,9 @@
 //! (`Authorization: Bearer TOKEN`, or `?token=` on a GET). Also the live `/map.json` and
 //! `/info.json`.
 
+use bw4t_protocol::MatchList;
 use hyper::{HeaderMap, Method, StatusCode};
+use serde::Serialize;
 use serde_json::json;
 
 use super::routes::query_value;
@@ -19,8 +21,11 @@ fn error(status: StatusCode, message: impl Into<String>) -> Reply {
     Reply::error(status, message)
 }
 
-fn ok(status: StatusCode, body: &serde_json::Value) -> Reply {
-    Reply::json(status, body.to_string())
+fn ok(status: StatusCode, body: &impl Serialize) -> Reply {
+    match serde_json::to_string(body) {
+        Ok(text) => Reply::json(status, text),
+        Err(e) => error(StatusCode::INTERNAL_SERVER_ERROR, format!("reply not serialisable: {e}")),
+    }
 }
 
 /// Answers one request of the API.
@@ -37,7 +42,7 @@ pub(crate) async fn respond(request: WebRequest, arena: &Arena) -> Reply {
         },
         (&Method::GET, ["info.json"]) => ok(StatusCode::OK, &arena.info()),
         (&Method::GET, ["api", "matches"]) => {
-            ok(StatusCode::OK, &json!({ "matches": arena.list(operator).await }))
+            ok(StatusCode::OK, &MatchList { matches: arena.list(operator).await })
         }
         (&Method::GET, ["api", "matches", name]) => match arena.summary(name, operator).await {
             Some(summary) => ok(StatusCode::OK, &summary),
