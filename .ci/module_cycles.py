@@ -14,8 +14,9 @@ ROOT = pathlib.Path(__file__).resolve().parent.parent
 
 
 def crate_roots():
-    for toml in sorted(ROOT.glob("crates/*/Cargo.toml")):
-        crate = toml.parent
+    # The command line's crate is the workspace's root package, with its sources in
+    # crates/bw4t-cli/ and no Cargo.toml of its own there.
+    for crate in sorted(p for p in ROOT.glob("crates/*") if p.is_dir()):
         for lib in (crate / "src" / "lib.rs", crate / "lib.rs"):
             if lib.exists():
                 yield crate.name, lib
