@@ -172,6 +172,10 @@ fn take(
     handles: &mut BTreeMap<ConnId, Handles>,
     closing: &mut Vec<watch::Receiver<bool>>,
 ) {
+    let from = match &event {
+        Event::Message { conn, .. } | Event::BadInput { conn } => Some(*conn),
+        _ => None,
+    };
     let event = match event {
         Event::Opened(Opened { conn, tx, kill, done }) => {
             let room = tx.capacity();
@@ -194,7 +198,15 @@ fn take(
         Event::Control(Control::Stop) => return host.interrupt(),
         Event::Control(Control::Pause(paused)) => return host.set_paused(Instant::now().into_std(), paused),
     };
-    rooms(host, handles);
+    // While the match plays, what an event makes goes to its own connection (acks,
+    // errors); the lines to everyone go out at ticks, before which every room is told.
+    // A waiting match tells everyone who joins and leaves, so every room is told first.
+    match from.and_then(|conn| Some((conn, handles.get(&conn)?))) {
+        Some((conn, h)) if host.has_started() => {
+            host.handle_event(Instant::now().into_std(), HostEvent::Room { conn, room: h.tx.capacity() });
+        }
+        _ => rooms(host, handles),
+    }
     host.handle_event(Instant::now().into_std(), event);
 }
 
