@@ -29,17 +29,17 @@ test('durative actions are those the table marks, and every action has a method'
 
 /**
  * The page's modules as the server embeds them: from index.html's module script, every
- * import followed through the server's table of files (crates/bw4t-server/src/http.rs),
+ * import followed through the server's table of files (crates/bw4t-server/src/http/files.rs),
  * each read from the file it embeds. Returns served path -> {file, source, imports},
  * where imports is a list of {names, from} with `from` a served path.
  */
 function pageModules() {
-  const src = path.join(REPO, 'crates', 'bw4t-server', 'src');
-  const http = fs.readFileSync(path.join(src, 'http.rs'), 'utf8');
+  const src = path.join(REPO, 'crates', 'bw4t-server', 'src', 'http');
+  const http = fs.readFileSync(path.join(src, 'files.rs'), 'utf8');
   const embedded = new Map(
     [...http.matchAll(/\(\s*"(\/[^"]*)",\s*\w+,\s*include_str!\("([^"]+)"\),?\s*\)/g)].map((m) => [m[1], path.resolve(src, m[2])]),
   );
-  assert.ok(embedded.has('/index.html'), 'http.rs has a table of the page files, index.html in it');
+  assert.ok(embedded.has('/index.html'), 'files.rs has a table of the page files, index.html in it');
   const html = fs.readFileSync(embedded.get('/index.html'), 'utf8');
   const entries = [...html.matchAll(/<script type="module" src="([^"]+)">/g)].map((m) => new URL(m[1], 'http://page/').pathname);
   assert.ok(entries.length > 0, 'index.html loads the page as a module');
@@ -49,7 +49,7 @@ function pageModules() {
     const served = queue.shift();
     if (modules.has(served)) continue;
     const file = embedded.get(served);
-    assert.ok(file, `${served} is imported by the page but not in http.rs's table`);
+    assert.ok(file, `${served} is imported by the page but not in files.rs's table`);
     const source = fs.readFileSync(file, 'utf8');
     const imports = [...source.matchAll(/^(?:import|export)\s*(?:\{([^}]*)\}\s*from\s*)?'([^']+)'/gm)].map((m) => ({
       names: (m[1] ?? '').split(',').map((n) => n.trim()).filter(Boolean),
