@@ -51,6 +51,9 @@ const MAX_HEADERS: usize = 64;
 const MAX_BODY: usize = 64 * 1024;
 /// The time a client has to send its request head, and again its body.
 const HEAD_TIMEOUT: Duration = Duration::from_secs(10);
+/// The time a client beyond the request limit has to send its head before it is told to
+/// come back: short, so that refusals hold no place for long.
+const BUSY_HEAD_TIMEOUT: Duration = Duration::from_secs(1);
 
 /// What the web port serves besides the page's files.
 #[derive(Clone)]
@@ -97,7 +100,7 @@ pub(crate) async fn serve(listener: TcpListener, served: Served, max_requests: u
             });
             let connection = http1::Builder::new()
                 .timer(TokioTimer::new())
-                .header_read_timeout(HEAD_TIMEOUT)
+                .header_read_timeout(if busy { BUSY_HEAD_TIMEOUT } else { HEAD_TIMEOUT })
                 .max_buf_size(MAX_HEAD)
                 .max_headers(MAX_HEADERS)
                 .title_case_headers(true)
