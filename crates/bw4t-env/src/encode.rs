@@ -18,6 +18,9 @@ pub(crate) struct Codec {
     walkable: Vec<bool>,
     obs: [usize; 14],
     act: [usize; 9],
+    /// A learner's view before it is told anything: every learner's starts as a clone, so
+    /// the learners of every environment sharing this codec share the map's place names.
+    blank: Seen,
 }
 
 /// Observation segments by position in the table.
@@ -59,7 +62,12 @@ impl Codec {
         obs.iter_mut().zip(spaces.obs_layout()).for_each(|(o, s)| *o = s.offset);
         let mut act = [0; 9];
         act.iter_mut().zip(spaces.action_layout()).for_each(|(o, s)| *o = s.offset);
-        Codec { spaces, rooms, walkable, obs, act }
+        Codec { spaces, rooms, walkable, obs, act, blank: Seen::new(map) }
+    }
+
+    /// A learner's view before it is told anything.
+    pub(crate) fn blank_view(&self) -> Seen {
+        self.blank.clone()
     }
 
     pub(crate) fn spaces(&self) -> &Spaces {

@@ -164,7 +164,7 @@ impl Env {
                 Seat::Learner => learners.push(Learner {
                     name,
                     robot,
-                    seen: Seen::new(&config.map),
+                    seen: self.codec.blank_view(),
                     pending: None,
                     outcome: ActionOutcome::Waited,
                     delta: None,

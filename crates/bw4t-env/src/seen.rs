@@ -16,7 +16,7 @@ pub(crate) struct Seen {
 
 impl Seen {
     pub(crate) fn new(map: &Map) -> Seen {
-        Seen { knowledge: Knowledge::for_map(map), messages: vec![0; KINDS.len() + 1] }
+        Seen { knowledge: Knowledge::for_map(map).latest_only(), messages: vec![0; KINDS.len() + 1] }
     }
 
     /// Forgets the messages of the previous step.

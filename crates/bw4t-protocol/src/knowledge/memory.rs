@@ -67,17 +67,25 @@ impl Heard {
 impl Knowledge {
     /// What the robot saw in `room` the last time it was inside.
     pub fn seen(&self, room: &str) -> Option<&RoomSeen> {
-        self.places.named(room)?.seen.as_ref()
+        self.places.named(room)?.seen.as_deref()
     }
 
     /// What a teammate last said about `room`'s contents.
     pub fn told(&self, room: &str) -> Option<&RoomTold> {
-        self.places.named(room)?.told.as_ref()
+        self.places.named(room)?.told.as_deref()
     }
 
     /// The latest messages from teammates, oldest first (a bounded number).
     pub fn messages(&self) -> &[Heard] {
+        if self.latest_only {
+            return self.latest_messages();
+        }
         &self.heard[self.heard.len().saturating_sub(KEPT_MESSAGES)..]
+    }
+
+    /// How many messages are kept before a delta brings new ones.
+    fn kept_messages(&self) -> usize {
+        if self.latest_only { 0 } else { KEPT_MESSAGES }
     }
 
     /// Every message of the latest delta applied, in the order they came.
@@ -92,7 +100,7 @@ impl Knowledge {
 
     /// Forgets the oldest messages beyond the bound, before a delta brings new ones.
     pub(super) fn start_hearing(&mut self) {
-        let over = self.heard.len().saturating_sub(KEPT_MESSAGES);
+        let over = self.heard.len().saturating_sub(self.kept_messages());
         self.heard.drain(..over);
         self.latest = 0;
     }
@@ -111,7 +119,7 @@ impl Knowledge {
                         told.said.push(said.clone());
                     }
                 }
-                _ => *told = Some(RoomTold { tick, from: from.clone(), said: vec![said.clone()] }),
+                _ => *told = Some(Box::new(RoomTold { tick, from: from.clone(), said: vec![said.clone()] })),
             }
         }
         self.heard.push(Heard { tick, from: from.clone(), text: text.clone(), said });
@@ -134,7 +142,7 @@ impl Knowledge {
                     seen.blocks.clone_from(&self.visible);
                 }
             }
-            none => *none = Some(RoomSeen { tick, blocks: self.visible.clone() }),
+            none => *none = Some(Box::new(RoomSeen { tick, blocks: self.visible.clone() })),
         }
     }
 }

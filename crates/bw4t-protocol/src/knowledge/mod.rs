@@ -56,6 +56,8 @@ pub struct Knowledge {
     latest: usize,
     /// Messages heard in all.
     n_heard: u64,
+    /// Keep only the latest delta's messages (see [`Knowledge::latest_only`]).
+    latest_only: bool,
 }
 
 /// Whether a place is a room: its name starts with `Room`, or it is the drop zone. Halls
@@ -75,6 +77,14 @@ impl Knowledge {
     /// answer for the robot's percepts of that map.
     pub fn for_map(map: &Map) -> Knowledge {
         Knowledge { places: PlaceTable::for_map(map), ..Knowledge::default() }
+    }
+
+    /// The same, keeping of the messages only those of the latest delta: for a reader that
+    /// looks at no older message (a learner's observation counts the step's messages), so
+    /// that memory does not grow with the talk.
+    pub fn latest_only(mut self) -> Knowledge {
+        self.latest_only = true;
+        self
     }
 
     /// Applies one delta the robot was sent for `tick` (normally `delta.tick`): the facts,
@@ -215,7 +225,7 @@ impl Knowledge {
 
     /// The place the robot is at, or nearest to (`at`).
     pub fn at(&self) -> Option<&str> {
-        self.at.map(|i| &*self.places.get(i).name)
+        self.at.map(|i| &**self.places.name(i))
     }
 
     /// The zone the robot is at (`at`), for a model made [`Knowledge::for_map`].
@@ -225,7 +235,7 @@ impl Knowledge {
 
     /// The room the robot is in (`in`), if it is in one.
     pub fn room(&self) -> Option<&str> {
-        self.room.map(|i| &*self.places.get(i).name)
+        self.room.map(|i| &**self.places.name(i))
     }
 
     /// The zone of the room the robot is in (`in`), for a model made [`Knowledge::for_map`].
@@ -275,7 +285,7 @@ impl Knowledge {
 
     /// The rooms some robot is in (`occupied`, the robot's own room included), in name order.
     pub fn occupied(&self) -> impl Iterator<Item = &str> {
-        self.places.sorted().filter(|p| p.occupied).map(|p| &*p.name)
+        self.places.sorted().filter(|(_, p)| p.occupied).map(|(name, _)| &**name)
     }
 
     /// Whether some robot is in zone `zone`, for a model made [`Knowledge::for_map`].
@@ -285,7 +295,7 @@ impl Knowledge {
 
     /// Every place of the map (`place`), in name order.
     pub fn places(&self) -> impl Iterator<Item = &str> {
-        self.places.sorted().filter(|p| p.listed).map(|p| &*p.name)
+        self.places.sorted().filter(|(_, p)| p.listed).map(|(name, _)| &**name)
     }
 
     /// The places that are rooms (see [`is_room`]), in name order.
@@ -301,9 +311,11 @@ impl Knowledge {
     /// Every fact that holds, as percepts in their fixed order (messages are not facts).
     /// Built on each call: for tests and tools, not for every tick.
     pub fn facts(&self) -> BTreeSet<Percept> {
-        let name = |i: PlaceIdx| self.places.get(i).name.clone();
+        let name = |i: PlaceIdx| self.places.name(i).clone();
         let mut facts = BTreeSet::new();
-        facts.extend(self.places.sorted().filter(|p| p.listed).map(|p| Percept::Place(p.name.clone())));
+        facts.extend(
+            self.places.sorted().filter(|(_, p)| p.listed).map(|(name, _)| Percept::Place(name.clone())),
+        );
         facts.extend(self.players.iter().map(|p| Percept::Player(p.clone())));
         facts.extend(self.name.clone().map(Percept::OwnName));
         facts.extend(self.robot.map(Percept::Bot));
@@ -313,7 +325,9 @@ impl Knowledge {
         facts.extend(self.state.map(Percept::State));
         facts.extend(self.room.map(|i| Percept::In(name(i))));
         facts.extend(self.at_block.map(Percept::AtBlock));
-        facts.extend(self.places.sorted().filter(|p| p.occupied).map(|p| Percept::Occupied(p.name.clone())));
+        facts.extend(
+            self.places.sorted().filter(|(_, p)| p.occupied).map(|(name, _)| Percept::Occupied(name.clone())),
+        );
         facts.extend(self.visible.iter().map(|&(b, c)| Percept::Color(b, c)));
         facts.extend(self.holding.map(Percept::Holding));
         facts.extend(self.blocks.iter().map(|&b| Percept::Block(b)));
@@ -322,7 +336,7 @@ impl Knowledge {
 
     /// Whether `fact` holds (a message never does).
     pub fn holds(&self, fact: &Percept) -> bool {
-        let is = |i: Option<PlaceIdx>, name: &str| i.is_some_and(|i| *self.places.get(i).name == *name);
+        let is = |i: Option<PlaceIdx>, name: &str| i.is_some_and(|i| **self.places.name(i) == *name);
         let place = |name: &str| self.places.named(name);
         match fact {
             Percept::Place(name) => place(name).is_some_and(|p| p.listed),

@@ -12,25 +12,35 @@ use super::{RoomSeen, RoomTold};
 /// has its zone's index.
 pub(super) type PlaceIdx = usize;
 
-/// What is known of one place.
-#[derive(Clone, Debug)]
+/// What is known of one place. The memory is boxed: most places are never visited or
+/// reported on, and a learner keeps one table per robot.
+#[derive(Clone, Debug, Default)]
 pub(super) struct Place {
-    pub(super) name: Arc<str>,
     /// The `place` fact holds.
     pub(super) listed: bool,
     /// The `occupied` fact holds.
     pub(super) occupied: bool,
-    pub(super) seen: Option<RoomSeen>,
-    pub(super) told: Option<RoomTold>,
+    pub(super) seen: Option<Box<RoomSeen>>,
+    pub(super) told: Option<Box<RoomTold>>,
 }
 
-/// Place names, numbered in the order they were first met (a map's zones first).
+/// The names a table numbers. Tables made from one map share them (a clone of a
+/// [`Knowledge`](super::Knowledge) copies no name); a table copies them only when it meets
+/// a name the map does not have.
 #[derive(Clone, Debug, Default)]
-pub(super) struct PlaceTable {
-    places: Vec<Place>,
+struct Names {
+    names: Vec<Arc<str>>,
     by_name: BTreeMap<Arc<str>, PlaceIdx>,
     /// Numbers in name order, for lists that are read sorted.
     sorted: Vec<PlaceIdx>,
+}
+
+/// Place names, numbered in the order they were first met (a map's zones first), and what
+/// is known of each.
+#[derive(Clone, Debug, Default)]
+pub(super) struct PlaceTable {
+    names: Arc<Names>,
+    places: Vec<Place>,
     /// How many numbers are the zones of the map the table was made from.
     zones: usize,
 }
@@ -48,7 +58,7 @@ impl PlaceTable {
 
     /// The number of `name`, given it one if it is new.
     pub(super) fn number(&mut self, name: &str) -> PlaceIdx {
-        match self.by_name.get(name) {
+        match self.names.by_name.get(name) {
             Some(&i) => i,
             None => self.add(Arc::from(name)),
         }
@@ -56,24 +66,31 @@ impl PlaceTable {
 
     /// The number of `name` (a percept's shared name, kept without a copy).
     pub(super) fn number_shared(&mut self, name: &Arc<str>) -> PlaceIdx {
-        match self.by_name.get(&**name) {
+        match self.names.by_name.get(&**name) {
             Some(&i) => i,
             None => self.add(name.clone()),
         }
     }
 
     fn add(&mut self, name: Arc<str>) -> PlaceIdx {
-        let i = self.places.len();
-        let at = self.sorted.partition_point(|&j| self.places[j].name < name);
-        self.sorted.insert(at, i);
-        self.by_name.insert(name.clone(), i);
-        self.places.push(Place { name, listed: false, occupied: false, seen: None, told: None });
+        let names = Arc::make_mut(&mut self.names);
+        let i = names.names.len();
+        let at = names.sorted.partition_point(|&j| names.names[j] < name);
+        names.sorted.insert(at, i);
+        names.by_name.insert(name.clone(), i);
+        names.names.push(name);
+        self.places.push(Place::default());
         i
     }
 
     /// The number of a name already met.
     pub(super) fn find(&self, name: &str) -> Option<PlaceIdx> {
-        self.by_name.get(name).copied()
+        self.names.by_name.get(name).copied()
+    }
+
+    /// The name numbered `i`.
+    pub(super) fn name(&self, i: PlaceIdx) -> &Arc<str> {
+        &self.names.names[i]
     }
 
     pub(super) fn get(&self, i: PlaceIdx) -> &Place {
@@ -89,9 +106,9 @@ impl PlaceTable {
         self.find(name).map(|i| &self.places[i])
     }
 
-    /// Every place, in name order.
-    pub(super) fn sorted(&self) -> impl Iterator<Item = &Place> {
-        self.sorted.iter().map(|&i| &self.places[i])
+    /// Every place with its name, in name order.
+    pub(super) fn sorted(&self) -> impl Iterator<Item = (&Arc<str>, &Place)> {
+        self.names.sorted.iter().map(|&i| (&self.names.names[i], &self.places[i]))
     }
 
     /// `i` as a zone of the table's map, if it is one.

@@ -239,3 +239,23 @@ fn a_model_for_a_map_answers_by_zone_index() {
     assert_eq!((knowledge.at(), knowledge.at_zone(), knowledge.room_zone()), (Some("Nowhere"), None, None));
     assert!(!knowledge.zone_occupied(map.zones().len()), "past the map's zones");
 }
+
+#[test]
+fn latest_only_keeps_just_the_latest_deltas_messages() {
+    let mut knowledge = Knowledge::new().latest_only();
+    knowledge.apply(0, &snapshot(0, introduction()));
+    let two = vec![message("Bob", Said::new("ok")), message("Cal", Said::new("ok"))];
+    knowledge.apply(1, &delta(1, two, vec![]));
+    assert_eq!((knowledge.latest_messages().len(), knowledge.messages().len()), (2, 2));
+    knowledge.apply(2, &delta(2, vec![message("Bob", Said::new("ok"))], vec![]));
+    assert_eq!((knowledge.latest_messages().len(), knowledge.messages().len()), (1, 1));
+    knowledge.apply(3, &delta(3, vec![], vec![]));
+    assert!(knowledge.messages().is_empty(), "{:?}", knowledge.messages());
+    assert_eq!(knowledge.heard_count(), 3, "every message is still counted");
+    // The default keeps the older ones too.
+    let mut keeping = Knowledge::new();
+    keeping.apply(0, &snapshot(0, introduction()));
+    keeping.apply(1, &delta(1, vec![message("Bob", Said::new("ok"))], vec![]));
+    keeping.apply(2, &delta(2, vec![], vec![]));
+    assert_eq!(keeping.messages().len(), 1);
+}
