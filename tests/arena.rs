@@ -242,6 +242,17 @@ async fn the_operator_makes_lists_inspects_and_stops_matches_through_the_api() {
     let (status, body) = http(server.http, "POST", "/api/matches", None, Some(create)).await;
     assert_eq!(status, 401, "{body}");
     assert!(json_of(&body)["error"].as_str().expect("error").contains("operator token"), "{body}");
+    // A body sent in chunks, without Content-Length, is refused before it is read.
+    let chunked = format!(
+        "POST /api/matches HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer op\r\nTransfer-Encoding: chunked\r\n\r\n{:x}\r\n{create}\r\n0\r\n\r\n",
+        create.len()
+    );
+    let mut stream = tokio::net::TcpStream::connect(server.http).await.expect("connect");
+    tokio::io::AsyncWriteExt::write_all(&mut stream, chunked.as_bytes()).await.expect("write");
+    let mut answer = String::new();
+    let read = tokio::io::AsyncReadExt::read_to_string(&mut stream, &mut answer);
+    let _ = tokio::time::timeout(crate::util::WAIT, read).await.expect("an answer in time");
+    assert!(answer.starts_with("HTTP/1.1 411 ") && answer.contains("Content-Length"), "{answer}");
     let (status, body) = http(server.http, "POST", "/api/matches", Some("op"), Some(create)).await;
     assert_eq!(status, 201, "{body}");
     let made = json_of(&body);

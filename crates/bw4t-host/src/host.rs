@@ -420,15 +420,11 @@ impl MatchHost {
 
     /// Takes in one event at `now`.
     pub fn handle_event(&mut self, now: Instant, event: HostEvent) {
-        if let HostEvent::Room { conn, room } = event {
-            // Lines still in the outbox are not in the driver's queue yet: they count
-            // against the room just reported.
-            if let Some(c) = self.conns.get_mut(&conn) {
-                c.room = room;
-                c.queued = c.unsent;
-            }
-            return;
-        }
+        let event = match event {
+            // Only a gauge: it makes nothing due, so nothing is settled for it.
+            HostEvent::Room { conn, room } => return self.note_room(conn, room),
+            event => event,
+        };
         self.settle();
         self.now = self.now.max(now);
         match event {
@@ -436,7 +432,7 @@ impl MatchHost {
                 let c = Conn { room, queued: 0, unsent: 0, role: ConnRole::New, lobby: false };
                 self.conns.insert(conn, c);
             }
-            HostEvent::Room { .. } => unreachable!("answered before"),
+            HostEvent::Room { conn, room } => self.note_room(conn, room),
             HostEvent::Closed { conn } => self.on_closed(conn),
             HostEvent::BadInput { conn } => self.count_error(conn),
             HostEvent::Message { conn, message } => self.on_message(conn, message),
@@ -446,6 +442,15 @@ impl MatchHost {
         }
         self.start_if_ready(self.now);
         self.send_lobby();
+    }
+
+    /// How many lines `conn`'s queue can take now. Lines still in the outbox are not in the
+    /// driver's queue yet: they count against the room just reported.
+    fn note_room(&mut self, conn: ConnId, room: usize) {
+        if let Some(c) = self.conns.get_mut(&conn) {
+            c.room = room;
+            c.queued = c.unsent;
+        }
     }
 
     /// Does what has fallen due by `now`: the start timeout, expired grace periods, a

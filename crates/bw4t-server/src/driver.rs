@@ -1,8 +1,8 @@
 //! The tokio driver of a [`MatchHost`]: owns the event channel, the connections' queues,
 //! the clock and the timer, and does nothing but carry events in and transmits out (and
-//! tell the host how much room each connection's queue has before it hands it anything). A panic inside
-//! the host ends this match only: its connections get `match_failed` and the caller the
-//! panic's message.
+//! tell the host how much room the connections' queues have before it hands it
+//! anything). A panic inside the host ends this match only: its connections get
+//! `match_failed` and the caller the panic's message.
 
 use std::collections::BTreeMap;
 use std::future::Future;

@@ -17,14 +17,10 @@ pub(crate) fn serves(path: &str) -> bool {
     path.starts_with("/api/") || path == "/api" || path == "/map.json" || path == "/info.json"
 }
 
-fn error(status: StatusCode, message: impl Into<String>) -> Reply {
-    Reply::error(status, message)
-}
-
 fn ok(status: StatusCode, body: &impl Serialize) -> Reply {
     match serde_json::to_string(body) {
         Ok(text) => Reply::json(status, text),
-        Err(e) => error(StatusCode::INTERNAL_SERVER_ERROR, format!("reply not serialisable: {e}")),
+        Err(e) => Reply::error(StatusCode::INTERNAL_SERVER_ERROR, format!("reply not serialisable: {e}")),
     }
 }
 
@@ -38,7 +34,7 @@ pub(crate) async fn respond(request: WebRequest, arena: &Arena) -> Reply {
     match (&method, parts.as_slice()) {
         (&Method::GET, ["map.json"]) => match arena.layout(query_value(query, "match").as_deref()) {
             Some(layout) => Reply::json(StatusCode::OK, layout.to_string()),
-            None => error(StatusCode::NOT_FOUND, "no such match"),
+            None => Reply::error(StatusCode::NOT_FOUND, "no such match"),
         },
         (&Method::GET, ["info.json"]) => ok(StatusCode::OK, &arena.info()),
         (&Method::GET, ["api", "matches"]) => {
@@ -46,18 +42,18 @@ pub(crate) async fn respond(request: WebRequest, arena: &Arena) -> Reply {
         }
         (&Method::GET, ["api", "matches", name]) => match arena.summary(name, operator).await {
             Some(summary) => ok(StatusCode::OK, &summary),
-            None => error(StatusCode::NOT_FOUND, format!("no match named '{name}'")),
+            None => Reply::error(StatusCode::NOT_FOUND, format!("no match named '{name}'")),
         },
         (_, ["api", ..]) if !operator && method != Method::GET => unauthorized(arena),
         (&Method::POST, ["api", "matches"]) => {
             let create: CreateRequest = match serde_json::from_slice(&request.body) {
                 Ok(create) => create,
-                Err(e) => return error(StatusCode::BAD_REQUEST, format!("not a match request: {e}")),
+                Err(e) => return Reply::error(StatusCode::BAD_REQUEST, format!("not a match request: {e}")),
             };
             match arena.create(create) {
                 Ok(name) => match arena.summary(&name, true).await {
                     Some(summary) => ok(StatusCode::CREATED, &summary),
-                    None => error(StatusCode::INTERNAL_SERVER_ERROR, "the match ended at once"),
+                    None => Reply::error(StatusCode::INTERNAL_SERVER_ERROR, "the match ended at once"),
                 },
                 Err(e) => arena_error(&e),
             }
@@ -74,7 +70,7 @@ pub(crate) async fn respond(request: WebRequest, arena: &Arena) -> Reply {
             match arena.pause(name, *action == "pause").await {
                 Ok(()) => match arena.summary(name, true).await {
                     Some(summary) => ok(StatusCode::OK, &summary),
-                    None => error(StatusCode::NOT_FOUND, format!("no live match named '{name}'")),
+                    None => Reply::error(StatusCode::NOT_FOUND, format!("no live match named '{name}'")),
                 },
                 Err(e) => arena_error(&e),
             }
@@ -86,16 +82,17 @@ pub(crate) async fn respond(request: WebRequest, arena: &Arena) -> Reply {
         }
         (&Method::GET, ["api", "results", id]) => match arena.results().result(id) {
             Some(result) => Reply::json(StatusCode::OK, result),
-            None => error(StatusCode::NOT_FOUND, format!("no result '{id}'")),
+            None => Reply::error(StatusCode::NOT_FOUND, format!("no result '{id}'")),
         },
         (&Method::GET, ["api", "results", id, "replay"]) => match arena.results().replay(id) {
             Some(replay) => Reply::new(StatusCode::OK, "application/x-ndjson", replay),
-            None => error(StatusCode::NOT_FOUND, format!("no replay of '{id}' was kept")),
+            None => Reply::error(StatusCode::NOT_FOUND, format!("no replay of '{id}' was kept")),
         },
         (&Method::GET | &Method::POST, _) => {
-            error(StatusCode::NOT_FOUND, format!("no such route: {method} {path}"))
+            Reply::error(StatusCode::NOT_FOUND, format!("no such route: {method} {path}"))
         }
-        _ => error(StatusCode::METHOD_NOT_ALLOWED, "only GET and POST").with("Allow", "GET, POST".into()),
+        _ => Reply::error(StatusCode::METHOD_NOT_ALLOWED, "only GET and POST")
+            .with("Allow", "GET, POST".into()),
     }
 }
 
@@ -110,7 +107,7 @@ fn arena_error(e: &ArenaError) -> Reply {
         ArenaError::Stopping => StatusCode::SERVICE_UNAVAILABLE,
         ArenaError::Bad(_) | ArenaError::Server(_) => StatusCode::BAD_REQUEST,
     };
-    error(status, e.to_string())
+    Reply::error(status, e.to_string())
 }
 
 /// Whether the request carries the operator token.

@@ -175,19 +175,18 @@ async fn answer(
             Err(reply) => reply.into_response(),
         };
     }
-    let (head, body) = request.into_parts();
-    let body = match tokio::time::timeout(HEAD_TIMEOUT, Limited::new(body, MAX_BODY).collect()).await {
-        Err(_) => {
-            return Reply::text(StatusCode::REQUEST_TIMEOUT, "the body did not come in time").into_response();
-        }
-        Ok(Err(e)) if e.is::<http_body_util::LengthLimitError>() => {
-            let too_long = format!("a body of at most {MAX_BODY} bytes");
-            return Reply::error(StatusCode::PAYLOAD_TOO_LARGE, too_long).into_response();
-        }
-        Ok(Err(e)) => return Reply::text(StatusCode::BAD_REQUEST, format!("bad body: {e}")).into_response(),
-        Ok(Ok(body)) => body.to_bytes().to_vec(),
-    };
     let arena = served.live.as_ref().map(|live| &live.arena);
+    let mounted = served.mounted.iter().find(|r| r.serves(&path));
+    let api = arena.filter(|_| api::serves(&path));
+    if mounted.is_none() && api.is_none() {
+        // The page's files: no body is read.
+        return files::respond(request.method(), &path, &served.site).await.into_response();
+    }
+    let (head, body) = request.into_parts();
+    let body = match read_body(&head, body).await {
+        Ok(body) => body,
+        Err(reply) => return reply.into_response(),
+    };
     let request = WebRequest {
         operator: arena
             .is_some_and(|arena| api::is_operator(&head.method, &head.headers, head.uri.query(), arena)),
@@ -197,17 +196,31 @@ async fn answer(
         path,
         body,
     };
-    let reply = if let Some(routes) = served.mounted.iter().find(|r| r.serves(&request.path)) {
-        routes.respond(request).await
-    } else if let Some(arena) = arena.filter(|_| api::serves(&request.path)) {
-        api::respond(request, arena).await
-    } else {
-        files::respond(&request.method, &request.path, &served.site).await
+    let reply = match (mounted, api) {
+        (Some(routes), _) => routes.respond(request).await,
+        (None, Some(arena)) => api::respond(request, arena).await,
+        (None, None) => files::respond(&request.method, &request.path, &served.site).await,
     };
     reply.into_response()
 }
 
-/// The arena a live server's web port serves.
+/// A request's body, read whole within [`MAX_BODY`] bytes and [`HEAD_TIMEOUT`]; a `POST`
+/// must say its length.
+async fn read_body(head: &hyper::http::request::Parts, body: Incoming) -> Result<Vec<u8>, Reply> {
+    if head.method == hyper::Method::POST && !head.headers.contains_key(hyper::header::CONTENT_LENGTH) {
+        return Err(Reply::error(StatusCode::LENGTH_REQUIRED, "a body needs Content-Length"));
+    }
+    match tokio::time::timeout(HEAD_TIMEOUT, Limited::new(body, MAX_BODY).collect()).await {
+        Err(_) => Err(Reply::text(StatusCode::REQUEST_TIMEOUT, "the body did not come in time")),
+        Ok(Err(e)) if e.is::<http_body_util::LengthLimitError>() => {
+            Err(Reply::error(StatusCode::PAYLOAD_TOO_LARGE, format!("a body of at most {MAX_BODY} bytes")))
+        }
+        Ok(Err(e)) => Err(Reply::text(StatusCode::BAD_REQUEST, format!("bad body: {e}"))),
+        Ok(Ok(body)) => Ok(body.to_bytes().to_vec()),
+    }
+}
+
+/// The WebSocket side of a live server's web port, for `arena`.
 pub(crate) fn live(arena: &Arena) -> Arc<Live> {
     Arc::new(Live::new(arena.clone()))
 }
