@@ -1,17 +1,18 @@
+use bw4t_agents::MatchSetup;
 use bw4t_agents::Strategy;
 use bw4t_map::Map;
-use bw4t_runner::{Seat, play_headless};
-use bw4t_sim::MatchConfig;
+use bw4t_runner::play_headless;
 
 use crate::util::{fixture_text, shipped_map};
 
 /// Every match of the built-in team must end within this many ticks.
 const TICK_LIMIT: u64 = 20_000;
 
-fn team(strategy: Strategy, n: usize) -> Vec<Seat> {
-    (0..n)
-        .map(|i| Seat { name: format!("Bot{}", i + 1), agent: strategy.agent(&format!("Bot{}", i + 1)) })
-        .collect()
+fn team(map: &Map, seed: u64, strategy: Strategy, n: usize) -> MatchSetup {
+    let mut setup = MatchSetup::builtin_team(map.clone(), n, strategy);
+    setup.seed = seed;
+    setup.max_ticks = Some(TICK_LIMIT);
+    setup
 }
 
 /// Every map shipped in `maps/`, by file stem.
@@ -51,9 +52,7 @@ pub fn ticks_to_complete(
     let mut all = Vec::new();
     for &n in sizes.iter().filter(|&&n| n <= map.spawns().len()) {
         for seed in 0..seeds {
-            let (game, reason) =
-                play_headless(map, &MatchConfig::default(), seed, team(strategy, n), TICK_LIMIT, None)
-                    .expect("play");
+            let (game, reason) = play_headless(&team(map, seed, strategy, n), None).expect("play");
             assert_eq!(
                 reason,
                 "completed",
@@ -97,15 +96,7 @@ fn the_baseline_completes_too_but_teamwork_is_faster() {
 fn a_headless_match_is_the_same_every_time() {
     let map = shipped_map("default");
     let run = || {
-        let (game, _) = play_headless(
-            &map,
-            &MatchConfig::default(),
-            42,
-            team(Strategy::Cooperative, 4),
-            TICK_LIMIT,
-            None,
-        )
-        .expect("play");
+        let (game, _) = play_headless(&team(&map, 42, Strategy::Cooperative, 4), None).expect("play");
         (game.tick(), game.digest())
     };
     assert_eq!(run(), run());

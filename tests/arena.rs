@@ -7,14 +7,14 @@ use std::net::SocketAddr;
 use std::sync::Arc;
 use std::time::Duration;
 
-use bw4t_agents::{Agent, Observation, Strategy};
+use bw4t_agents::{Agent, Observation, Strategy, bot_name};
 use bw4t_protocol::{Mode, ServerMessage, SessionOptions};
-use bw4t_server::{Arena, ArenaConfig, HostConfig, OnEnd, ResultsStore, SeatPlan, Template};
+use bw4t_server::{Arena, ArenaConfig, HostConfig, MatchSetup, OnEnd, ResultsStore, Seat, Template};
 use bw4t_sim::Action;
 use serde_json::{Value, json};
 use tokio::sync::oneshot;
 
-use crate::util::{AutoPlayer, Client, WAIT, http, shipped_map};
+use crate::util::{AutoPlayer, Client, WAIT, http};
 
 /// An arena served on loopback ports, stopped when dropped.
 struct ArenaServer {
@@ -55,21 +55,31 @@ impl ArenaServer {
     }
 }
 
-/// A lockstep match config on a shipped map.
-fn lockstep(map: &str, robots: usize, max_ticks: u64) -> HostConfig {
-    let mut config = HostConfig::new(shipped_map(map));
-    config.mode = Mode::Lockstep;
-    config.robots = robots;
-    config.max_ticks = Some(max_ticks);
+/// A lockstep match of `robots` open seats on a shipped map.
+fn lockstep(map: &str, robots: usize, max_ticks: u64) -> (MatchSetup, HostConfig) {
+    let (mut setup, mut config) = crate::util::lockstep(map, 5, robots);
+    setup.max_ticks = Some(max_ticks);
     config.deadline = Some(Duration::from_secs(10));
-    config.seed = 5;
-    config
+    (setup, config)
 }
 
-fn template(name: &str, config: HostConfig) -> Template {
-    let mut t = Template::single(name, config, OnEnd::Stay);
+/// A template of one match named `name`, made at the start.
+fn single(name: &str, (setup, config): (MatchSetup, HostConfig), on_end: OnEnd) -> Template {
+    Template::single(name, setup, config, on_end)
+}
+
+/// A template of matches made as players ask.
+fn template(name: &str, match_: (MatchSetup, HostConfig)) -> Template {
+    let mut t = single(name, match_, OnEnd::Stay);
     t.names.clear();
     t
+}
+
+/// The first `n` seats of `t` played by built-in cooperative agents `Bot1`, `Bot2`, ...
+fn with_bots(t: &mut Template, n: usize) {
+    for (i, seat) in t.setup.seats.iter_mut().take(n).enumerate() {
+        *seat = Seat::builtin(bot_name(i), Strategy::Cooperative);
+    }
 }
 
 fn temp_dir(what: &str) -> std::path::PathBuf {
@@ -94,7 +104,7 @@ async fn a_classroom_of_teams_each_completes_its_match_at_once() {
     let mut classroom = template("classroom", lockstep("default", 2, 20_000));
     classroom.names = teams.clone();
     classroom.max_running = teams.len();
-    classroom.seats = vec![SeatPlan::builtin("Bot1", Strategy::Cooperative)];
+    with_bots(&mut classroom, 1);
     let mut config = ArenaConfig::new(vec![classroom]);
     config.results = ResultsStore::in_dir(&dir).expect("results dir");
     let server = ArenaServer::start(config).await;
@@ -136,11 +146,11 @@ async fn a_classroom_of_teams_each_completes_its_match_at_once() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_ladder_template_starts_again_when_its_match_ends() {
-    let mut ladder = Template::single("ladder", lockstep("default", 3, 60), OnEnd::Restart);
+    let mut ladder = single("ladder", lockstep("default", 3, 60), OnEnd::Restart);
     // Realtime at 200 ticks/s: each run lasts a third of a second, long enough to join.
     ladder.config.mode = Mode::Realtime;
-    ladder.config.game.ticks_per_second = 200;
-    ladder.seats = (1..=3).map(|i| SeatPlan::builtin(format!("Bot{i}"), Strategy::Cooperative)).collect();
+    ladder.setup.game.ticks_per_second = 200;
+    with_bots(&mut ladder, 3);
     let server = ArenaServer::start(ArenaConfig::new(vec![ladder])).await;
     server.ended(4).await;
     let outcomes = server.arena.outcomes();
@@ -232,7 +242,7 @@ async fn players_asking_for_a_template_share_a_match_and_the_next_one_waits_in_l
 async fn the_operator_makes_lists_inspects_and_stops_matches_through_the_api() {
     let dir = temp_dir("api");
     let mut base = template("base", lockstep("default", 1, 0));
-    base.config.max_ticks = None;
+    base.setup.max_ticks = None;
     base.replays = true;
     let mut config = ArenaConfig::new(vec![base]);
     config.server.operator_token = Some("op".into());
@@ -327,11 +337,10 @@ impl Agent for Faulty {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_match_that_fails_ends_alone_and_the_server_goes_on() {
-    let mut faulty = Template::single("faulty", lockstep("default", 2, 20_000), OnEnd::Stay);
-    faulty.seats =
-        vec![SeatPlan { name: "Bug".into(), agent: Arc::new(|_: &str| Box::new(Faulty) as Box<dyn Agent>) }];
-    let mut sound = Template::single("sound", lockstep("default", 2, 300), OnEnd::Stay);
-    sound.seats = vec![SeatPlan::builtin("Bot1", Strategy::Cooperative)];
+    let mut faulty = single("faulty", lockstep("default", 2, 20_000), OnEnd::Stay);
+    faulty.setup.seats[0] = Seat::agent("Bug", Arc::new(|_: &str| Box::new(Faulty) as Box<dyn Agent>));
+    let mut sound = single("sound", lockstep("default", 2, 300), OnEnd::Stay);
+    with_bots(&mut sound, 1);
     let server = ArenaServer::start(ArenaConfig::new(vec![faulty, sound])).await;
     let good = AutoPlayer::join_with(server.addr, hello_in("Ann", "match", "sound")).await;
     let mut victim = AutoPlayer::join_with(server.addr, hello_in("Eve", "match", "faulty")).await;
@@ -371,10 +380,10 @@ async fn a_match_that_fails_ends_alone_and_the_server_goes_on() {
 /// What a well-behaved player of match `b` receives, with or without hostile clients
 /// in match `a` of the same server.
 async fn bystander_stream(hostile_in_a: bool) -> Vec<String> {
-    let mut a = Template::single("a", lockstep("fixed", 1, 400), OnEnd::Stay);
+    let mut a = single("a", lockstep("fixed", 1, 400), OnEnd::Stay);
     a.config.token = Some("sesame".into());
-    let mut b = Template::single("b", lockstep("fixed", 1, 400), OnEnd::Stay);
-    b.config.seed = 8;
+    let mut b = single("b", lockstep("fixed", 1, 400), OnEnd::Stay);
+    b.setup.seed = 8;
     let mut config = ArenaConfig::new(vec![a, b]);
     config.server.hello_timeout = Duration::from_millis(200);
     let server = ArenaServer::start(config).await;
@@ -432,8 +441,7 @@ async fn hostile_clients_in_one_match_leave_another_match_s_streams_identical() 
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn clients_that_name_no_match_join_the_default_one_and_never_see_a_lobby() {
-    let mut config =
-        ArenaConfig::new(vec![Template::single("default", lockstep("fixed", 2, 20), OnEnd::Stay)]);
+    let mut config = ArenaConfig::new(vec![single("default", lockstep("fixed", 2, 20), OnEnd::Stay)]);
     config.default = Some("default".into());
     let server = ArenaServer::start(config).await;
     let mut old = AutoPlayer::join(server.addr, "Ann").await;
@@ -456,14 +464,9 @@ async fn clients_that_name_no_match_join_the_default_one_and_never_see_a_lobby()
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_lobby_names_who_is_there_and_whose_seat_waits() {
-    let config = lockstep("fixed", 3, 20);
-    let seats = vec![
-        bw4t_server::Seat::Local("Bot1".into(), Strategy::Cooperative.agent("Bot1")),
-        bw4t_server::Seat::Remote("Bob".into()),
-    ];
-    let server =
-        crate::util::TestServer::start_with(config, bw4t_server::Extras { seats, ..Default::default() })
-            .await;
+    let (mut setup, config) = lockstep("fixed", 3, 20);
+    setup.seats[..2].clone_from_slice(&[Seat::builtin("Bot1", Strategy::Cooperative), Seat::remote("Bob")]);
+    let server = crate::util::TestServer::start(setup, config).await;
     let mut ann = Client::connect(server.addr).await;
     ann.send(
         json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": "Ann", "match": "default"}),
@@ -493,8 +496,8 @@ async fn the_lobby_names_who_is_there_and_whose_seat_waits() {
 async fn a_restarted_server_numbers_runs_on_from_its_results() {
     let dir = temp_dir("restart");
     let ladder = || {
-        let mut t = Template::single("ladder", lockstep("default", 3, 30), OnEnd::Restart);
-        t.seats = (1..=3).map(|i| SeatPlan::builtin(format!("Bot{i}"), Strategy::Cooperative)).collect();
+        let mut t = single("ladder", lockstep("default", 3, 30), OnEnd::Restart);
+        with_bots(&mut t, 3);
         let mut config = ArenaConfig::new(vec![t]);
         config.results = ResultsStore::in_dir(&dir).expect("results dir");
         config.server.operator_token = Some("op".into());
@@ -539,8 +542,8 @@ fn stops_racing_restarts_never_deadlock() {
             .build()
             .expect("runtime");
         let stopped = runtime.block_on(async {
-            let mut t = Template::single("ladder", lockstep("default", 3, 5), OnEnd::Restart);
-            t.seats = (1..=3).map(|i| SeatPlan::builtin(format!("Bot{i}"), Strategy::Cooperative)).collect();
+            let mut t = single("ladder", lockstep("default", 3, 5), OnEnd::Restart);
+            with_bots(&mut t, 3);
             let server = ArenaServer::start(ArenaConfig::new(vec![t])).await;
             let mut stopped = 0;
             for _ in 0..300 {

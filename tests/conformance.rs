@@ -5,7 +5,7 @@ use bw4t_protocol::Mode;
 use serde_json::Value;
 use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader};
 
-use crate::util::{TestServer, WAIT, shipped_map};
+use crate::util::{TestServer, WAIT, open_seats, shipped_map};
 
 /// Whether `got` matches `expected`: objects by the fields `expected` names (extra fields
 /// are ignored, as the protocol's versioning rules say), arrays element by element, and
@@ -32,16 +32,18 @@ async fn replay(file: &Path) {
     let Some((_, first)) = lines.next() else { return };
     let header: Value = serde_json::from_str(first).expect("json");
     let Some(server) = header.get("server") else { return };
-    let mut config = bw4t_server::HostConfig::new(shipped_map(server["map"].as_str().expect("map")));
-    config.seed = server["seed"].as_u64().expect("seed");
+    let mut setup = bw4t_server::MatchSetup::new(shipped_map(server["map"].as_str().expect("map")));
+    setup.seats = open_seats(1);
+    let mut config = bw4t_server::HostConfig::new();
+    setup.seed = server["seed"].as_u64().expect("seed");
     config.mode = if server["mode"] == "realtime" { Mode::Realtime } else { Mode::Lockstep };
-    config.max_ticks = server["max_ticks"].as_u64();
+    setup.max_ticks = server["max_ticks"].as_u64();
     config.deadline = match server["deadline_ms"].as_u64() {
         Some(0) => None,
         Some(ms) => Some(Duration::from_millis(ms)),
         None => config.deadline,
     };
-    let server = TestServer::start(config).await;
+    let server = TestServer::start(setup, config).await;
     let stream = tokio::net::TcpStream::connect(server.addr).await.expect("connect");
     let (reader, mut writer) = stream.into_split();
     let mut from_server = BufReader::new(reader).lines();

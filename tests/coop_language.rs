@@ -4,11 +4,11 @@
 
 use std::sync::{Arc, Mutex};
 
-use bw4t_agents::{Agent, CLAIM_LAPSE_TICKS, Observation, Strategy};
+use bw4t_agents::{Agent, CLAIM_LAPSE_TICKS, MatchSetup, Observation, Seat, Strategy};
 use bw4t_map::{Colour, Map};
 use bw4t_protocol::{EndReason, Knowledge, Said};
-use bw4t_runner::{Seat, play_headless};
-use bw4t_sim::{Action, MatchConfig, Receiver};
+use bw4t_runner::play_headless;
+use bw4t_sim::{Action, Receiver};
 
 use crate::util::shipped_map;
 
@@ -101,19 +101,22 @@ impl Agent for Spy {
 }
 
 fn spy(name: &str, strategy: Strategy, record: &Shared) -> Seat {
-    let spy = Spy {
-        name: name.into(),
-        inner: strategy.agent(name),
-        knowledge: Knowledge::new(),
-        last_claims: (u64::MAX - 1, Vec::new()),
-        record: record.clone(),
+    let record = record.clone();
+    let make = move |name: &str| -> Box<dyn Agent> {
+        Box::new(Spy {
+            name: name.into(),
+            inner: strategy.agent(name),
+            knowledge: Knowledge::new(),
+            last_claims: (u64::MAX - 1, Vec::new()),
+            record: record.clone(),
+        })
     };
-    Seat { name: name.into(), agent: Box::new(spy) }
+    Seat::agent(name, Arc::new(make))
 }
 
 fn play(map: &Map, seed: u64, seats: Vec<Seat>) -> (EndReason, u64) {
-    let (game, reason) =
-        play_headless(map, &MatchConfig::default(), seed, seats, TICK_LIMIT, None).expect("play");
+    let setup = MatchSetup { seed, seats, max_ticks: Some(TICK_LIMIT), ..MatchSetup::new(map.clone()) };
+    let (game, reason) = play_headless(&setup, None).expect("play");
     (reason, game.tick())
 }
 
@@ -257,8 +260,13 @@ fn play_with_talker(seed: u64, lines: Lines) -> (EndReason, u64, Vec<Sent>, Hear
         pending: None,
         heard: heard.clone(),
     };
+    // The one talker, handed to the match when it seats `Asker`.
+    let talker = Mutex::new(Some(talker));
+    let take = move |_: &str| -> Box<dyn Agent> {
+        Box::new(talker.lock().expect("lock").take().expect("seated once"))
+    };
     let seats = vec![
-        Seat { name: "Asker".into(), agent: Box::new(talker) },
+        Seat::agent("Asker", Arc::new(take)),
         spy("Bot1", Strategy::Cooperative, &record),
         spy("Bot2", Strategy::Cooperative, &record),
     ];

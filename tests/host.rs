@@ -47,13 +47,13 @@ fn texts(messages: &[FrameMessage]) -> Vec<&str> {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn players_spectators_and_the_operator_have_their_own_tokens() {
-    let mut config = lockstep("fixed", 9, 2);
+    let (mut setup, mut config) = lockstep("fixed", 9, 2);
     config.mode = Mode::Realtime;
-    config.game.ticks_per_second = 100;
+    setup.game.ticks_per_second = 100;
     config.token = Some("player-secret".into());
     config.spectator_token = Some("spectator-secret".into());
     config.operator_token = Some("operator-secret".into());
-    let server = TestServer::start(config).await;
+    let server = TestServer::start(setup, config).await;
     let addr = server.addr;
     // A player's token opens no view of the whole match; nothing opens the wrong role.
     let wrong = [
@@ -97,11 +97,11 @@ async fn players_spectators_and_the_operator_have_their_own_tokens() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_match_without_tokens_is_open_to_watch_and_private_messages_follow_the_option() {
     for see_private in [false, true] {
-        let mut config = lockstep("fixed", 9, 2);
+        let (mut setup, mut config) = lockstep("fixed", 9, 2);
         config.mode = Mode::Realtime;
-        config.game.ticks_per_second = 100;
+        setup.game.ticks_per_second = 100;
         config.spectators_see_private = see_private;
-        let server = TestServer::start(config).await;
+        let server = TestServer::start(setup, config).await;
         let addr = server.addr;
         // No operator token: nobody is the operator.
         assert_eq!(refusal(addr, hello(json!({"role": "operator", "token": "guess"}))).await, "bad_token");
@@ -135,11 +135,11 @@ fn serve_refuses_shared_tokens_and_more_built_in_agents_than_players() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_match_admits_at_most_its_players() {
-    let mut config = lockstep("fixed", 10, 2);
+    let (mut setup, mut config) = lockstep("fixed", 10, 2);
     config.mode = Mode::Realtime;
-    config.game.ticks_per_second = 100;
+    setup.game.ticks_per_second = 100;
     config.grace = Duration::from_secs(600);
-    let server = TestServer::start(config).await;
+    let server = TestServer::start(setup, config).await;
     let addr = server.addr;
     let _ann = AutoPlayer::join(addr, "Ann").await;
     let bob = AutoPlayer::join(addr, "Bob").await;
@@ -179,16 +179,16 @@ impl std::io::Write for SharedBuffer {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn thousands_of_joins_and_leaves_leave_no_robots_behind() {
     const CYCLES: usize = 3000;
-    let mut config = lockstep("fixed", 11, 2);
+    let (mut setup, mut config) = lockstep("fixed", 11, 2);
     config.mode = Mode::Realtime;
-    config.game.ticks_per_second = 100;
+    setup.game.ticks_per_second = 100;
     let replay = SharedBuffer::default();
     let extras = bw4t_server::Extras {
         replay: Some(Box::new(replay.clone())),
         program: "test".into(),
         ..Default::default()
     };
-    let server = TestServer::start_with(config, extras).await;
+    let server = TestServer::start_with(setup, config, extras).await;
     let mut ann = AutoPlayer::join(server.addr, "Ann").await;
     ann.act("goTo", json!(["RoomA1"])).await;
     for i in 0..CYCLES {
@@ -273,10 +273,10 @@ fn say(to: &str, text: &str) -> Value {
 
 /// One lockstep match of two scripted players; their streams and the result's digest.
 async fn scripted_match(seed: u64) -> ([(Vec<String>, usize); 2], String) {
-    let mut config = lockstep("fixed", 12, 2);
+    let (mut setup, mut config) = lockstep("fixed", 12, 2);
     config.deadline = None;
-    config.max_ticks = Some(300);
-    let server = TestServer::start(config).await;
+    setup.max_ticks = Some(300);
+    let server = TestServer::start(setup, config).await;
     // Rejected actions, accepted ones, messages and a request refused at once.
     let ann: Vec<Step> = vec![
         vec![act(1, "goTo", json!(["Nowhere"]))],
@@ -326,12 +326,12 @@ async fn a_scripted_lockstep_match_is_the_same_whatever_the_network_timing() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn messages_of_the_language_arrive_as_sentence_and_structure_and_the_policy_refuses_the_rest() {
-    let mut config = lockstep("fixed", 9, 2);
+    let (mut setup, mut config) = lockstep("fixed", 9, 2);
     config.mode = Mode::Realtime;
-    config.game.ticks_per_second = 100;
+    setup.game.ticks_per_second = 100;
     config.language =
         bw4t_protocol::MessagePolicy { kinds: Some(vec!["contains".into(), "yes".into()]), free_text: false };
-    let server = TestServer::start(config).await;
+    let server = TestServer::start(setup, config).await;
     let addr = server.addr;
     let (mut spectator, _) = welcomed(addr, hello(json!({"role": "spectator"}))).await;
     let (mut ann, welcome) = welcomed(addr, hello(json!({"name": "Ann"}))).await;

@@ -4,11 +4,12 @@
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
-use bw4t_host::{ConnId, HostConfig, HostEvent, MatchHost, Seat, Transmit};
+use bw4t_agents::{MatchSetup, Seat};
+use bw4t_host::{ConnId, HostConfig, HostEvent, MatchHost, Transmit};
 use bw4t_protocol::{Mode, ServerMessage, decode_client, decode_server};
 use serde_json::{Value, json};
 
-use crate::util::{lockstep, shipped_map};
+use crate::util::{lockstep, open_seats, shipped_map};
 
 /// What one connection was sent.
 #[derive(Default)]
@@ -32,13 +33,9 @@ struct Sim {
 const ROOMY: usize = 1024;
 
 impl Sim {
-    fn new(config: HostConfig) -> Sim {
-        Sim::with_seats(config, Vec::new())
-    }
-
-    fn with_seats(config: HostConfig, seats: Vec<Seat>) -> Sim {
+    fn new((setup, config): (MatchSetup, HostConfig)) -> Sim {
         let start = Instant::now();
-        let host = MatchHost::new(config, seats, None, start).expect("a valid match");
+        let host = MatchHost::new(setup, config, None, start).expect("a valid match");
         Sim { host, start, now: start, inboxes: BTreeMap::new(), rooms: BTreeMap::new() }
     }
 
@@ -159,12 +156,12 @@ impl Sim {
 
 /// Lockstep with a 1 s deadline and percepts every tick, so a player that does not answer
 /// paces the match at one tick per second of the simulated clock.
-fn lockstep_config(robots: usize) -> HostConfig {
-    let mut config = lockstep("fixed", 3, robots);
+fn lockstep_config(robots: usize) -> (MatchSetup, HostConfig) {
+    let (mut setup, mut config) = lockstep("fixed", 3, robots);
     config.deadline = Some(Duration::from_secs(1));
     config.every_tick = true;
-    config.max_ticks = Some(1000);
-    config
+    setup.max_ticks = Some(1000);
+    (setup, config)
 }
 
 fn late_ticks(result: &bw4t_protocol::MatchResult, name: &str) -> u64 {
@@ -192,9 +189,9 @@ fn lockstep_waits_for_ready_until_the_deadline_and_counts_late_players() {
 
 #[test]
 fn a_player_late_too_often_in_a_row_is_disconnected() {
-    let mut config = lockstep_config(1);
+    let (setup, mut config) = lockstep_config(1);
     config.max_late_in_row = Some(3);
-    let mut sim = Sim::new(config);
+    let mut sim = Sim::new((setup, config));
     sim.join(1, "Ann");
     // Ann never answers: each deadline counts her late once more.
     for late in 1..=3 {
@@ -207,9 +204,9 @@ fn a_player_late_too_often_in_a_row_is_disconnected() {
 
 #[test]
 fn a_dropped_player_keeps_its_seat_for_the_grace_period_and_can_take_it_back() {
-    let mut config = lockstep_config(2);
+    let (setup, mut config) = lockstep_config(2);
     config.grace = Duration::from_secs(30);
-    let mut sim = Sim::new(config);
+    let mut sim = Sim::new((setup, config));
     sim.join(1, "Ann");
     sim.join(2, "Bob");
     let session = sim
@@ -243,10 +240,10 @@ fn a_dropped_player_keeps_its_seat_for_the_grace_period_and_can_take_it_back() {
 
 #[test]
 fn a_seat_is_freed_when_the_grace_period_ends() {
-    let mut config = lockstep_config(2);
+    let (setup, mut config) = lockstep_config(2);
     config.grace = Duration::from_secs(30);
     config.pause_when_empty = true;
-    let mut sim = Sim::new(config);
+    let mut sim = Sim::new((setup, config));
     sim.join(1, "Ann");
     sim.join(2, "Bob");
     sim.close(2);
@@ -268,9 +265,9 @@ fn a_seat_is_freed_when_the_grace_period_ends() {
 
 #[test]
 fn a_client_that_does_not_read_gets_a_snapshot_later_or_is_disconnected() {
-    let mut config = lockstep_config(2);
+    let (setup, mut config) = lockstep_config(2);
     config.slow_limit = Duration::from_secs(5);
-    let mut sim = Sim::new(config);
+    let mut sim = Sim::new((setup, config));
     sim.join(1, "Ann");
     sim.join(2, "Bob");
     // Bob reads but never answers, so ticks come once a second. Ann's queue has less than
@@ -315,15 +312,13 @@ fn a_client_whose_queue_is_full_is_killed_without_waiting() {
 
 #[test]
 fn spectator_frames_are_throttled_to_their_rate_on_the_match_clock() {
-    let mut config = HostConfig::new(shipped_map("fixed"));
+    let (mut setup, mut config) = (MatchSetup::new(shipped_map("fixed")), HostConfig::new());
     config.mode = Mode::Realtime;
-    config.robots = 1;
-    config.game.ticks_per_second = 20;
+    setup.seats = open_seats(1);
+    setup.game.ticks_per_second = 20;
     config.spectator_hz = 5;
-    let mut sim = Sim::with_seats(
-        config,
-        vec![Seat::Local("Bot1".into(), bw4t_agents::Strategy::Cooperative.agent("Bot1"))],
-    );
+    setup.seats[0] = Seat::builtin("Bot1", bw4t_agents::Strategy::Cooperative);
+    let mut sim = Sim::new((setup, config));
     sim.open(9);
     sim.say(9, json!({"type": "hello", "protocol": "bw4t", "versions": [1], "role": "spectator"}));
     let frames = |sim: &Sim| sim.messages(9).iter().filter(|m| matches!(m, ServerMessage::Frame(_))).count();
@@ -336,11 +331,11 @@ fn spectator_frames_are_throttled_to_their_rate_on_the_match_clock() {
 
 #[test]
 fn realtime_ticks_fall_on_the_period_and_missed_ones_are_skipped() {
-    let mut config = HostConfig::new(shipped_map("fixed"));
+    let (mut setup, mut config) = (MatchSetup::new(shipped_map("fixed")), HostConfig::new());
     config.mode = Mode::Realtime;
-    config.robots = 1;
-    config.game.ticks_per_second = 10;
-    let mut sim = Sim::new(config);
+    setup.seats = open_seats(1);
+    setup.game.ticks_per_second = 10;
+    let mut sim = Sim::new((setup, config));
     sim.join(1, "Ann");
     assert_eq!(sim.host.poll_timeout(), Some(sim.start + Duration::from_millis(100)));
     sim.run_until(Duration::from_millis(350));
@@ -354,9 +349,9 @@ fn realtime_ticks_fall_on_the_period_and_missed_ones_are_skipped() {
 
 #[test]
 fn the_start_timeout_starts_a_match_with_the_players_it_has() {
-    let mut config = lockstep_config(3);
+    let (setup, mut config) = lockstep_config(3);
     config.start_timeout = Some(Duration::from_secs(5));
-    let mut sim = Sim::new(config);
+    let mut sim = Sim::new((setup, config));
     sim.join(1, "Ann");
     assert_eq!(sim.host.poll_timeout(), Some(sim.start + Duration::from_secs(5)));
     sim.ready(1);
@@ -371,7 +366,9 @@ fn the_start_timeout_starts_a_match_with_the_players_it_has() {
 
 #[test]
 fn a_match_whose_reserved_players_will_not_come_starts_without_them() {
-    let mut sim = Sim::with_seats(lockstep_config(2), vec![Seat::Remote("Agent1".into())]);
+    let (mut setup, config) = lockstep_config(2);
+    setup.seats[0] = Seat::remote("Agent1");
+    let mut sim = Sim::new((setup, config));
     sim.join(1, "Ann");
     assert_eq!(sim.host.tick(), 0);
     sim.ready(1);
@@ -384,11 +381,11 @@ fn a_match_whose_reserved_players_will_not_come_starts_without_them() {
 
 #[test]
 fn a_paused_match_makes_no_ticks_and_resumes_a_full_period_later() {
-    let mut config = HostConfig::new(shipped_map("fixed"));
+    let (mut setup, mut config) = (MatchSetup::new(shipped_map("fixed")), HostConfig::new());
     config.mode = Mode::Realtime;
-    config.robots = 1;
-    config.game.ticks_per_second = 10;
-    let mut sim = Sim::new(config);
+    setup.seats = open_seats(1);
+    setup.game.ticks_per_second = 10;
+    let mut sim = Sim::new((setup, config));
     sim.join(1, "Ann");
     sim.run_until(Duration::from_millis(250));
     assert_eq!(sim.host.tick(), 2);
@@ -405,10 +402,10 @@ fn a_paused_match_makes_no_ticks_and_resumes_a_full_period_later() {
 
 #[test]
 fn a_player_that_asks_for_words_gets_its_situation_in_english_with_each_percepts() {
-    let mut config = HostConfig::new(shipped_map("fixed"));
+    let (mut setup, mut config) = (MatchSetup::new(shipped_map("fixed")), HostConfig::new());
     config.mode = Mode::Realtime;
-    config.robots = 2;
-    let mut sim = Sim::new(config);
+    setup.seats = open_seats(2);
+    let mut sim = Sim::new((setup, config));
     sim.open(1);
     sim.say(1, json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": "Ann", "words": true}));
     sim.join(2, "Bob");
@@ -438,10 +435,10 @@ fn a_player_that_asks_for_words_gets_its_situation_in_english_with_each_percepts
 
 #[test]
 fn the_last_report_of_each_player_is_in_the_result_even_after_it_left() {
-    let mut config = HostConfig::new(shipped_map("fixed"));
+    let (mut setup, mut config) = (MatchSetup::new(shipped_map("fixed")), HostConfig::new());
     config.mode = Mode::Realtime;
-    config.robots = 2;
-    let mut sim = Sim::new(config);
+    setup.seats = open_seats(2);
+    let mut sim = Sim::new((setup, config));
     sim.join(1, "Ann");
     sim.join(2, "Bob");
     sim.say(1, json!({"type": "report", "tool_calls": 1, "think_ms": 40}));

@@ -4,12 +4,12 @@ use bw4t_protocol::{Mode, ServerMessage};
 use bw4t_sim::{Action, Match, MatchConfig, RobotId};
 use serde_json::json;
 
-use crate::util::{AutoPlayer, Client, TestServer, delta_of, lockstep, shipped_map, two_rooms};
+use crate::util::{AutoPlayer, Client, TestServer, delta_of, lockstep, open_seats, shipped_map, two_rooms};
 
 /// BW4T-FACTS section 6, played over TCP: a closed door, a delivery, and messages.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_original_scenarios_over_tcp() {
-    let server = TestServer::start(lockstep("fixed", 1, 3)).await;
+    let server = TestServer::start_pair(lockstep("fixed", 1, 3)).await;
     let mut ann = AutoPlayer::join(server.addr, "Ann").await;
     let mut bob = AutoPlayer::join(server.addr, "Bob").await;
     let mut cat = AutoPlayer::join(server.addr, "Cat").await;
@@ -101,9 +101,9 @@ async fn scripted_player(
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_lockstep_match_has_the_digest_of_the_same_actions_played_headless() {
-    let mut config = lockstep("default", 5, 2);
-    config.max_ticks = Some(700);
-    let server = TestServer::start(config).await;
+    let (mut setup, config) = lockstep("default", 5, 2);
+    setup.max_ticks = Some(700);
+    let server = TestServer::start(setup, config).await;
     let ann = scripted_player(server.addr, "Ann", vec!["RoomB2", "RoomA1", "DropZone"]).await;
     let bob = scripted_player(server.addr, "Bob", vec!["RoomB2", "RoomC3", "RightHallA"]).await;
     let result = server.finish().await;
@@ -129,7 +129,7 @@ async fn a_lockstep_match_has_the_digest_of_the_same_actions_played_headless() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_dropped_player_takes_its_robot_back_with_its_session() {
-    let server = TestServer::start(lockstep("fixed", 2, 1)).await;
+    let server = TestServer::start_pair(lockstep("fixed", 2, 1)).await;
     let mut ann = AutoPlayer::join(server.addr, "Ann").await;
     let session = ann.welcome.session.clone().expect("a session token");
     let go = ann.act("goTo", json!(["RoomC1"])).await;
@@ -168,10 +168,10 @@ async fn a_dropped_player_takes_its_robot_back_with_its_session() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn spectators_watch_the_whole_match_but_cannot_act() {
-    let mut config = lockstep("fixed", 3, 1);
+    let (mut setup, mut config) = lockstep("fixed", 3, 1);
     config.mode = Mode::Realtime;
-    config.game.ticks_per_second = 100;
-    let server = TestServer::start(config).await;
+    setup.game.ticks_per_second = 100;
+    let server = TestServer::start(setup, config).await;
     let mut watcher = Client::connect(server.addr).await;
     watcher.send(json!({"type": "hello", "protocol": "bw4t", "versions": [1], "role": "spectator"})).await;
     let welcome =
@@ -200,7 +200,7 @@ async fn spectators_watch_the_whole_match_but_cannot_act() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn bad_input_is_answered_and_the_connection_stays_open() {
-    let server = TestServer::start(lockstep("fixed", 4, 1)).await;
+    let server = TestServer::start_pair(lockstep("fixed", 4, 1)).await;
     let mut c = Client::connect(server.addr).await;
     let cases = [
         ("this is not json", "bad_json"),
@@ -247,12 +247,13 @@ async fn bad_input_is_answered_and_the_connection_stays_open() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn refusals_are_fatal_and_name_the_reason() {
     let one_spawn = two_rooms(|parts| parts.spawns.truncate(1));
-    let mut config = bw4t_server::HostConfig::new(one_spawn);
+    let mut setup = bw4t_server::MatchSetup::new(one_spawn);
+    let mut config = bw4t_server::HostConfig::new();
     config.token = Some("sesame".into());
     // Two seats but one spawn point: the last refusal is the map's.
-    config.robots = 2;
+    setup.seats = open_seats(2);
     let limits = bw4t_server::ServerConfig { max_connections: 8, ..Default::default() };
-    let server = TestServer::start_limited(config, limits).await;
+    let server = TestServer::start_limited(setup, config, limits).await;
     let hello = |extra: serde_json::Value| {
         let mut h = json!({"type": "hello", "protocol": "bw4t", "versions": [1], "token": "sesame"});
         h.as_object_mut().expect("object").extend(extra.as_object().expect("object").clone());
@@ -286,13 +287,13 @@ async fn refusals_are_fatal_and_name_the_reason() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn silent_connections_time_out_and_extra_connections_are_refused() {
-    let config = lockstep("fixed", 4, 1);
+    let (setup, config) = lockstep("fixed", 4, 1);
     let limits = bw4t_server::ServerConfig {
         hello_timeout: Duration::from_millis(300),
         max_connections: 2,
         ..Default::default()
     };
-    let server = TestServer::start_limited(config, limits).await;
+    let server = TestServer::start_limited(setup, config, limits).await;
     let mut silent = Client::connect(server.addr).await;
     let mut second = Client::connect(server.addr).await;
     second.send(json!({"type": "ping"})).await;
@@ -308,9 +309,9 @@ async fn silent_connections_time_out_and_extra_connections_are_refused() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn actions_beyond_the_per_tick_limit_are_rejected() {
-    let mut config = lockstep("fixed", 4, 1);
+    let (setup, mut config) = lockstep("fixed", 4, 1);
     config.max_actions_per_tick = 2;
-    let server = TestServer::start(config).await;
+    let server = TestServer::start(setup, config).await;
     let mut c = Client::connect(server.addr).await;
     c.hello("Ann").await;
     for id in 1..=3 {
@@ -328,7 +329,7 @@ async fn actions_beyond_the_per_tick_limit_are_rejected() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn stopping_the_server_ends_the_match_for_everyone() {
-    let server = TestServer::start(lockstep("fixed", 4, 1)).await;
+    let server = TestServer::start_pair(lockstep("fixed", 4, 1)).await;
     let mut ann = Client::connect(server.addr).await;
     ann.hello("Ann").await;
     let result = server.stop().await;
@@ -364,11 +365,12 @@ async fn let_ticks_pass(bob: &mut AutoPlayer, n: u64) {
 
 /// A fast realtime match whose clients' queues hold 100 lines.
 async fn realtime_flood_server(slow_limit: Duration) -> TestServer {
-    let mut config = lockstep("fixed", 6, 2);
+    let (mut setup, mut config) = lockstep("fixed", 6, 2);
     config.mode = Mode::Realtime;
-    config.game.ticks_per_second = 200;
+    setup.game.ticks_per_second = 200;
     config.slow_limit = slow_limit;
-    TestServer::start_limited(config, bw4t_server::ServerConfig { queue: 100, ..Default::default() }).await
+    TestServer::start_limited(setup, config, bw4t_server::ServerConfig { queue: 100, ..Default::default() })
+        .await
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -431,12 +433,12 @@ async fn a_client_that_never_reads_is_disconnected_and_others_play_on() {
 /// Everything the well-behaved player receives in a fixed lockstep match, with the
 /// wall-clock and random fields blanked.
 async fn good_player_stream(adversaries: bool) -> Vec<String> {
-    let mut config = lockstep("fixed", 8, 1);
-    config.max_ticks = Some(400);
+    let (mut setup, mut config) = lockstep("fixed", 8, 1);
+    setup.max_ticks = Some(400);
     config.token = Some("sesame".into());
     let limits =
         bw4t_server::ServerConfig { hello_timeout: Duration::from_millis(200), ..Default::default() };
-    let server = TestServer::start_limited(config, limits).await;
+    let server = TestServer::start_limited(setup, config, limits).await;
     let addr = server.addr;
     let mut hostile = Vec::new();
     if adversaries {
@@ -490,9 +492,11 @@ async fn hostile_clients_do_not_change_what_a_good_player_receives() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn completing_the_sequence_ends_the_match_for_everyone() {
-    let mut config = bw4t_server::HostConfig::new(two_rooms(|_| ()));
+    let setup =
+        bw4t_server::MatchSetup { seats: open_seats(1), ..bw4t_server::MatchSetup::new(two_rooms(|_| ())) };
+    let mut config = bw4t_server::HostConfig::new();
     config.mode = Mode::Lockstep;
-    let server = TestServer::start(config).await;
+    let server = TestServer::start(setup, config).await;
     let mut ann = AutoPlayer::join_with(server.addr, json!({"name": "Ann", "every_tick": true})).await;
     let go = ann.act("goTo", json!(["RoomA"])).await;
     ann.wait_result(&go).await;
@@ -521,12 +525,13 @@ async fn completing_the_sequence_ends_the_match_for_everyone() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_robot_whose_player_stays_away_leaves_after_the_grace_period() {
-    let mut config = bw4t_server::HostConfig::new(two_rooms(|_| ()));
+    let mut setup = bw4t_server::MatchSetup::new(two_rooms(|_| ()));
+    let mut config = bw4t_server::HostConfig::new();
     config.mode = Mode::Realtime;
-    config.game.ticks_per_second = 100;
-    config.robots = 2;
+    setup.game.ticks_per_second = 100;
+    setup.seats = open_seats(2);
     config.grace = Duration::from_millis(300);
-    let server = TestServer::start(config).await;
+    let server = TestServer::start(setup, config).await;
     let mut ann = AutoPlayer::join(server.addr, "Ann").await;
     let bob = AutoPlayer::join(server.addr, "Bob").await;
     let old_session = bob.welcome.session.clone();
@@ -545,10 +550,10 @@ async fn a_robot_whose_player_stays_away_leaves_after_the_grace_period() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_dropped_players_robot_stands_still() {
-    let mut config = lockstep("fixed", 3, 1);
+    let (mut setup, mut config) = lockstep("fixed", 3, 1);
     config.mode = Mode::Realtime;
-    config.game.ticks_per_second = 100;
-    let server = TestServer::start(config).await;
+    setup.game.ticks_per_second = 100;
+    let server = TestServer::start(setup, config).await;
     let mut watcher = Client::connect(server.addr).await;
     watcher.send(json!({"type": "hello", "protocol": "bw4t", "versions": [1], "role": "spectator"})).await;
     let mut ann = AutoPlayer::join(server.addr, "Ann").await;
@@ -581,11 +586,11 @@ async fn a_dropped_players_robot_stands_still() {
 /// plays headless: the same agent trait, the same lockstep rule.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_builtin_team_over_tcp_plays_the_same_match_as_headless() {
-    let mut config = lockstep("default", 21, 3);
-    config.max_ticks = Some(20_000);
+    let (mut setup, config) = lockstep("default", 21, 3);
+    setup.max_ticks = Some(20_000);
     // Seats taken in advance fix the robot ids, whoever connects first.
-    let seats = ["Bot1", "Bot2", "Bot3"].map(|n| bw4t_server::Seat::Remote(n.to_string())).into();
-    let server = TestServer::start_with(config, bw4t_server::Extras { seats, ..Default::default() }).await;
+    setup.seats = ["Bot1", "Bot2", "Bot3"].map(bw4t_server::Seat::remote).into();
+    let server = TestServer::start(setup, config).await;
     let mut clients = Vec::new();
     for name in ["Bot3", "Bot1", "Bot2"] {
         let agent = bw4t_agents::Strategy::Cooperative.agent(name);
@@ -600,16 +605,11 @@ async fn the_builtin_team_over_tcp_plays_the_same_match_as_headless() {
         let result = client.await.expect("client task").expect("played to the end");
         assert_eq!(result.digest, served.digest);
     }
-    let seats = ["Bot1", "Bot2", "Bot3"]
-        .iter()
-        .map(|n| bw4t_runner::Seat {
-            name: n.to_string(),
-            agent: bw4t_agents::Strategy::Cooperative.agent(n),
-        })
-        .collect();
-    let (game, reason) =
-        bw4t_runner::play_headless(&shipped_map("default"), &MatchConfig::default(), 21, seats, 20_000, None)
-            .expect("play");
+    let mut headless =
+        bw4t_server::MatchSetup::builtin_team(shipped_map("default"), 3, bw4t_agents::Strategy::Cooperative);
+    headless.seed = 21;
+    headless.max_ticks = Some(20_000);
+    let (game, reason) = bw4t_runner::play_headless(&headless, None).expect("play");
     assert_eq!((reason.as_str(), served.end_reason.as_str()), ("completed", "completed"));
     assert_eq!(format!("{:016x}", game.digest()), served.digest);
 }

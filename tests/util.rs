@@ -258,7 +258,7 @@ use std::time::Duration;
 use bw4t_protocol::{
     ActId, ClientSession, MatchResult, ServerMessage, SessionEvent, SessionOptions, decode_server,
 };
-use bw4t_server::HostConfig;
+use bw4t_server::{HostConfig, MatchSetup, Seat};
 use bw4t_sim::PerceptDelta;
 use serde_json::{Value, json};
 use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader};
@@ -278,17 +278,30 @@ pub struct TestServer {
 }
 
 impl TestServer {
-    pub async fn start(config: HostConfig) -> TestServer {
-        TestServer::start_with(config, bw4t_server::Extras::default()).await
+    pub async fn start(setup: MatchSetup, config: HostConfig) -> TestServer {
+        TestServer::start_with(setup, config, bw4t_server::Extras::default()).await
+    }
+
+    /// A server of a match as [`lockstep`] makes one.
+    pub async fn start_pair((setup, config): (MatchSetup, HostConfig)) -> TestServer {
+        TestServer::start(setup, config).await
     }
 
     /// A server with these limits on connections.
-    pub async fn start_limited(config: HostConfig, server: bw4t_server::ServerConfig) -> TestServer {
-        TestServer::start_with(config, bw4t_server::Extras { server, ..Default::default() }).await
+    pub async fn start_limited(
+        setup: MatchSetup,
+        config: HostConfig,
+        server: bw4t_server::ServerConfig,
+    ) -> TestServer {
+        TestServer::start_with(setup, config, bw4t_server::Extras { server, ..Default::default() }).await
     }
 
-    /// A server with seats taken in advance (and possibly a replay).
-    pub async fn start_with(config: HostConfig, extras: bw4t_server::Extras) -> TestServer {
+    /// A server with a replay, the web port, or seats whose players will not come.
+    pub async fn start_with(
+        setup: MatchSetup,
+        config: HostConfig,
+        extras: bw4t_server::Extras,
+    ) -> TestServer {
         let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.expect("bind");
         let addr = listener.local_addr().expect("addr");
         let (stop, stopped) = oneshot::channel::<()>();
@@ -296,7 +309,7 @@ impl TestServer {
             let shutdown = async {
                 let _ = stopped.await;
             };
-            bw4t_server::serve_with(listener, config, extras, shutdown).await.expect("serve")
+            bw4t_server::serve_with(listener, setup, config, extras, shutdown).await.expect("serve")
         });
         TestServer { addr, stop: Some(stop), task }
     }
@@ -316,14 +329,18 @@ impl TestServer {
     }
 }
 
-/// A server config on a shipped map, lockstep, waiting for `robots` players.
-pub fn lockstep(map: &str, seed: u64, robots: usize) -> HostConfig {
-    let mut config = HostConfig::new(shipped_map(map));
-    config.seed = seed;
+/// `robots` open seats: for whoever joins.
+pub fn open_seats(robots: usize) -> Vec<Seat> {
+    std::iter::repeat_with(Seat::open).take(robots).collect()
+}
+
+/// A match on a shipped map of `robots` open seats, served lockstep.
+pub fn lockstep(map: &str, seed: u64, robots: usize) -> (MatchSetup, HostConfig) {
+    let setup = MatchSetup { seed, seats: open_seats(robots), ..MatchSetup::new(shipped_map(map)) };
+    let mut config = HostConfig::new();
     config.mode = bw4t_protocol::Mode::Lockstep;
-    config.robots = robots;
     config.deadline = Some(Duration::from_secs(10));
-    config
+    (setup, config)
 }
 
 /// A raw line client.

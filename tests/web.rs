@@ -1,7 +1,7 @@
 use std::net::SocketAddr;
 
 use bw4t_protocol::{MAX_LINE, Mode, ServerMessage, decode_server, encode};
-use bw4t_server::{HostConfig, ServerConfig};
+use bw4t_server::{HostConfig, MatchSetup, ServerConfig};
 use futures_util::{SinkExt, StreamExt};
 use serde_json::{Value, json};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
@@ -9,7 +9,7 @@ use tokio_tungstenite::tungstenite::client::IntoClientRequest;
 use tokio_tungstenite::tungstenite::protocol::Role;
 use tokio_tungstenite::tungstenite::{self, Message};
 
-use crate::util::{Client, TestServer, WAIT, lockstep};
+use crate::util::{Client, TestServer, WAIT, lockstep, open_seats};
 
 /// An HTTP answer.
 struct Answer {
@@ -141,35 +141,31 @@ fn hello_json(name: &str) -> String {
 }
 
 /// A realtime server on the fixed map with the web port, listening as `bw4t serve` does.
-async fn web_server_with(config: HostConfig, builtin: usize) -> (TestServer, SocketAddr) {
-    web_server_limited(config, builtin, ServerConfig::default()).await
+async fn web_server_with(match_: (MatchSetup, HostConfig), builtin: usize) -> (TestServer, SocketAddr) {
+    web_server_limited(match_, builtin, ServerConfig::default()).await
 }
 
 /// [`web_server_with`] with these limits on connections.
+/// The first `builtin` seats are built-in cooperative agents.
 async fn web_server_limited(
-    config: HostConfig,
+    (mut setup, config): (MatchSetup, HostConfig),
     builtin: usize,
     server: ServerConfig,
 ) -> (TestServer, SocketAddr) {
     let http = bw4t_server::listen("127.0.0.1:0".parse().expect("addr")).expect("listen");
     let http_addr = http.local_addr().expect("addr");
-    let seats = (1..=builtin)
-        .map(|i| {
-            bw4t_server::Seat::Local(
-                format!("Bot{i}"),
-                bw4t_agents::Strategy::Cooperative.agent(&format!("Bot{i}")),
-            )
-        })
-        .collect();
-    let extras = bw4t_server::Extras { server, seats, http: Some(http), ..Default::default() };
-    (TestServer::start_with(config, extras).await, http_addr)
+    for (i, seat) in setup.seats.iter_mut().take(builtin).enumerate() {
+        *seat = bw4t_server::Seat::builtin(bw4t_agents::bot_name(i), bw4t_agents::Strategy::Cooperative);
+    }
+    let extras = bw4t_server::Extras { server, http: Some(http), ..Default::default() };
+    (TestServer::start_with(setup, config, extras).await, http_addr)
 }
 
-fn web_config(robots: usize) -> HostConfig {
-    let mut config = lockstep("fixed", 4, robots);
+fn web_config(robots: usize) -> (MatchSetup, HostConfig) {
+    let (mut setup, mut config) = lockstep("fixed", 4, robots);
     config.mode = Mode::Realtime;
-    config.game.ticks_per_second = 100;
-    config
+    setup.game.ticks_per_second = 100;
+    (setup, config)
 }
 
 async fn web_server(builtin: usize, robots: usize) -> (TestServer, SocketAddr) {
@@ -393,12 +389,10 @@ async fn the_replay_viewer_serves_every_ticks_frame() {
             ..Default::default()
         },
     );
-    let seats = vec![bw4t_runner::Seat {
-        name: "Bot1".into(),
-        agent: bw4t_agents::Strategy::Cooperative.agent("Bot1"),
-    }];
-    let (game, reason) =
-        bw4t_runner::play_headless(&map, &config, 3, seats, 400, Some(&mut recorder)).expect("play");
+    let mut setup = MatchSetup::builtin_team(map.clone(), 1, bw4t_agents::Strategy::Cooperative);
+    setup.seed = 3;
+    setup.max_ticks = Some(400);
+    let (game, reason) = bw4t_runner::play_headless(&setup, Some(&mut recorder)).expect("play");
     recorder.finish(&game, reason).expect("written");
     let text = String::from_utf8(buffer.lock().expect("lock").clone()).expect("utf-8");
     fn frame_at(frames: &mut bw4t_runner::ReplayFrames, tick: u64) -> Value {
@@ -750,7 +744,8 @@ async fn the_page_locates_points_as_the_map_does() {
     let mut geometry = None;
     let (mut cases, mut grids, mut expected) = (Vec::new(), Vec::new(), Vec::<Vec<Option<String>>>::new());
     for map in &maps {
-        let (server, http) = web_server_with(HostConfig::new(map.clone()), 0).await;
+        let setup = MatchSetup { seats: open_seats(1), ..MatchSetup::new(map.clone()) };
+        let (server, http) = web_server_with((setup, HostConfig::new()), 0).await;
         let layout: Value = serde_json::from_str(&get(http, "/map.json").await.body).expect("map.json");
         geometry.get_or_insert(get(http, "/geometry.js").await.body);
         server.stop().await;

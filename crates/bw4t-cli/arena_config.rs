@@ -5,9 +5,9 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
-use bw4t_agents::Strategy;
+use bw4t_agents::{MatchSetup, Seat, Strategy, bot_name};
 use bw4t_protocol::Mode;
-use bw4t_server::{HostConfig, OnEnd, SeatPlan, Template};
+use bw4t_server::{HostConfig, OnEnd, Template};
 use bw4t_sim::MatchConfig;
 use serde::Deserialize;
 
@@ -154,20 +154,20 @@ fn template(t: TemplateFile, base: &Path, seed: u64) -> Result<Template> {
             crate::maps::load(&spec)
         })
         .collect::<Result<Vec<_>>>()?;
-    let mut config = HostConfig::new(maps[0].clone());
-    config.seed = t.seed.unwrap_or(seed);
-    config.game = MatchConfig {
+    let mut setup = MatchSetup::new(maps[0].clone());
+    setup.seed = t.seed.unwrap_or(seed);
+    setup.game = MatchConfig {
         ticks_per_second: t.tick_hz,
         robot_collisions: t.robot_collisions,
         ..MatchConfig::default()
     };
-    config.game.validate().context("tick_hz")?;
+    setup.game.validate().context("tick_hz")?;
+    let mut config = HostConfig::new();
     config.mode = match t.mode.as_deref() {
         None | Some("realtime") => Mode::Realtime,
         Some("lockstep") => Mode::Lockstep,
         Some(other) => bail!("mode = '{other}': expected \"realtime\" or \"lockstep\""),
     };
-    config.robots = t.robots;
     for map in &maps {
         if t.robots == 0 || t.robots > map.spawns().len() {
             bail!("robots = {} but map '{}' has {} spawn points", t.robots, map.name(), map.spawns().len());
@@ -187,10 +187,10 @@ fn template(t: TemplateFile, base: &Path, seed: u64) -> Result<Template> {
             format!("strategy = '{name}': expected one of {}", known.join(", "))
         })?,
     };
-    config.max_ticks = match t.max_ticks {
+    setup.max_ticks = match t.max_ticks {
         Some(0) => None,
         Some(ticks) => Some(ticks),
-        None => Some(bw4t_runner::TickLimit::for_map(&maps[0], &config.game).ticks),
+        None => Some(bw4t_runner::TickLimit::for_map(&maps[0], &setup.game).ticks),
     };
     config.deadline = match t.deadline_ms {
         Some(0) => None,
@@ -224,12 +224,13 @@ fn template(t: TemplateFile, base: &Path, seed: u64) -> Result<Template> {
             .map(|(_, e)| *e)
             .with_context(|| format!("on_end = '{word}': expected \"stay\", \"restart\" or \"next\""))?,
     };
-    let seats = (1..=t.builtin).map(|i| SeatPlan::builtin(format!("Bot{i}"), strategy)).collect();
+    let builtin = (0..t.builtin).map(|i| Seat::builtin(bot_name(i), strategy));
+    setup.seats = builtin.chain(std::iter::repeat_with(Seat::open)).take(t.robots).collect();
     Ok(Template {
         name: t.name,
+        setup,
         config,
         maps,
-        seats,
         max_running: t.max_running.unwrap_or(if names.is_empty() { 100 } else { names.len() }),
         names,
         on_end,

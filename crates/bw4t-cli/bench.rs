@@ -3,6 +3,7 @@
 use std::time::Instant;
 
 use anyhow::{Context, Result};
+use bw4t_agents::MatchSetup;
 use bw4t_sim::{Match, MatchConfig, PlayCounts, RandomPlay, RobotId};
 use clap::{Args, ValueEnum};
 use serde_json::json;
@@ -178,19 +179,14 @@ fn sim(args: &BenchArgs, n_robots: usize) -> Result<serde_json::Value> {
 
 fn matches(args: &BenchArgs) -> Result<serde_json::Value> {
     let map = crate::maps::load(&args.map)?;
-    let config = MatchConfig::default();
+    let mut setup = MatchSetup::builtin_team(map, 3, bw4t_agents::Strategy::Cooperative);
+    setup.max_ticks = Some(20_000);
     let mut ticks = Vec::new();
     let mut completed = 0;
     let started = Instant::now();
     for i in 0..args.matches {
-        let seats = (1..=3)
-            .map(|n| {
-                let name = format!("Bot{n}");
-                bw4t_runner::Seat { agent: bw4t_agents::Strategy::Cooperative.agent(&name), name }
-            })
-            .collect();
-        let (game, reason) =
-            bw4t_runner::play_headless(&map, &config, args.seed.wrapping_add(i), seats, 20_000, None)?;
+        setup.seed = args.seed.wrapping_add(i);
+        let (game, reason) = bw4t_runner::play_headless(&setup, None)?;
         completed += u64::from(reason == bw4t_protocol::EndReason::Completed);
         ticks.push(game.tick());
     }
@@ -198,7 +194,7 @@ fn matches(args: &BenchArgs) -> Result<serde_json::Value> {
     ticks.sort_unstable();
     Ok(json!({
         "case": "match",
-        "map": map.name(),
+        "map": setup.map.name(),
         "robots": 3,
         "matches": args.matches,
         "completed": completed,

@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result, bail};
 use bw4t_map::{Map, MapParts, Spawn, Vec2};
 use bw4t_protocol::{ClientSession, Mode, SessionEvent, SessionOptions};
-use bw4t_server::HostConfig;
+use bw4t_server::{HostConfig, MatchSetup, Seat};
 use bw4t_sim::{Action, MoveState, Percept};
 use serde_json::{Value, json};
 use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader, Lines};
@@ -18,18 +18,17 @@ use tokio::net::tcp::{OwnedReadHalf, OwnedWriteHalf};
 /// `lockstep`: players that answer at once, with a message each tick.
 pub(crate) fn lockstep(map: &str, seed: u64, players: usize, ticks: u64) -> Result<Value> {
     let map = crate::maps::load(map)?;
-    let mut config = HostConfig::new(map);
-    config.seed = seed;
+    let seats = std::iter::repeat_with(Seat::open).take(players).collect();
+    let setup = MatchSetup { seed, seats, max_ticks: Some(ticks), ..MatchSetup::new(map) };
+    let mut config = HostConfig::new();
     config.mode = Mode::Lockstep;
-    config.robots = players;
-    config.max_ticks = Some(ticks);
     config.every_tick = true;
     config.deadline = Some(Duration::from_secs(10));
     let runtime = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
     runtime.block_on(async {
         let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
         let addr = listener.local_addr()?;
-        let server = tokio::spawn(bw4t_server::serve(listener, config, std::future::pending()));
+        let server = tokio::spawn(bw4t_server::serve(listener, setup, config, std::future::pending()));
         let mut clients = Vec::new();
         for i in 0..players {
             clients.push(tokio::spawn(lockstep_player(addr, i, seed)));

@@ -11,7 +11,6 @@ use bw4t_agents::Strategy;
 use bw4t_mcp::{Docs, Link, LocalMatch, MAX_TOOL_SECONDS, RobotServer};
 use bw4t_protocol::SessionOptions;
 use bw4t_runner::TickLimit;
-use bw4t_sim::MatchConfig;
 use clap::Args;
 
 /// Options of `bw4t mcp`.
@@ -154,21 +153,18 @@ pub(crate) fn run(args: &McpArgs) -> Result<()> {
                 if 1 + teammates.len() > map.spawns().len() {
                     bail!("{} robots but map '{}' has {} spawn points", 1 + teammates.len(), map.name(), map.spawns().len());
                 }
-                let seed = args.seed.unwrap_or_else(crate::random_seed);
-                let game = MatchConfig::default();
-                let max_ticks = args.max_ticks.unwrap_or_else(|| TickLimit::for_map(&map, &game).ticks);
+                let mut setup = LocalMatch::setup(map.clone(), &name, &teammates);
+                setup.seed = args.seed.unwrap_or_else(crate::random_seed);
+                let max_ticks = args.max_ticks.unwrap_or_else(|| TickLimit::for_map(&map, &setup.game).ticks);
+                setup.max_ticks = Some(max_ticks);
+                let seed = setup.seed;
                 eprintln!(
                     "bw4t mcp: a match of its own on map '{}', seed {seed}, {} built-in teammates, tick limit {max_ticks}",
                     map.name(),
                     teammates.len()
                 );
                 let started = LocalMatch {
-                    map: map.clone(),
-                    seed,
-                    game,
-                    player: name,
-                    teammates,
-                    max_ticks,
+                    setup,
                     deadline: (args.deadline_s > 0).then(|| Duration::from_secs(args.deadline_s)),
                     replay: crate::runs::replay_writer(args.replay.as_deref())?,
                 }

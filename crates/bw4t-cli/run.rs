@@ -4,11 +4,9 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
-use bw4t_agents::Strategy;
+use bw4t_agents::{MatchSetup, Player, Seat, Strategy, named_seats};
 use bw4t_protocol::{EndReason, MatchResult};
-use bw4t_runner::{
-    AgentReport, SeatSpec, ServedRun, TickLimit, check_command, play_builtin, play_served, plural,
-};
+use bw4t_runner::{AgentReport, ServedRun, TickLimit, check_command, play, play_served, plural};
 use bw4t_sim::MatchConfig;
 use clap::Args;
 
@@ -79,7 +77,7 @@ pub(crate) fn run(args: &RunArgs) -> Result<u8> {
         bail!("a match needs at least one robot");
     }
     for seat in &seats {
-        if let SeatSpec::External { command, .. } = seat {
+        if let Player::Program(command) = &seat.player {
             if let Err(e) = check_command(command) {
                 bail!("--agent '{command}' cannot start: {e}");
             }
@@ -95,7 +93,8 @@ pub(crate) fn run(args: &RunArgs) -> Result<u8> {
         );
     }
     let replay = crate::runs::replay_writer(args.replay.as_deref())?;
-    let external = seats.iter().any(|s| matches!(s, SeatSpec::External { .. }));
+    let external = seats.iter().any(|s| matches!(s.player, Player::Program(_)));
+    let setup = MatchSetup { seed, seats, max_ticks: Some(limit.ticks), ..MatchSetup::new(map) };
     let mut out_of_time = false;
     let (result, agents) = if external {
         let log_dir = args
@@ -103,11 +102,7 @@ pub(crate) fn run(args: &RunArgs) -> Result<u8> {
             .clone()
             .unwrap_or_else(|| std::env::temp_dir().join(format!("bw4t-run-{}-{seed}", std::process::id())));
         let served = play_served(ServedRun {
-            map: &map,
-            game: MatchConfig::default(),
-            seed,
-            seats: seats.clone(),
-            max_ticks: limit.ticks,
+            setup,
             deadline: (args.deadline_ms > 0).then(|| Duration::from_millis(args.deadline_ms)),
             connect_timeout: Duration::from_secs(args.connect_timeout_s),
             log_dir: &log_dir,
@@ -118,7 +113,7 @@ pub(crate) fn run(args: &RunArgs) -> Result<u8> {
         out_of_time = served.out_of_time;
         (served.result, served.agents)
     } else {
-        play_builtin(&map, seed, &seats, limit.ticks, replay)?
+        play(&setup, replay)?
     };
     let mut json = serde_json::to_value(&result)?;
     json["agents"] = serde_json::to_value(&agents)?;
@@ -174,7 +169,7 @@ fn exit_status(result: &MatchResult, agents: &[AgentReport]) -> u8 {
 }
 
 /// The seats a run's options describe: external agents first, the built-in team after.
-fn seats(args: &RunArgs) -> Result<Vec<SeatSpec>> {
+fn seats(args: &RunArgs) -> Result<Vec<Seat>> {
     let strategy = match args.team.as_deref() {
         None | Some("builtin") => Strategy::Cooperative,
         Some(team) => {
@@ -195,14 +190,9 @@ fn seats(args: &RunArgs) -> Result<Vec<SeatSpec>> {
     if commands.len() > total {
         bail!("{} but --robots {total}", plural(commands.len(), "agent command"));
     }
-    let mut seats: Vec<SeatSpec> = commands
-        .into_iter()
-        .enumerate()
-        .map(|(i, command)| SeatSpec::External { name: format!("Agent{}", i + 1), command })
-        .collect();
-    let builtins = total - seats.len();
-    seats.extend((0..builtins).map(|i| SeatSpec::Builtin { name: format!("Bot{}", i + 1), strategy }));
-    Ok(seats)
+    let builtins = total - commands.len();
+    let players = commands.into_iter().map(Player::Program);
+    Ok(named_seats(players.chain(std::iter::repeat_n(Player::Builtin(strategy), builtins))))
 }
 
 /// The readable report of a match.

@@ -9,8 +9,9 @@ use std::time::Duration;
 use std::sync::Arc;
 
 use anyhow::{Context, Result, bail};
+use bw4t_agents::{MatchSetup, Seat, Strategy, bot_name};
 use bw4t_protocol::Mode;
-use bw4t_server::{ArenaConfig, HostConfig, OnEnd, SeatPlan, Template};
+use bw4t_server::{ArenaConfig, HostConfig, OnEnd, Template};
 use bw4t_sim::MatchConfig;
 use clap::{Args, ValueEnum};
 
@@ -150,9 +151,9 @@ pub(crate) fn run(args: &ServeArgs) -> Result<()> {
                     format!(
                         "template '{}': map '{}', {} mode, {}, {matches}",
                         t.name,
-                        t.config.map.name(),
+                        t.setup.map.name(),
                         t.config.mode.name(),
-                        bw4t_runner::plural(t.config.robots, "player")
+                        bw4t_runner::plural(t.setup.robots(), "player")
                     ),
                 );
             }
@@ -233,26 +234,26 @@ pub(crate) fn run(args: &ServeArgs) -> Result<()> {
 /// unless `--once`.
 fn single_match(args: &ServeArgs, seed: u64) -> Result<Template> {
     let map = crate::maps::load(&args.map)?;
-    let mut config = HostConfig::new(map);
-    config.seed = seed;
-    config.game = MatchConfig {
+    let mut setup = MatchSetup::new(map);
+    setup.seed = seed;
+    setup.game = MatchConfig {
         ticks_per_second: args.tick_hz,
         robot_collisions: args.robot_collisions,
         ..MatchConfig::default()
     };
-    config.game.validate().context("bad --tick-hz")?;
+    setup.game.validate().context("bad --tick-hz")?;
+    let mut config = HostConfig::new();
     config.mode = match args.mode {
         PaceArg::Realtime => Mode::Realtime,
         PaceArg::Lockstep => Mode::Lockstep,
     };
-    config.robots = args.robots;
-    let derived = bw4t_runner::TickLimit::for_map(&config.map, &config.game);
-    config.max_ticks = match args.max_ticks {
+    let derived = bw4t_runner::TickLimit::for_map(&setup.map, &setup.game);
+    setup.max_ticks = match args.max_ticks {
         Some(0) => None,
         Some(ticks) => Some(ticks),
         None => Some(derived.ticks),
     };
-    let limit = match (args.max_ticks, config.max_ticks) {
+    let limit = match (args.max_ticks, setup.max_ticks) {
         (_, None) => "no tick limit".to_string(),
         (Some(_), Some(ticks)) => format!("tick limit {ticks} (--max-ticks)"),
         (None, Some(ticks)) => format!("tick limit {ticks}, {}", derived.explain()),
@@ -265,12 +266,12 @@ fn single_match(args: &ServeArgs, seed: u64) -> Result<Template> {
     config.every_tick = args.every_tick;
     config.grace = Duration::from_secs(args.grace_s);
     config.max_actions_per_tick = args.max_actions;
-    let spawns = config.map.spawns().len();
+    let spawns = setup.map.spawns().len();
     if args.robots > spawns {
-        bail!("--robots {} but map '{}' has {spawns} spawn points", args.robots, config.map.name());
+        bail!("--robots {} but map '{}' has {spawns} spawn points", args.robots, setup.map.name());
     }
     if args.builtin > spawns {
-        bail!("--builtin {} but map '{}' has {spawns} spawn points", args.builtin, config.map.name());
+        bail!("--builtin {} but map '{}' has {spawns} spawn points", args.builtin, setup.map.name());
     }
     if args.builtin > args.robots {
         bail!(
@@ -285,9 +286,9 @@ fn single_match(args: &ServeArgs, seed: u64) -> Result<Template> {
         args,
         format!(
             "map '{}', seed {seed}, {} mode, {limit}; waiting for {}",
-            config.map.name(),
+            setup.map.name(),
             config.mode.name(),
-            bw4t_runner::plural(config.robots, "player")
+            bw4t_runner::plural(args.robots, "player")
         ),
     );
     // A lockstep match of built-in agents only would be replayed back to back at full
@@ -297,11 +298,9 @@ fn single_match(args: &ServeArgs, seed: u64) -> Result<Template> {
         announce(args, "every seat is built-in and the match is lockstep: it is played once".into());
     }
     let on_end = if args.once || unattended { OnEnd::Stay } else { OnEnd::Restart };
-    let mut template = Template::single(bw4t_server::DEFAULT_MATCH, config, on_end);
-    template.seats = (1..=args.builtin)
-        .map(|i| SeatPlan::builtin(format!("Bot{i}"), bw4t_agents::Strategy::Cooperative))
-        .collect();
-    Ok(template)
+    let builtin = (0..args.builtin).map(|i| Seat::builtin(bot_name(i), Strategy::Cooperative));
+    setup.seats = builtin.chain(std::iter::repeat_with(Seat::open)).take(args.robots).collect();
+    Ok(Template::single(bw4t_server::DEFAULT_MATCH, setup, config, on_end))
 }
 
 /// Says what the server does on standard error: a `bw4t:` line, or with `--log-json` a log

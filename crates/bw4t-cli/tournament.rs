@@ -9,7 +9,7 @@ use bw4t_protocol::EndReason;
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 
-use bw4t_agents::SeatSpec;
+use bw4t_agents::Player;
 use bw4t_runner::tournament::{self, Options, Progress, merge, run_tournament};
 use bw4t_runner::{check_command, plural};
 use bw4t_tournament::{
@@ -386,7 +386,7 @@ fn check_agents(resolved: &Resolved) -> Result<()> {
     for team in &resolved.teams {
         let mut commands: Vec<String> = Vec::new();
         for seat in seats(team).map_err(anyhow::Error::msg)? {
-            if let SeatSpec::External { command, .. } = seat {
+            if let Player::Program(command) = seat.player {
                 if !commands.contains(&command) {
                     if let Err(e) = check_command(&command) {
                         problems.push(format!("team '{}': agents \"{command}\": {e}", team.name));
@@ -418,7 +418,7 @@ fn teams_without_play(resolved: &Resolved, rows: &[Row]) -> Vec<(String, usize)>
     let mut out = Vec::new();
     for team in &resolved.teams {
         let external =
-            seats(team).map_or(0, |s| s.iter().filter(|s| matches!(s, SeatSpec::External { .. })).count());
+            seats(team).map_or(0, |s| s.iter().filter(|s| matches!(s.player, Player::Program(_))).count());
         let mine: Vec<&Row> = rows.iter().filter(|r| r.team == team.name).collect();
         let none_played =
             mine.iter().all(|r| r.crashed_agents as usize >= external || r.end_reason == EndReason::Error);

@@ -5,7 +5,7 @@
 mod baseline;
 mod coop;
 mod drive;
-mod seat;
+mod setup;
 mod view;
 
 use bw4t_sim::{Action, OrderOutcome, PerceptDelta};
@@ -13,7 +13,7 @@ use bw4t_sim::{Action, OrderOutcome, PerceptDelta};
 pub use baseline::Baseline;
 pub use coop::{CLAIM_LAPSE_TICKS, Cooperative, STALL_TICKS};
 pub use drive::{Driver, Team};
-pub use seat::SeatSpec;
+pub use setup::{AgentFactory, MatchSetup, Player, Seat, SetupError, bot_name, named_seats};
 
 /// The outcome of one of the agent's actions, numbered in the order the agent returned
 /// them (0, 1, 2, ... over the whole match).

@@ -6,10 +6,12 @@ use std::time::{Duration, Instant};
 use anyhow::{Result, bail};
 use bw4t_map::Map;
 use bw4t_protocol::Mode;
-use bw4t_server::{Arena, ArenaConfig, OnEnd, SeatPlan, Template};
+use bw4t_server::{Arena, ArenaConfig, OnEnd, Template};
 use serde_json::{Value, json};
 
-use super::{ArenaArgs, LOCKSTEP_THREADS, ROBOTS, match_config, round, runtime, thread_cpu_seconds};
+use super::{
+    ArenaArgs, LOCKSTEP_THREADS, ROBOTS, host_config, match_setup, round, runtime, thread_cpu_seconds,
+};
 
 /// `lockstep`: `arena_lockstep_matches` matches of 3 built-in agents at any time in one
 /// arena (each that ends replaced by the next), on a runtime of 1 worker thread, then of
@@ -59,16 +61,14 @@ struct LockstepRun {
 
 fn lockstep_run(args: &ArenaArgs, map: &Map, seed: u64, workers: usize) -> Result<LockstepRun> {
     let m = args.arena_lockstep_matches;
-    let mut config = match_config(map, seed, Mode::Lockstep);
-    config.max_ticks = Some(args.arena_lockstep_ticks);
+    let mut setup = match_setup(map, seed, ROBOTS, 0);
+    setup.max_ticks = Some(args.arena_lockstep_ticks);
     // Each match that ends is followed by the next of its template: M run at any time.
     let template = Template {
         name: "bench".into(),
         maps: vec![map.clone()],
-        config: config.clone(),
-        seats: (1..=ROBOTS)
-            .map(|i| SeatPlan::builtin(format!("Bot{i}"), bw4t_agents::Strategy::Cooperative))
-            .collect(),
+        setup,
+        config: host_config(Mode::Lockstep),
         names: (1..=m).map(|i| format!("m{i}")).collect(),
         max_running: m,
         on_end: OnEnd::Restart,

@@ -18,7 +18,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result, bail};
 use bw4t_map::{Map, ZoneKind};
 use bw4t_protocol::Mode;
-use bw4t_server::{Arena, ArenaConfig, HostConfig, ServerConfig, Template};
+use bw4t_server::{Arena, ArenaConfig, HostConfig, MatchSetup, Seat, ServerConfig, Template};
 use clap::{Args, ValueEnum};
 use tokio::runtime::Runtime;
 use tokio::sync::oneshot;
@@ -125,13 +125,20 @@ fn arena_config(templates: Vec<Template>, connections: usize) -> ArenaConfig {
     config
 }
 
-/// A match of 3 players on `map` (one server's limits and all).
-fn match_config(map: &Map, seed: u64, mode: Mode) -> HostConfig {
-    let mut config = HostConfig::new(map.clone());
-    config.seed = seed;
+/// A match on `map` of `builtin` built-in cooperative agents, then `open` seats for
+/// players, at the benchmarks' tick rate.
+fn match_setup(map: &Map, seed: u64, builtin: usize, open: usize) -> MatchSetup {
+    let mut setup = MatchSetup::builtin_team(map.clone(), builtin, bw4t_agents::Strategy::Cooperative);
+    setup.seats.extend(std::iter::repeat_with(Seat::open).take(open));
+    setup.seed = seed;
+    setup.game.ticks_per_second = TICK_HZ;
+    setup
+}
+
+/// How a benchmark's matches are run: `mode`, and one server's limits and all.
+fn host_config(mode: Mode) -> HostConfig {
+    let mut config = HostConfig::new();
     config.mode = mode;
-    config.robots = ROBOTS;
-    config.game.ticks_per_second = TICK_HZ;
     config
 }
 

@@ -9,15 +9,15 @@ use std::time::{Duration, Instant};
 use anyhow::{Result, bail};
 use bw4t_map::Map;
 use bw4t_protocol::{ClientSession, Mode, SessionOptions};
-use bw4t_server::{OnEnd, SeatPlan, Template, TickLateness};
+use bw4t_server::{OnEnd, Template, TickLateness};
 use serde_json::{Value, json};
 use tokio::sync::watch;
 
 use super::player::{Heard, PlayCounts, Player};
 use super::{
     ArenaArgs, CLIENT_THREADS, CONNECTING, ROBOTS, SERVER_THREADS, SERVER_WORKERS, Served, TICK_HZ,
-    arena_config, check_descriptors, finish_clients, load_average, match_config, mb, millis, open_fds,
-    room_names, round, rss_kb, runtime, settled_fds, thread_cpu_seconds,
+    arena_config, check_descriptors, finish_clients, host_config, load_average, match_setup, mb, millis,
+    open_fds, room_names, round, rss_kb, runtime, settled_fds, thread_cpu_seconds,
 };
 
 /// What the realtime matches are made of.
@@ -57,16 +57,12 @@ pub(super) fn realtime(args: &ArenaArgs, map: &Map, seed: u64, shape: Shape) -> 
     let (rss_start, fds_start) = (rss_kb()?, open_fds()?);
 
     let lateness = Arc::new(TickLateness::default());
-    let mut config = match_config(map, seed, Mode::Realtime);
-    config.robots = shape.players + shape.teammates;
     let names: Vec<String> = (1..=n).map(|i| format!("m{i}")).collect();
     let template = Template {
         name: "bench".into(),
         maps: vec![map.clone()],
-        config: config.clone(),
-        seats: (1..=shape.teammates)
-            .map(|i| SeatPlan::builtin(format!("Bot{i}"), bw4t_agents::Strategy::Cooperative))
-            .collect(),
+        setup: match_setup(map, seed, shape.teammates, shape.players),
+        config: host_config(Mode::Realtime),
         names: names.clone(),
         max_running: n,
         on_end: OnEnd::Stay,

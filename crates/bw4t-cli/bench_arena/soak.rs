@@ -9,14 +9,15 @@ use std::time::Duration;
 use anyhow::{Result, bail};
 use bw4t_map::{Map, SeededRng};
 use bw4t_protocol::{ClientSession, Mode, SessionOptions};
-use bw4t_server::{HostConfig, OnEnd, Template, TickLateness};
+use bw4t_server::{HostConfig, MatchSetup, OnEnd, Template, TickLateness};
 use serde_json::{Value, json};
 use tokio::sync::watch;
 
 use super::player::{Heard, PlayCounts, Player};
 use super::{
     ArenaArgs, CLIENT_THREADS, ROBOTS, SERVER_THREADS, SERVER_WORKERS, Served, TICK_HZ, arena_config,
-    check_descriptors, match_config, mb, millis, open_fds, room_names, rss_kb, runtime, settled_fds,
+    check_descriptors, host_config, match_setup, mb, millis, open_fds, room_names, rss_kb, runtime,
+    settled_fds,
 };
 
 /// `soak`: for `soak_seconds`, well-behaved players play realtime matches of one template
@@ -36,19 +37,24 @@ pub(super) fn soak(args: &ArenaArgs, map: &Map, seed: u64) -> Result<Value> {
     let steady_lateness = Arc::new(TickLateness::default());
     let churn_lateness = Arc::new(TickLateness::default());
 
-    let mut steady = match_config(map, seed, Mode::Realtime);
-    steady.max_ticks = Some(steady_ticks);
+    let steady = host_config(Mode::Realtime);
+    let mut steady_setup = match_setup(map, seed, 0, ROBOTS);
+    steady_setup.max_ticks = Some(steady_ticks);
     let mut churn = steady.clone();
-    churn.max_ticks = Some(churn_ticks);
+    let mut churn_setup = steady_setup.clone();
+    churn_setup.max_ticks = Some(churn_ticks);
     // A churn match starts without whoever left, its empty seats played by built-in agents.
     churn.start_timeout = Some(Duration::from_secs(1));
     churn.fill = Some(bw4t_agents::Strategy::Cooperative);
     churn.grace = Duration::from_secs(2);
-    let template = |name: &str, config: &HostConfig, lateness: &Arc<TickLateness>, running: usize| Template {
+    let template = |name: &str,
+                    (setup, config): (&MatchSetup, &HostConfig),
+                    lateness: &Arc<TickLateness>,
+                    running: usize| Template {
         name: name.into(),
         maps: vec![map.clone()],
+        setup: setup.clone(),
         config: config.clone(),
-        seats: Vec::new(),
         names: Vec::new(),
         max_running: running,
         on_end: OnEnd::Restart,
@@ -56,8 +62,8 @@ pub(super) fn soak(args: &ArenaArgs, map: &Map, seed: u64) -> Result<Value> {
         lateness: Some(lateness.clone()),
     };
     let templates = vec![
-        template(STEADY, &steady, &steady_lateness, args.soak_players / ROBOTS),
-        template(CHURN, &churn, &churn_lateness, (args.soak_churners / ROBOTS).max(1)),
+        template(STEADY, (&steady_setup, &steady), &steady_lateness, args.soak_players / ROBOTS),
+        template(CHURN, (&churn_setup, &churn), &churn_lateness, (args.soak_churners / ROBOTS).max(1)),
     ];
 
     let server = Served::start(&server_rt, arena_config(templates, 2 * connections + 16))?;

@@ -1,18 +1,7 @@
 //! What an environment is: the map, who plays each robot, how long a step is, the rewards.
 
-use bw4t_agents::Strategy;
+use bw4t_agents::{MatchSetup, Player, Strategy, named_seats};
 use bw4t_map::Map;
-use bw4t_sim::MatchConfig;
-
-/// Who plays one robot.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Seat {
-    /// A learning robot: its actions come from `step`, and it has an observation, a mask
-    /// and a reward.
-    Learner,
-    /// A built-in teammate, deciding as in a headless match.
-    Builtin(Strategy),
-}
 
 /// Who gets a delivery's reward.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -53,17 +42,14 @@ pub const DEFAULT_MAX_TICKS: u64 = 20_000;
 /// An environment's configuration.
 #[derive(Clone, Debug)]
 pub struct EnvConfig {
-    /// The map every episode is played on (its content follows each episode's seed).
-    pub map: Map,
-    /// The match's timing and rules.
-    pub match_config: MatchConfig,
-    /// One per robot, in robot-id order. Learners are named `Agent1`, `Agent2`, ...,
-    /// built-in teammates `Bot1`, `Bot2`, ..., as in `bw4t run`.
-    pub seats: Vec<Seat>,
+    /// The match each episode plays: its map (whose content follows each episode's seed;
+    /// `setup.seed` is not used), timing and rules, tick limit (where an episode is
+    /// truncated; required), and seats in robot-id order: learners (`Player::Learner`) and
+    /// in-process teammates (built-in or the caller's agents), named as `bw4t run` names
+    /// them by [`EnvConfig::with_players`].
+    pub setup: MatchSetup,
     /// Simulated ticks per step (at least 1).
     pub ticks_per_step: u32,
-    /// The episode is truncated at this tick.
-    pub max_ticks: u64,
     /// Visible-block slots (`K`).
     pub slots: usize,
     /// The rewards.
@@ -73,24 +59,27 @@ pub struct EnvConfig {
 impl EnvConfig {
     /// `learners` learning robots and nobody else (the parallel, one-agent-per-robot setting).
     pub fn parallel(map: Map, learners: usize) -> EnvConfig {
-        EnvConfig::with_seats(map, vec![Seat::Learner; learners])
+        EnvConfig::with_players(map, vec![Player::Learner; learners])
     }
 
     /// One learning robot (robot 0) among `teammates` built-in robots of `strategy`.
     pub fn single(map: Map, teammates: usize, strategy: Strategy) -> EnvConfig {
-        let mut seats = vec![Seat::Learner];
-        seats.extend(std::iter::repeat_n(Seat::Builtin(strategy), teammates));
-        EnvConfig::with_seats(map, seats)
+        let mut players = vec![Player::Learner];
+        players.extend(std::iter::repeat_n(Player::Builtin(strategy), teammates));
+        EnvConfig::with_players(map, players)
     }
 
-    /// These seats, and the defaults for everything else.
-    pub fn with_seats(map: Map, seats: Vec<Seat>) -> EnvConfig {
+    /// A seat for each of `players`, in robot-id order (learners named `Agent1`, `Agent2`,
+    /// ..., built-in teammates `Bot1`, `Bot2`, ...), and the defaults for everything else.
+    pub fn with_players(map: Map, players: Vec<Player>) -> EnvConfig {
+        let setup = MatchSetup {
+            seats: named_seats(players),
+            max_ticks: Some(DEFAULT_MAX_TICKS),
+            ..MatchSetup::new(map)
+        };
         EnvConfig {
-            map,
-            match_config: MatchConfig::default(),
-            seats,
+            setup,
             ticks_per_step: DEFAULT_TICKS_PER_STEP,
-            max_ticks: DEFAULT_MAX_TICKS,
             slots: DEFAULT_SLOTS,
             rewards: Rewards::default(),
         }
@@ -98,6 +87,6 @@ impl EnvConfig {
 
     /// How many learning robots there are.
     pub fn learners(&self) -> usize {
-        self.seats.iter().filter(|s| **s == Seat::Learner).count()
+        self.setup.seats.iter().filter(|s| matches!(s.player, Player::Learner)).count()
     }
 }

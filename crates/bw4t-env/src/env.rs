@@ -2,13 +2,13 @@
 
 use std::sync::Arc;
 
-use bw4t_agents::{Driver, Team};
+use bw4t_agents::{Driver, Player, Team};
 use bw4t_sim::{
     Accepted, Action, Intent, Match, MatchError, MatchStats, OrderEnd, Percept, PerceptDelta, Rejection,
     RobotId, Seats,
 };
 
-use crate::config::{EnvConfig, RewardMode, Seat};
+use crate::config::{EnvConfig, RewardMode};
 use crate::encode::Codec;
 use crate::seen::Seen;
 use crate::spaces::{Dims, Spaces};
@@ -30,6 +30,10 @@ pub enum EnvError {
     /// A config value is out of range.
     #[error("{0}")]
     Config(&'static str),
+    /// A seat's player cannot play in an environment (only learners and in-process
+    /// agents can).
+    #[error(transparent)]
+    Setup(#[from] bw4t_agents::SetupError),
 }
 
 /// What became of a learner's last action.
@@ -76,6 +80,8 @@ struct Learner {
 /// One BW4T match as an environment (see the crate docs for the spaces and the step).
 pub struct Env {
     config: Arc<EnvConfig>,
+    /// The tick at which an episode is truncated (`config.setup.max_ticks`, required).
+    max_ticks: u64,
     codec: Arc<Codec>,
     game: Match,
     team: Team,
@@ -88,8 +94,8 @@ pub struct Env {
 impl Env {
     /// An environment for `config`, reset with seed 0.
     pub fn new(config: EnvConfig) -> Result<Env, EnvError> {
-        let spaces = Spaces::new(Dims::of(&config.map, config.slots));
-        let codec = Codec::new(spaces, &config.map);
+        let spaces = Spaces::new(Dims::of(&config.setup.map, config.slots));
+        let codec = Codec::new(spaces, &config.setup.map);
         Env::shared(Arc::new(config), Arc::new(codec))
     }
 
@@ -101,10 +107,17 @@ impl Env {
         if config.learners() == 0 {
             return Err(EnvError::Config("at least one seat must be a learner"));
         }
-        let game = Match::new(&config.map, &config.match_config, 0)?;
+        let Some(max_ticks) = config.setup.max_ticks else {
+            return Err(EnvError::Config("an environment needs a tick limit (setup.max_ticks)"));
+        };
+        config.setup.only_players("in a learning environment", |p| {
+            matches!(p, Player::Learner | Player::Builtin(_) | Player::Agent(_))
+        })?;
+        let game = Match::new(&config.setup.map, &config.setup.game, 0)?;
         let masks = vec![0; config.learners() * codec.spaces().n_actions()];
         let mut env = Env {
             config,
+            max_ticks,
             codec,
             game,
             team: Team::new(Vec::new()),
@@ -145,23 +158,13 @@ impl Env {
 
     fn start(&mut self, seed: u64) -> Result<(), EnvError> {
         let config = &self.config;
-        let mut game = Match::new(&config.map, &config.match_config, seed)?;
+        let mut game = Match::new(&config.setup.map, &config.setup.game, seed)?;
         let (mut drivers, mut learners) = (Vec::new(), Vec::new());
-        let (mut agent_n, mut bot_n) = (0, 0);
-        for (seat, kind) in config.seats.iter().enumerate() {
-            let name = match kind {
-                Seat::Learner => {
-                    agent_n += 1;
-                    format!("Agent{agent_n}")
-                }
-                Seat::Builtin(_) => {
-                    bot_n += 1;
-                    format!("Bot{bot_n}")
-                }
-            };
-            let robot = game.join(&name).map_err(|e| EnvError::Join { seat, reason: e.to_string() })?;
-            match kind {
-                Seat::Learner => learners.push(Learner {
+        for (i, seat) in config.setup.seats.iter().enumerate() {
+            let name = seat.name.clone();
+            let robot = game.join(&name).map_err(|e| EnvError::Join { seat: i, reason: e.to_string() })?;
+            match seat.player.agent(&name) {
+                None => learners.push(Learner {
                     name,
                     robot,
                     seen: self.codec.blank_view(),
@@ -169,7 +172,7 @@ impl Env {
                     outcome: ActionOutcome::Waited,
                     delta: None,
                 }),
-                Seat::Builtin(strategy) => drivers.push(Driver::new(robot, strategy.agent(&name))),
+                Some(agent) => drivers.push(Driver::new(robot, agent)),
             }
         }
         self.game = game;
@@ -242,7 +245,7 @@ impl Env {
             learner.seen.start_step();
         }
         let before = self.drops();
-        let max_ticks = self.config.max_ticks;
+        let max_ticks = self.max_ticks;
         for _ in 0..self.config.ticks_per_step {
             self.team.observe(&mut self.game);
             if self.game.is_complete() || self.game.tick() >= max_ticks {
@@ -289,7 +292,7 @@ impl Env {
         assert_eq!(obs.len(), self.learners.len() * obs_len, "obs is agents x obs_len");
         assert_eq!(masks.len(), self.masks.len(), "masks is agents x n_actions");
         for (learner, o) in self.learners.iter().zip(obs.chunks_mut(obs_len)) {
-            self.codec.observe(&learner.seen, &self.game, self.config.max_ticks, o);
+            self.codec.observe(&learner.seen, &self.game, self.max_ticks, o);
         }
         masks.copy_from_slice(&self.masks);
     }
@@ -297,7 +300,7 @@ impl Env {
     /// Each learner's mask of the actions valid now.
     fn refresh_masks(&mut self) {
         let n_actions = self.codec.spaces().n_actions();
-        let others = self.config.seats.len() > 1;
+        let others = self.config.setup.seats.len() > 1;
         for (learner, mask) in self.learners.iter().zip(self.masks.chunks_mut(n_actions)) {
             self.codec.mask(&learner.seen, others, mask);
         }

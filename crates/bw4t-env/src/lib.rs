@@ -6,8 +6,8 @@
 //!   observation (`f32`), action mask (`u8`) and reward (`f32`) into slices the caller owns.
 //! - [`VecEnv`]: `N` environments stepped together into arrays the caller allocated once,
 //!   on one or more threads, with same-step auto-reset (see [`VecEnv`]).
-//! - [`EnvConfig`]: the map, the seats ([`Seat::Learner`] or a built-in teammate), the
-//!   step's length, the tick limit, the slots and the [`Rewards`].
+//! - [`EnvConfig`]: the match's set-up (map, seats: learners or in-process teammates,
+//!   tick limit), the step's length, the slots and the [`Rewards`].
 //!
 //! # Observation
 //!
@@ -121,9 +121,7 @@ mod tests;
 mod vec_env;
 
 pub use bench::{Figures, single as bench_single, vector as bench_vector};
-pub use config::{
-    DEFAULT_MAX_TICKS, DEFAULT_SLOTS, DEFAULT_TICKS_PER_STEP, EnvConfig, RewardMode, Rewards, Seat,
-};
+pub use config::{DEFAULT_MAX_TICKS, DEFAULT_SLOTS, DEFAULT_TICKS_PER_STEP, EnvConfig, RewardMode, Rewards};
 pub use env::{ActionOutcome, Env, EnvError, StepEnd};
 pub use render::Rgb;
 pub use spaces::{ACTION_SEGMENTS, Dims, OBS_SEGMENTS, Segment, SegmentRow, Size, Spaces};

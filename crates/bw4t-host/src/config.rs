@@ -1,12 +1,10 @@
-//! How one served match runs: its map, seed and settings, who may join and how, and its
-//! pacing; and the seats taken before anyone connects.
+//! How one served match is run: who may join and how, and its pacing. What is played
+//! (map, seed, settings, seats, tick limit) is its `bw4t_agents::MatchSetup`.
 
 use std::collections::BTreeMap;
 use std::time::Duration;
 
-use bw4t_map::Map;
 use bw4t_protocol::{MessagePolicy, Mode};
-use bw4t_sim::MatchConfig;
 
 /// The name of the match that clients naming none join.
 pub const DEFAULT_MATCH: &str = "default";
@@ -24,20 +22,10 @@ pub struct HostConfig {
     pub id: String,
     /// The template the match was made from, if any.
     pub template: Option<String>,
-    /// At the start timeout, seat built-in agents of this strategy in the empty seats.
+    /// At the start timeout, seat built-in agents of this strategy in the open seats.
     pub fill: Option<bw4t_agents::Strategy>,
-    /// The map.
-    pub map: Map,
-    /// The match seed.
-    pub seed: u64,
-    /// Simulation settings; `ticks_per_second` is also the realtime tick rate.
-    pub game: MatchConfig,
     /// Realtime or lockstep pacing.
     pub mode: Mode,
-    /// How many players the match waits for before its first tick, and admits at most.
-    pub robots: usize,
-    /// End the match after this many ticks.
-    pub max_ticks: Option<u64>,
     /// Lockstep: how long to wait for `ready` (`None`: forever).
     pub deadline: Option<Duration>,
     /// The player token: a secret players must present.
@@ -71,20 +59,21 @@ pub struct HostConfig {
     pub labels: BTreeMap<String, String>,
 }
 
+impl Default for HostConfig {
+    fn default() -> Self {
+        HostConfig::new()
+    }
+}
+
 impl HostConfig {
-    /// Defaults for everything but the map.
-    pub fn new(map: Map) -> Self {
+    /// The defaults: a realtime match named `default`, open to anyone.
+    pub fn new() -> Self {
         HostConfig {
             name: DEFAULT_MATCH.to_string(),
             id: String::new(),
             template: None,
             fill: None,
-            map,
-            seed: 0,
-            game: MatchConfig::default(),
             mode: Mode::Realtime,
-            robots: 1,
-            max_ticks: None,
             deadline: Some(Duration::from_millis(1000)),
             token: None,
             spectator_token: None,
@@ -100,23 +89,6 @@ impl HostConfig {
             pause_when_empty: true,
             language: MessagePolicy::default(),
             labels: BTreeMap::new(),
-        }
-    }
-}
-
-/// A seat taken before any client connects, so robot ids follow a fixed order.
-pub enum Seat {
-    /// Kept for a remote player, who claims it with `hello` and this name.
-    Remote(String),
-    /// Played in-process by a built-in agent.
-    Local(String, Box<dyn bw4t_agents::Agent>),
-}
-
-impl Seat {
-    /// The player's name.
-    pub fn name(&self) -> &str {
-        match self {
-            Seat::Remote(name) | Seat::Local(name, _) => name,
         }
     }
 }

@@ -8,7 +8,7 @@ use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use bw4t_agents::Driver;
+use bw4t_agents::{Driver, MatchSetup};
 use bw4t_protocol::{
     Ack, ActId, ActResult, ClientMessage, Frame, FrameMessage, Knowledge, Lobby, MatchEnd, MatchResult, Mode,
     Percepts, ServerMessage, action_from_act, encode, percept_to_fact,
@@ -17,7 +17,7 @@ use bw4t_protocol::{AckCode, ByeReason, EndReason, ErrorCode, Leaving, Recorder,
 use bw4t_sim::{Accepted, Action, Intent, Match, OrderEnd, OrderId, Receiver, Rejection, RobotId, Seats};
 
 use crate::lines::{bye_line, error_line};
-use crate::{HostConfig, HostError, Seat};
+use crate::{HostConfig, HostError};
 
 /// Identifies a connection, unique for the host's life.
 pub type ConnId = u64;
@@ -301,6 +301,8 @@ enum Phase {
 /// A served match and everyone connected to it, without I/O.
 pub struct MatchHost {
     config: HostConfig,
+    /// What of the match's set-up the host needs after the match is made.
+    played: Played,
     game: Match,
     conns: BTreeMap<ConnId, Conn>,
     players: BTreeMap<RobotId, Player>,
@@ -331,6 +333,15 @@ pub struct MatchHost {
     lateness: Option<(Duration, u64)>,
 }
 
+/// The figures of a match's set-up the host goes on using.
+struct Played {
+    seed: u64,
+    tick_hz: u32,
+    /// Seats, named and open: the players the match waits for and admits at most.
+    robots: usize,
+    max_ticks: Option<u64>,
+}
+
 /// Where a match is, for listings: a copy made on request, so it costs nothing per tick.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct HostStatus {
@@ -353,27 +364,35 @@ pub struct HostStatus {
 }
 
 impl MatchHost {
-    /// A host for a new match created at `now`, with `seats` taken in robot-id order and
-    /// the replay, if any, written to `replay`.
+    /// A host for a new match of `setup` created at `now`, run as `config` says, with the
+    /// replay, if any, written to `replay`. Its named seats are taken at once, in robot-id
+    /// order: built-in and in-process agents play them here, remote players claim them
+    /// by name; its open seats wait for whoever joins. A program or a learner cannot
+    /// play a served match (the runner starts programs and gives them remote seats).
     pub fn new(
+        setup: MatchSetup,
         config: HostConfig,
-        seats: Vec<Seat>,
         replay: Option<(Box<dyn std::io::Write + Send>, String)>,
         now: Instant,
     ) -> Result<MatchHost, HostError> {
         admission::check_tokens_differ(&config)?;
-        if seats.len() > config.robots {
-            let message = format!("{} seats, but the match admits {} players", seats.len(), config.robots);
-            return Err(HostError::Seat(message));
-        }
-        let game = Match::new(&config.map, &config.game, config.seed)?;
-        let names = seats.iter().map(|s| s.name().to_string()).collect();
+        setup.check().map_err(|e| HostError::Seat(e.to_string()))?;
+        setup
+            .only_players("in a served match", |p| {
+                !matches!(p, bw4t_agents::Player::Program(_) | bw4t_agents::Player::Learner)
+            })
+            .map_err(|e| HostError::Seat(e.to_string()))?;
+        let MatchSetup { map, seed, game, seats, max_ticks } = setup;
+        let played = Played { seed, tick_hz: game.ticks_per_second, robots: seats.len(), max_ticks };
+        let game = Match::new(&map, &game, seed)?;
+        let names = seats.iter().filter(|s| !matches!(s.player, bw4t_agents::Player::Open));
+        let names = names.map(|s| s.name.clone()).collect();
         let recorder = replay.map(|(out, program)| {
             let meta = bw4t_protocol::ReplayMeta {
                 program,
                 robots: names,
                 digest_every: crate::REPLAY_DIGEST_EVERY,
-                max_ticks: config.max_ticks,
+                max_ticks,
                 labels: config.labels.clone(),
                 wall_clock: true,
             };
@@ -382,6 +401,7 @@ impl MatchHost {
         let start_by = config.start_timeout.map(|t| now + t);
         let mut host = MatchHost {
             config,
+            played,
             game,
             conns: BTreeMap::new(),
             players: BTreeMap::new(),
@@ -403,12 +423,9 @@ impl MatchHost {
             held: false,
             lateness: None,
         };
-        for seat in seats {
-            let (name, local) = match seat {
-                Seat::Remote(name) => (name, None),
-                Seat::Local(name, agent) => (name, Some(agent)),
-            };
-            let id = host.join(Some(&name)).map_err(|(_, message)| HostError::Seat(message))?;
+        for seat in seats.into_iter().filter(|s| !matches!(s.player, bw4t_agents::Player::Open)) {
+            let local = seat.player.agent(&seat.name);
+            let id = host.join(Some(&seat.name)).map_err(|(_, message)| HostError::Seat(message))?;
             if let Some(player) = host.players.get_mut(&id) {
                 player.reserved = local.is_none();
                 player.local = local.map(|agent| Driver::new(id, agent));
@@ -614,7 +631,7 @@ impl MatchHost {
 
     /// How many more players the waiting match needs before it starts.
     fn awaited(&self) -> usize {
-        self.config.robots.saturating_sub(self.connected_players() + self.abandoned.len())
+        self.played.robots.saturating_sub(self.connected_players() + self.abandoned.len())
     }
 
     /// Tells every connection who is in the waiting match, if that changed.
@@ -661,7 +678,7 @@ impl MatchHost {
     /// match says so.
     fn fill_seats(&mut self) {
         let Some(strategy) = self.config.fill else { return };
-        while self.players.len() < self.config.robots {
+        while self.players.len() < self.played.robots {
             let Some(name) =
                 (1..).map(|i| format!("Bot{i}")).take(1000).find(|n| self.game.check_name(n).is_ok())
             else {
@@ -718,7 +735,7 @@ impl MatchHost {
     }
 
     fn tick_period(&self) -> Duration {
-        Duration::from_secs_f64(1.0 / f64::from(self.config.game.ticks_per_second))
+        Duration::from_secs_f64(1.0 / f64::from(self.played.tick_hz))
     }
 
     /// The lockstep deadline of the current tick.
@@ -814,7 +831,7 @@ impl MatchHost {
         }
         if self.game.is_complete() {
             self.end = Some(EndReason::Completed);
-        } else if self.config.max_ticks.is_some_and(|max| tick >= max) {
+        } else if self.played.max_ticks.is_some_and(|max| tick >= max) {
             self.end = Some(EndReason::MaxTicks);
         }
     }

@@ -13,7 +13,7 @@ mod config;
 mod host;
 mod lines;
 
-pub use config::{DEFAULT_MATCH, HostConfig, REPLAY_DIGEST_EVERY, Seat};
+pub use config::{DEFAULT_MATCH, HostConfig, REPLAY_DIGEST_EVERY};
 pub use host::{ConnId, HostEvent, HostStatus, MatchHost, Transmit, same_secret};
 pub use lines::{bye_line, error_line, pong_line};
 

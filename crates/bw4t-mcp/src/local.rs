@@ -4,27 +4,16 @@
 use std::net::SocketAddr;
 use std::time::Duration;
 
-use bw4t_agents::Strategy;
+use bw4t_agents::{MatchSetup, Player, Seat, Strategy, bot_name};
 use bw4t_map::Map;
 use bw4t_protocol::{MatchResult, Mode, SessionOptions};
-use bw4t_server::{Extras, HostConfig, Seat, ServerError};
-use bw4t_sim::MatchConfig;
+use bw4t_server::{Extras, HostConfig, ServerError};
 use tokio::task::JoinHandle;
 
 /// Everything a match of its own needs.
 pub struct LocalMatch {
-    /// The map.
-    pub map: Map,
-    /// The seed.
-    pub seed: u64,
-    /// Simulation settings.
-    pub game: MatchConfig,
-    /// The robot's player name.
-    pub player: String,
-    /// The built-in teammates, in robot-id order after the robot.
-    pub teammates: Vec<Strategy>,
-    /// The last tick.
-    pub max_ticks: u64,
+    /// The match: the robot's seat (remote, robot 0) and its built-in teammates.
+    pub setup: MatchSetup,
     /// How long the match waits for the robot's driver in a tick (`None`: for ever).
     pub deadline: Option<Duration>,
     /// Where the replay goes.
@@ -42,28 +31,32 @@ pub struct Started {
 }
 
 impl LocalMatch {
+    /// The robot (remote, named `player`) and `teammates` (`Bot1`, `Bot2`, ...) on `map`,
+    /// with the default settings and no tick limit.
+    pub fn setup(map: Map, player: &str, teammates: &[Strategy]) -> MatchSetup {
+        let mut seats = vec![Seat::remote(player)];
+        seats.extend(teammates.iter().enumerate().map(|(i, s)| Seat::builtin(bot_name(i), *s)));
+        MatchSetup { seats, ..MatchSetup::new(map) }
+    }
+
     /// Starts the server on a free loopback port.
     pub async fn start(self) -> std::io::Result<Started> {
+        let player = match self.setup.seats.first() {
+            Some(seat) if matches!(seat.player, Player::Remote) => seat.name.clone(),
+            _ => return Err(std::io::Error::other("robot 0 of a match of its own must be the remote robot")),
+        };
         let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
         let addr = listener.local_addr()?;
         let token = bw4t_server::random_token();
-        let mut config = HostConfig::new(self.map);
-        config.seed = self.seed;
-        config.game = self.game;
+        let mut config = HostConfig::new();
         config.mode = Mode::Lockstep;
-        config.robots = 1 + self.teammates.len();
-        config.max_ticks = Some(self.max_ticks);
         config.deadline = self.deadline;
         config.token = Some(token.clone());
         config.pause_when_empty = false;
-        let mut seats = vec![Seat::Remote(self.player.clone())];
-        for (i, strategy) in self.teammates.iter().enumerate() {
-            let name = format!("Bot{}", i + 1);
-            seats.push(Seat::Local(name.clone(), strategy.agent(&name)));
-        }
-        let extras = Extras { seats, replay: self.replay, program: program(), ..Extras::default() };
-        let result = tokio::spawn(bw4t_server::serve_with(listener, config, extras, std::future::pending()));
-        Ok(Started { addr, hello: SessionOptions::agent(self.player, Some(token)), result })
+        let extras = Extras { replay: self.replay, program: program(), ..Extras::default() };
+        let serving = bw4t_server::serve_with(listener, self.setup, config, extras, std::future::pending());
+        let result = tokio::spawn(serving);
+        Ok(Started { addr, hello: SessionOptions::agent(player, Some(token)), result })
     }
 }
 

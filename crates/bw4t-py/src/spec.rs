@@ -1,8 +1,8 @@
 //! `EnvSpec`: one environment configuration (map, seats, step, limits, rewards), checked
 //! once and shared by single and vector environments, with the spaces it implies.
 
-use bw4t_agents::Strategy;
-use bw4t_env::{EnvConfig, RewardMode, Rewards, Seat, Segment, Spaces};
+use bw4t_agents::{Player, Strategy};
+use bw4t_env::{EnvConfig, RewardMode, Rewards, Segment, Spaces};
 use bw4t_map::{Colour, ZoneKind};
 use bw4t_protocol::KINDS;
 use pyo3::exceptions::PyValueError;
@@ -16,11 +16,11 @@ pub(crate) struct EnvSpec {
 }
 
 /// A seat named as the Python side names it: `learner`, or a built-in strategy's name.
-fn seat(name: &str) -> PyResult<Seat> {
+fn seat(name: &str) -> PyResult<Player> {
     if name == "learner" {
-        return Ok(Seat::Learner);
+        return Ok(Player::Learner);
     }
-    Strategy::named(name).map(Seat::Builtin).ok_or_else(|| {
+    Strategy::named(name).map(Player::Builtin).ok_or_else(|| {
         let known: Vec<&str> = Strategy::ALL.iter().map(|s| s.name()).collect();
         PyValueError::new_err(format!(
             "unknown seat {name:?}: use \"learner\" or a built-in strategy ({})",
@@ -53,8 +53,8 @@ impl EnvSpec {
         reward_mode: &str,
     ) -> PyResult<EnvSpec> {
         let map = bw4t_cli::load_map(map).map_err(|e| PyValueError::new_err(format!("{e:#}")))?;
-        let seats = seats.iter().map(|s| seat(s)).collect::<PyResult<Vec<Seat>>>()?;
-        if !seats.contains(&Seat::Learner) {
+        let seats = seats.iter().map(|s| seat(s)).collect::<PyResult<Vec<Player>>>()?;
+        if !seats.iter().any(|s| matches!(s, Player::Learner)) {
             return Err(PyValueError::new_err("at least one seat must be \"learner\""));
         }
         if seats.len() > map.spawns().len() {
@@ -85,16 +85,17 @@ impl EnvSpec {
                 return Err(PyValueError::new_err(format!("{name} must be a finite number")));
             }
         }
-        let mut config = EnvConfig::with_seats(map, seats);
+        let mut config = EnvConfig::with_players(map, seats);
         config.ticks_per_step = ticks_per_step;
-        config.max_ticks = match max_ticks {
+        let setup = &mut config.setup;
+        setup.max_ticks = Some(match max_ticks {
             Some(0) => return Err(PyValueError::new_err("max_ticks must be at least 1")),
             Some(ticks) => ticks,
-            None => bw4t_runner::TickLimit::for_map(&config.map, &config.match_config).ticks,
-        };
+            None => bw4t_runner::TickLimit::for_map(&setup.map, &setup.game).ticks,
+        });
         config.slots = slots;
         config.rewards = Rewards { delivery, wrong_drop, step_cost, mode };
-        let spaces = Spaces::new(bw4t_env::Dims::of(&config.map, slots));
+        let spaces = Spaces::new(bw4t_env::Dims::of(&config.setup.map, slots));
         Ok(EnvSpec { config, spaces })
     }
 
@@ -119,7 +120,7 @@ impl EnvSpec {
     /// The tick limit (truncation).
     #[getter]
     fn max_ticks(&self) -> u64 {
-        self.config.max_ticks
+        self.config.setup.max_ticks.unwrap_or(u64::MAX)
     }
 
     /// Ticks per step.
@@ -131,7 +132,7 @@ impl EnvSpec {
     /// The map's name.
     #[getter]
     fn map_name(&self) -> String {
-        self.config.map.name().to_string()
+        self.config.setup.map.name().to_string()
     }
 
     /// The observation's segments: `(name, offset, length)`.
@@ -149,13 +150,13 @@ impl EnvSpec {
     /// Every place (zone) of the map, in map order (`P`).
     #[getter]
     fn places(&self) -> Vec<String> {
-        self.config.map.zones().iter().map(|z| z.name.to_string()).collect()
+        self.config.setup.map.zones().iter().map(|z| z.name.to_string()).collect()
     }
 
     /// The rooms, the drop zone included, in map order (`R`).
     #[getter]
     fn rooms(&self) -> Vec<String> {
-        let rooms = self.config.map.zones().iter().filter(|z| z.kind == ZoneKind::Room);
+        let rooms = self.config.setup.map.zones().iter().filter(|z| z.kind == ZoneKind::Room);
         rooms.map(|z| z.name.to_string()).collect()
     }
 

@@ -7,12 +7,9 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
-pub use bw4t_agents::SeatSpec;
-use bw4t_agents::Strategy;
-use bw4t_map::Map;
+use bw4t_agents::{MatchSetup, Player, Seat, Strategy};
 use bw4t_protocol::{AgentStatus, MatchResult, Mode};
-use bw4t_server::{Extras, HostConfig, Seat, ServerConfig};
-use bw4t_sim::MatchConfig;
+use bw4t_server::{Extras, HostConfig, ServerConfig};
 use serde::Serialize;
 
 /// How an agent fared.
@@ -54,16 +51,8 @@ impl AgentReport {
 
 /// Everything a served run needs.
 pub struct ServedRun<'a> {
-    /// The map.
-    pub map: &'a Map,
-    /// Simulation settings.
-    pub game: MatchConfig,
-    /// The seed.
-    pub seed: u64,
-    /// The seats, in robot-id order.
-    pub seats: Vec<SeatSpec>,
-    /// The last tick.
-    pub max_ticks: u64,
+    /// The match: its seats are built-in agents and programs.
+    pub setup: MatchSetup,
     /// Lockstep deadline (`None`: wait forever).
     pub deadline: Option<Duration>,
     /// How long agents have to connect before the match starts without them.
@@ -98,6 +87,9 @@ pub enum ServedError {
     /// The match could not be set up.
     #[error(transparent)]
     Server(#[from] bw4t_server::ServerError),
+    /// A seat's player cannot play in such a run.
+    #[error(transparent)]
+    Setup(#[from] bw4t_agents::SetupError),
 }
 
 /// Deadlines a player may miss in a row before it is dropped as unresponsive.
@@ -107,6 +99,11 @@ const MAX_LATE_IN_ROW: u32 = 3;
 /// when this returns.
 pub fn play_served(run: ServedRun<'_>) -> Result<Served, ServedError> {
     let io = |what: &str, e: std::io::Error| ServedError::Io(format!("{what}: {e}"));
+    run.setup.check()?;
+    run.setup.only_players("in a run with agent programs", |p| {
+        matches!(p, Player::Builtin(_) | Player::Program(_))
+    })?;
+    let seats = run.setup.seats.clone();
     std::fs::create_dir_all(run.log_dir)
         .map_err(|e| io(&format!("cannot create {}", run.log_dir.display()), e))?;
     let runtime = tokio::runtime::Builder::new_multi_thread()
@@ -119,29 +116,23 @@ pub fn play_served(run: ServedRun<'_>) -> Result<Served, ServedError> {
         let listener =
             tokio::net::TcpListener::bind("127.0.0.1:0").await.map_err(|e| io("cannot listen", e))?;
         let addr = listener.local_addr().map_err(|e| io("no address", e))?;
-        let mut config = HostConfig::new(run.map.clone());
-        config.seed = run.seed;
-        config.game = run.game.clone();
+        let mut config = HostConfig::new();
         config.mode = Mode::Lockstep;
-        config.robots = run.seats.len();
-        config.max_ticks = Some(run.max_ticks);
         config.deadline = run.deadline;
         config.token = Some(token.clone());
         config.start_timeout = Some(run.connect_timeout);
         config.max_late_in_row = Some(MAX_LATE_IN_ROW);
         config.pause_when_empty = false;
-        let seats = run
-            .seats
-            .iter()
-            .map(|s| match s {
-                SeatSpec::Builtin { name, strategy } => Seat::Local(name.clone(), strategy.agent(name)),
-                SeatSpec::External { name, .. } => Seat::Remote(name.clone()),
-            })
-            .collect();
-        let (gone_tx, gone_rx) = tokio::sync::mpsc::channel(run.seats.len().max(1));
+        // The server keeps each program's seat for it; the program connects under its name.
+        let mut setup = run.setup;
+        for seat in &mut setup.seats {
+            if matches!(seat.player, Player::Program(_)) {
+                seat.player = Player::Remote;
+            }
+        }
+        let (gone_tx, gone_rx) = tokio::sync::mpsc::channel(seats.len().max(1));
         let extras = Extras {
             server: ServerConfig { hello_timeout: run.connect_timeout, ..ServerConfig::default() },
-            seats,
             replay: run.replay,
             program: crate::program(),
             gone_seats: Some(gone_rx),
@@ -155,13 +146,13 @@ pub fn play_served(run: ServedRun<'_>) -> Result<Served, ServedError> {
                 std::future::pending::<()>().await;
             }
         };
-        let server = tokio::spawn(bw4t_server::serve_with(listener, config, extras, shutdown));
+        let server = tokio::spawn(bw4t_server::serve_with(listener, setup, config, extras, shutdown));
         let mut children = Vec::new();
-        for seat in &run.seats {
-            if let SeatSpec::External { name, command } = seat {
-                let log = run.log_dir.join(format!("{name}.log"));
-                let child = spawn(command, name, &addr, &token, &log);
-                children.push(Running { name: name.clone(), log, child, exited: None });
+        for seat in &seats {
+            if let Player::Program(command) = &seat.player {
+                let log = run.log_dir.join(format!("{}.log", seat.name));
+                let child = spawn(command, &seat.name, &addr, &token, &log);
+                children.push(Running { name: seat.name.clone(), log, child, exited: None });
             }
         }
         // Watch the children: one that dies before connecting must not hold up the start.
@@ -198,7 +189,7 @@ pub fn play_served(run: ServedRun<'_>) -> Result<Served, ServedError> {
             Ok(Err(e)) => return Err(ServedError::Server(e)),
             Err(e) => return Err(ServedError::Io(format!("the server task failed: {e}"))),
         };
-        let agents = run.seats.iter().map(|seat| report(seat, &result, &children)).collect();
+        let agents = seats.iter().map(|seat| report(seat, &result, &children)).collect();
         Ok(Served { result, agents, out_of_time })
     })
 }
@@ -280,11 +271,17 @@ fn spawn(
     cmd.spawn().map_err(|e| format!("cannot start `{command}`: {e}"))
 }
 
-fn report(seat: &SeatSpec, result: &MatchResult, children: &[Running]) -> AgentReport {
-    let robot = result.per_robot.iter().find(|r| r.name == seat.name());
-    match seat {
-        SeatSpec::Builtin { name, strategy } => AgentReport::builtin(name, *strategy),
-        SeatSpec::External { name, command } => {
+fn report(seat: &Seat, result: &MatchResult, children: &[Running]) -> AgentReport {
+    let name = &seat.name;
+    let robot = result.per_robot.iter().find(|r| &r.name == name);
+    match &seat.player {
+        Player::Builtin(strategy) => AgentReport::builtin(name, *strategy),
+        // Only built-in agents and programs are let in (checked at the start).
+        player => {
+            let command = match player {
+                Player::Program(command) => command.clone(),
+                other => other.kind(),
+            };
             let running = children.iter().find(|c| &c.name == name);
             let exited = running.and_then(|c| c.exited.clone());
             let (late, errors, connected) =

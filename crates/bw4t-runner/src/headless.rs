@@ -3,20 +3,11 @@
 use std::io::Write;
 use std::time::Instant;
 
-use bw4t_agents::{Agent, Driver, Team};
-use bw4t_map::Map;
+use bw4t_agents::{Driver, MatchSetup, Player, SetupError, Team};
 use bw4t_protocol::{EndReason, MatchResult, Recorder, ReplayMeta, RobotExtra};
-use bw4t_sim::{JoinError, Match, MatchConfig, MatchError};
+use bw4t_sim::{JoinError, Match, MatchError};
 
-use crate::external::{AgentReport, SeatSpec};
-
-/// A player of a headless match.
-pub struct Seat {
-    /// The player's name.
-    pub name: String,
-    /// Its brain.
-    pub agent: Box<dyn Agent>,
-}
+use crate::external::AgentReport;
 
 /// Why a headless match could not run.
 #[derive(Debug, thiserror::Error)]
@@ -27,32 +18,29 @@ pub enum RunError {
     /// A seat could not join.
     #[error("player cannot join: {0}")]
     Join(JoinError),
-    /// An external seat was given to an in-process match.
-    #[error("external agent '{0}' needs a served match")]
-    External(String),
+    /// The set-up cannot be played in-process (a program's seat, no tick limit, ...).
+    #[error(transparent)]
+    Setup(#[from] SetupError),
     /// The replay could not be written.
     #[error("cannot write the replay: {0}")]
     Replay(std::io::Error),
 }
 
-/// Plays a match of built-in seats in-process, recording a replay to `replay` if given;
-/// returns the result and a report per seat.
-pub fn play_builtin(
-    map: &Map,
-    seed: u64,
-    seats: &[SeatSpec],
-    max_ticks: u64,
+/// Plays a match of in-process seats (built-in agents, or agents the caller makes) to
+/// its end, recording a replay to `replay` if given; returns the result and a report per
+/// built-in seat.
+pub fn play(
+    setup: &MatchSetup,
     replay: Option<Box<dyn Write + Send>>,
 ) -> Result<(MatchResult, Vec<AgentReport>), RunError> {
-    let config = MatchConfig::default();
+    let max_ticks = tick_limit(setup)?;
     let mut recorder = match replay {
         Some(out) => {
             // The recorder describes the match before anyone joins; a fresh one is that.
-            let blank = Match::new(map, &config, seed)?;
-            let names = seats.iter().map(|s| s.name().to_string()).collect();
+            let blank = Match::new(&setup.map, &setup.game, setup.seed)?;
             let meta = ReplayMeta {
                 program: crate::program(),
-                robots: names,
+                robots: setup.names().map(str::to_string).collect(),
                 digest_every: 100,
                 max_ticks: Some(max_ticks),
                 ..ReplayMeta::default()
@@ -61,16 +49,7 @@ pub fn play_builtin(
         }
         None => None,
     };
-    let players = seats
-        .iter()
-        .map(|s| match s {
-            SeatSpec::Builtin { name, strategy } => {
-                Ok(Seat { name: name.clone(), agent: strategy.agent(name) })
-            }
-            SeatSpec::External { name, .. } => Err(RunError::External(name.clone())),
-        })
-        .collect::<Result<Vec<_>, _>>()?;
-    let (mut game, mut team) = set_up(map, &config, seed, players, recorder.as_mut())?;
+    let (mut game, mut team) = set_up(setup, recorder.as_mut())?;
     // `wall_ms` counts from the first tick, as in a served match.
     let started = Instant::now();
     let reason = play_to_end(&mut game, &mut team, max_ticks, recorder.as_mut());
@@ -79,45 +58,42 @@ pub fn play_builtin(
         recorder.finish(&game, reason).map_err(RunError::Replay)?;
     }
     let result = MatchResult::of(&game, None, reason, wall_ms, |_| RobotExtra::LOCAL);
-    let reports = seats
+    let reports = setup
+        .seats
         .iter()
-        .filter_map(|s| match s {
-            SeatSpec::Builtin { name, strategy } => Some(AgentReport::builtin(name, *strategy)),
-            SeatSpec::External { .. } => None,
-        })
+        .filter_map(|s| s.strategy().map(|strategy| AgentReport::builtin(&s.name, strategy)))
         .collect();
     Ok((result, reports))
 }
 
-/// Plays a match to completion or `max_ticks`: each tick every agent that was told
+/// Plays a match to completion or its tick limit: each tick every agent that was told
 /// something decides, and its actions apply at the next boundary in robot-id order,
 /// exactly as in a lockstep server.
 pub fn play_headless(
-    map: &Map,
-    config: &MatchConfig,
-    seed: u64,
-    seats: Vec<Seat>,
-    max_ticks: u64,
+    setup: &MatchSetup,
     mut recorder: Option<&mut Recorder>,
 ) -> Result<(Match, EndReason), RunError> {
-    let (mut game, mut team) = set_up(map, config, seed, seats, recorder.as_deref_mut())?;
+    let max_ticks = tick_limit(setup)?;
+    let (mut game, mut team) = set_up(setup, recorder.as_deref_mut())?;
     let reason = play_to_end(&mut game, &mut team, max_ticks, recorder);
     Ok((game, reason))
 }
 
+/// The tick limit a headless match needs: it has no other end but the sequence.
+fn tick_limit(setup: &MatchSetup) -> Result<u64, RunError> {
+    setup.max_ticks.ok_or_else(|| SetupError::Invalid("a headless match needs a tick limit".into()).into())
+}
+
 /// A new match with every seat joined, in order.
-fn set_up(
-    map: &Map,
-    config: &MatchConfig,
-    seed: u64,
-    seats: Vec<Seat>,
-    mut recorder: Option<&mut Recorder>,
-) -> Result<(Match, Team), RunError> {
-    let mut game = Match::new(map, config, seed)?;
-    let mut drivers = Vec::with_capacity(seats.len());
-    for seat in seats {
+fn set_up(setup: &MatchSetup, mut recorder: Option<&mut Recorder>) -> Result<(Match, Team), RunError> {
+    setup.check()?;
+    setup.only_players("in a headless match", |p| matches!(p, Player::Builtin(_) | Player::Agent(_)))?;
+    let mut game = Match::new(&setup.map, &setup.game, setup.seed)?;
+    let mut drivers = Vec::with_capacity(setup.seats.len());
+    for seat in &setup.seats {
         let robot = game.join_logged(&seat.name, &mut recorder).map_err(RunError::Join)?;
-        drivers.push(Driver::new(robot, seat.agent));
+        let agent = seat.player.agent(&seat.name).expect("checked: every seat is in-process");
+        drivers.push(Driver::new(robot, agent));
     }
     Ok((game, Team::new(drivers)))
 }

@@ -11,8 +11,8 @@ pub mod tournament;
 
 /// `1 robot`, `2 robots`: the one rule for counts in messages (the tournament summary's too).
 pub use bw4t_tournament::plural;
-pub use external::{AgentReport, SeatSpec, Served, ServedError, ServedRun, play_served};
-pub use headless::{RunError, Seat, play_builtin, play_headless};
+pub use external::{AgentReport, Served, ServedError, ServedRun, play_served};
+pub use headless::{RunError, play, play_headless};
 pub use limit::{MIN_DEFAULT_TICKS, TickLimit};
 pub use preflight::check_command;
 pub use remote::{RemoteError, play_remote};

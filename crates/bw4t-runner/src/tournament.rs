@@ -17,9 +17,10 @@ use bw4t_tournament::{
     seats, summarize,
 };
 
-use crate::external::{AgentReport, SeatSpec, ServedRun, play_served};
-use crate::headless::play_builtin;
+use crate::external::{AgentReport, ServedRun, play_served};
+use crate::headless::play;
 use crate::limit::TickLimit;
+use bw4t_agents::{MatchSetup, Player};
 
 /// How to run a tournament.
 #[derive(Clone, Debug)]
@@ -482,17 +483,15 @@ fn play_one(
     let buffer = SharedBuffer::default();
     let want_replay = options.replays != ReplayPolicy::None;
     let played: Result<(MatchResult, Vec<AgentReport>, bool), String> = seats(team).and_then(|seats| {
-        let external = seats.iter().any(|s| matches!(s, SeatSpec::External { .. }));
+        let external = seats.iter().any(|s| matches!(s.player, Player::Program(_)));
+        let setup =
+            MatchSetup { seed: p.seed, seats, max_ticks: Some(max_ticks), ..MatchSetup::new(map.clone()) };
         if external {
             let log_dir = options.out.join("logs").join(file_safe(&p.key));
             let replay: Option<Box<dyn Write + Send>> =
                 want_replay.then(|| Box::new(buffer.clone()) as Box<dyn Write + Send>);
             play_served(ServedRun {
-                map,
-                game: MatchConfig::default(),
-                seed: p.seed,
-                seats,
-                max_ticks,
+                setup,
                 deadline: (resolved.deadline_ms > 0).then(|| Duration::from_millis(resolved.deadline_ms)),
                 connect_timeout: options.connect_timeout,
                 log_dir: &log_dir,
@@ -504,7 +503,7 @@ fn play_one(
             .map_err(|e| e.to_string())
         } else {
             let replay = want_replay.then(|| Box::new(buffer.clone()) as Box<dyn Write + Send>);
-            let played = play_builtin(map, p.seed, &seats, max_ticks, replay).map_err(|e| e.to_string())?;
+            let played = play(&setup, replay).map_err(|e| e.to_string())?;
             Ok((played.0, played.1, false))
         }
     });

@@ -20,10 +20,11 @@ mod secret;
 mod serve;
 
 pub use arena::{
-    AgentFactory, Arena, ArenaConfig, ArenaError, CreateRequest, FirstReplay, MapLookup, MatchSpec, OnEnd,
-    ResultsStore, SeatPlan, Template, Totals, check_match_name,
+    Arena, ArenaConfig, ArenaError, CreateRequest, FirstReplay, MapLookup, MatchSpec, OnEnd, ResultsStore,
+    Template, Totals, check_match_name,
 };
-pub use bw4t_host::{DEFAULT_MATCH, HostConfig, HostStatus, REPLAY_DIGEST_EVERY, Seat};
+pub use bw4t_agents::{AgentFactory, MatchSetup, Player, Seat};
+pub use bw4t_host::{DEFAULT_MATCH, HostConfig, HostStatus, REPLAY_DIGEST_EVERY};
 pub use config::{ServerConfig, ServerError, program};
 pub use connection::{LISTEN_BACKLOG, listen};
 pub use http::websocket::parse_origin;

@@ -4,7 +4,8 @@
 use std::future::Future;
 use std::sync::Arc;
 
-use bw4t_host::{HostConfig, Seat};
+use bw4t_agents::MatchSetup;
+use bw4t_host::HostConfig;
 use bw4t_protocol::MatchResult;
 use tokio::net::TcpListener;
 use tokio::sync::mpsc;
@@ -19,8 +20,6 @@ use crate::http::{self, Routes, Served, Site};
 pub struct Extras {
     /// How the server treats connections.
     pub server: ServerConfig,
-    /// Seats taken at the start, in robot-id order.
-    pub seats: Vec<Seat>,
     /// Where to write the replay.
     pub replay: Option<Box<dyn std::io::Write + Send>>,
     /// The program name written into the replay.
@@ -32,20 +31,23 @@ pub struct Extras {
     pub http: Option<TcpListener>,
 }
 
-/// Serves one match on `listener` until it ends (sequence complete, `max_ticks`, or
-/// `shutdown` resolving) and returns its result. Every client gets `match_end` and `bye`.
+/// Serves one match of `setup`, run as `config` says, on `listener` until it ends
+/// (sequence complete, the tick limit, or `shutdown` resolving) and returns its result.
+/// Every client gets `match_end` and `bye`.
 pub async fn serve(
     listener: TcpListener,
+    setup: MatchSetup,
     config: HostConfig,
     shutdown: impl Future<Output = ()>,
 ) -> Result<MatchResult, ServerError> {
-    serve_with(listener, config, Extras::default(), shutdown).await
+    serve_with(listener, setup, config, Extras::default(), shutdown).await
 }
 
-/// [`serve`] with seats taken in advance (built-in agents and reserved names) and a replay:
-/// a server of this one match, which it stops after.
+/// [`serve`] with a replay, the web port, and seats whose players will not come: a
+/// server of this one match, which it stops after.
 pub async fn serve_with(
     listener: TcpListener,
+    setup: MatchSetup,
     config: HostConfig,
     mut extras: Extras,
     shutdown: impl Future<Output = ()>,
@@ -60,8 +62,8 @@ pub async fn serve_with(
     let arena = Arena::start(settings).map_err(one_match_error)?;
     let spec = MatchSpec {
         replay: extras.replay.take().map(|out| (out, std::mem::take(&mut extras.program))),
-        seats: std::mem::take(&mut extras.seats),
         gone_seats: extras.gone_seats.take(),
+        setup,
         config,
     };
     arena.spawn(spec).map_err(one_match_error)?;

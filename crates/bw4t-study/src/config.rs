@@ -12,7 +12,7 @@ use bw4t_protocol::{MessagePolicy, Mode};
 use serde::Deserialize;
 
 use super::markdown::to_html;
-use bw4t_server::{HostConfig, OnEnd, SeatPlan, Template};
+use bw4t_server::{HostConfig, MatchSetup, OnEnd, Seat, Template};
 
 /// The file, as written.
 #[derive(Deserialize)]
@@ -599,13 +599,14 @@ impl Study {
     }
 
     fn template(&self, c: &Condition) -> Template {
-        let mut config = HostConfig::new(c.map.clone());
+        let mut setup = MatchSetup::builtin_team(c.map.clone(), c.teammates, c.strategy);
+        setup.seed = c.seed;
+        setup.game.ticks_per_second = c.tick_hz;
+        setup.max_ticks = Some(c.time_limit_s * u64::from(c.tick_hz));
+        setup.seats.extend(std::iter::repeat_with(Seat::open).take(c.humans));
+        let mut config = HostConfig::new();
         config.name = c.name.clone();
-        config.seed = c.seed;
-        config.game.ticks_per_second = c.tick_hz;
         config.mode = c.mode;
-        config.robots = c.humans + c.teammates;
-        config.max_ticks = Some(c.time_limit_s * u64::from(c.tick_hz));
         config.language = c.language.clone();
         config.labels =
             BTreeMap::from([("study".into(), self.name.clone()), ("condition".into(), c.name.clone())]);
@@ -614,12 +615,11 @@ impl Study {
             config.start_timeout = Some(Duration::from_secs(c.partner_timeout_s));
             config.fill = Some(c.strategy);
         }
-        let seats = (1..=c.teammates).map(|i| SeatPlan::builtin(format!("Bot{i}"), c.strategy)).collect();
         Template {
             name: c.name.clone(),
             maps: vec![c.map.clone()],
+            setup,
             config,
-            seats,
             names: Vec::new(),
             max_running: c.max_running,
             on_end: OnEnd::Stay,

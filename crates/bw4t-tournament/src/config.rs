@@ -3,7 +3,7 @@
 use std::fmt;
 use std::str::FromStr;
 
-use bw4t_agents::{SeatSpec, Strategy};
+use bw4t_agents::{Player, Seat, Strategy, named_seats};
 use serde::{Deserialize, Serialize};
 
 /// Seeds as a count (derived from the master seed) or an explicit list.
@@ -317,24 +317,17 @@ impl From<Shard> for String {
 
 /// The seats of a team, in robot order: built-in ones named `Bot1`, `Bot2`, ..., external
 /// ones `Agent1`, `Agent2`, ..., each kind counted on its own (as `bw4t run` names them).
-pub fn seats(team: &Team) -> Result<Vec<SeatSpec>, String> {
+pub fn seats(team: &Team) -> Result<Vec<Seat>, String> {
     let entries: Vec<&str> = match &team.agents {
         Agents::Each(entry) => vec![entry.as_str(); team.robots],
         Agents::PerRobot(list) => list.iter().map(String::as_str).collect(),
     };
-    let (mut bots, mut externals) = (0, 0);
-    let mut out = Vec::with_capacity(entries.len());
-    for entry in entries {
+    let players = entries.into_iter().map(|entry| {
         let entry = entry.trim();
-        if let Some(strategy) = builtin_strategy(entry).map_err(|e| format!("team '{}': {e}", team.name))? {
-            bots += 1;
-            out.push(SeatSpec::Builtin { name: format!("Bot{bots}"), strategy });
-        } else {
-            externals += 1;
-            out.push(SeatSpec::External { name: format!("Agent{externals}"), command: entry.to_string() });
-        }
-    }
-    Ok(out)
+        let strategy = builtin_strategy(entry).map_err(|e| format!("team '{}': {e}", team.name))?;
+        Ok(strategy.map_or_else(|| Player::Program(entry.to_string()), Player::Builtin))
+    });
+    Ok(named_seats(players.collect::<Result<Vec<_>, String>>()?))
 }
 
 /// The strategy an agents entry names (`builtin`, `builtin:STRATEGY`), `None` for a command
@@ -458,12 +451,13 @@ mod tests {
         let team = &resolved.teams[1];
         assert_eq!(team.robots, 3);
         let seats = seats(team).expect("seats");
+        let seats: Vec<(&str, String)> = seats.iter().map(|s| (s.name.as_str(), s.player.kind())).collect();
         assert_eq!(
             seats,
             [
-                SeatSpec::Builtin { name: "Bot1".into(), strategy: Strategy::Cooperative },
-                SeatSpec::External { name: "Agent1".into(), command: "python3 a.py".into() },
-                SeatSpec::Builtin { name: "Bot2".into(), strategy: Strategy::Baseline },
+                ("Bot1", "builtin:coop".to_string()),
+                ("Agent1", "the program `python3 a.py`".to_string()),
+                ("Bot2", "builtin:baseline".to_string()),
             ]
         );
         let wrong = text.replace("\"builtin:baseline\"]", "\"builtin:baseline\"]\n        robots = 2");

@@ -125,7 +125,7 @@ fn team_rewards_are_shared_and_individual_ones_are_not() {
 #[test]
 fn the_tick_limit_truncates() {
     let mut config = small(1);
-    config.max_ticks = 45;
+    config.setup.max_ticks = Some(45);
     let mut script = Script::new(config);
     for step in 1..=4 {
         script.step(0);

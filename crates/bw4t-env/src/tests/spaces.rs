@@ -23,7 +23,7 @@ fn doc_table(header: &str) -> Vec<Vec<String>> {
 
 fn default_spaces() -> Spaces {
     let config = EnvConfig::parallel(default_map(), 3);
-    Spaces::new(Dims::of(&config.map, config.slots))
+    Spaces::new(Dims::of(&config.setup.map, config.slots))
 }
 
 #[test]

@@ -73,7 +73,7 @@ fn check_vector_equals_singles(config: EnvConfig, n: usize, threads: usize, step
 #[test]
 fn a_vector_equals_single_envs_with_auto_reset() {
     let mut config = EnvConfig::parallel(default_map(), 2);
-    config.max_ticks = 300;
+    config.setup.max_ticks = Some(300);
     check_vector_equals_singles(config.clone(), 3, 1, 70);
     check_vector_equals_singles(config, 5, 2, 70);
 }
@@ -81,6 +81,6 @@ fn a_vector_equals_single_envs_with_auto_reset() {
 #[test]
 fn a_vector_of_one_learner_among_teammates_equals_single_envs() {
     let mut config = EnvConfig::single(default_map(), 2, Strategy::Cooperative);
-    config.max_ticks = 400;
+    config.setup.max_ticks = Some(400);
     check_vector_equals_singles(config, 3, 2, 90);
 }

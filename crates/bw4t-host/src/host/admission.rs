@@ -157,7 +157,7 @@ impl MatchHost {
         self.game.check_name(&name).map_err(refusal)?;
         // Every player in the match holds a seat: connected, reserved, or dropped and
         // within its grace period.
-        let seats = self.config.robots;
+        let seats = self.played.robots;
         if self.players.len() >= seats {
             return Err((ErrorCode::MatchFull, format!("the match is full: it admits {seats} players")));
         }
@@ -184,13 +184,13 @@ impl MatchHost {
                 id: self.config.id.clone(),
                 template: self.config.template.clone(),
                 map: self.game.map().name().to_string(),
-                seed: self.config.seed,
+                seed: self.played.seed,
                 mode: self.config.mode,
-                tick_hz: self.config.game.ticks_per_second,
+                tick_hz: self.played.tick_hz,
                 deadline_ms: (self.config.mode == Mode::Lockstep)
                     .then(|| self.config.deadline.map_or(0, |d| d.as_millis() as u64)),
-                players_needed: self.config.robots,
-                max_ticks: self.config.max_ticks,
+                players_needed: self.played.robots,
+                max_ticks: self.played.max_ticks,
                 every_tick,
                 language: bw4t_protocol::MessagePolicy {
                     kinds: Some(self.config.language.allowed_kinds()),

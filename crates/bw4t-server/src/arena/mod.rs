@@ -12,7 +12,7 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Duration;
 
-use bw4t_agents::Agent;
+use bw4t_agents::{MatchSetup, Player, Seat};
 use bw4t_map::Map;
 use bw4t_protocol::{
     EndReason, MapLayout, MatchResult, MatchState, MatchSummary, Mode, ServerInfo, TemplateInfo, Watch,
@@ -20,7 +20,7 @@ use bw4t_protocol::{
 use bw4t_tournament::Row;
 use tokio::sync::{mpsc, oneshot, watch};
 
-use bw4t_host::{HostConfig, HostStatus, MatchHost, Seat};
+use bw4t_host::{HostConfig, HostStatus, MatchHost};
 
 use crate::config::{ServerConfig, ServerError};
 use crate::driver;
@@ -29,25 +29,6 @@ use crate::lateness::TickLateness;
 
 pub(crate) use route::{QueueNews, Route, Routed};
 pub use store::ResultsStore;
-
-/// Makes the agent of a built-in seat for a player name.
-pub type AgentFactory = Arc<dyn Fn(&str) -> Box<dyn Agent> + Send + Sync>;
-
-/// A seat a template's matches give a built-in agent from the start.
-#[derive(Clone)]
-pub struct SeatPlan {
-    /// The player's name.
-    pub name: String,
-    /// Who plays it.
-    pub agent: AgentFactory,
-}
-
-impl SeatPlan {
-    /// A seat for a built-in agent of `strategy`.
-    pub fn builtin(name: impl Into<String>, strategy: bw4t_agents::Strategy) -> SeatPlan {
-        SeatPlan { name: name.into(), agent: Arc::new(move |name: &str| strategy.agent(name)) }
-    }
-}
 
 /// What a template does when one of its matches ends.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -68,19 +49,20 @@ impl OnEnd {
         &[("stay", OnEnd::Stay), ("restart", OnEnd::Restart), ("next", OnEnd::Next)];
 }
 
-/// A recipe for matches: settings, built-in seats, which matches to make and what to do
-/// when one ends.
+/// A recipe for matches: what they play and how they are run, which matches to make and
+/// what to do when one ends.
 #[derive(Clone)]
 pub struct Template {
     /// Its name (`hello.template`).
     pub name: String,
-    /// The matches' settings; `config.map` is the first map and `config.seed` the first
-    /// match's seed (the n-th match made gets `seed + n`).
+    /// What its matches play: `setup.map` is the first map, `setup.seed` the first
+    /// match's seed (the n-th match made gets `seed + n`), and `setup.seats` every seat,
+    /// built-in ones first and open ones after.
+    pub setup: MatchSetup,
+    /// How its matches are run.
     pub config: HostConfig,
-    /// The maps its matches play in turn (`OnEnd::Next`), the first being `config.map`.
+    /// The maps its matches play in turn (`OnEnd::Next`), the first being `setup.map`.
     pub maps: Vec<Map>,
-    /// Seats given to built-in agents when a match is made.
-    pub seats: Vec<SeatPlan>,
     /// Matches made at the start under these names (a classroom's teams). Without names,
     /// matches are made when players ask for the template, named `TEMPLATE-N`.
     pub names: Vec<String>,
@@ -95,13 +77,13 @@ pub struct Template {
 }
 
 impl Template {
-    /// A template of one match named `name`, made at the start, with `config`.
-    pub fn single(name: &str, config: HostConfig, on_end: OnEnd) -> Template {
+    /// A template of one match named `name`, made at the start, of `setup` run as `config`.
+    pub fn single(name: &str, setup: MatchSetup, config: HostConfig, on_end: OnEnd) -> Template {
         Template {
             name: name.to_string(),
-            maps: vec![config.map.clone()],
+            maps: vec![setup.map.clone()],
+            setup,
             config,
-            seats: Vec::new(),
             names: vec![name.to_string()],
             max_running: 1,
             on_end,
@@ -151,12 +133,12 @@ impl ArenaConfig {
     }
 }
 
-/// A match being made: its settings and what it starts with.
+/// A match being made: what it plays, how it is run and what it starts with.
 pub struct MatchSpec {
-    /// Its settings, `name` and `template` included.
+    /// What it plays.
+    pub setup: MatchSetup,
+    /// How it is run, `name` and `template` included.
     pub config: HostConfig,
-    /// Seats taken at the start, in robot-id order.
-    pub seats: Vec<Seat>,
     /// Where its replay goes, with the program name written into it.
     pub replay: Option<(Box<dyn std::io::Write + Send>, String)>,
     /// Names of reserved seats whose player will not come.
@@ -385,19 +367,15 @@ impl Arena {
         let name = name.unwrap_or_else(|| format!("{}-{}", template.name, n + 1));
         let run = state.runs.get(&name).copied().unwrap_or(0) + 1;
         let mut config = template.config.clone();
+        let mut setup = template.setup.clone();
         // `Next` walks the list by the match name's runs; otherwise every match plays the first map.
         let map_at =
             if template.on_end == OnEnd::Next { (run as usize - 1) % template.maps.len() } else { 0 };
-        config.map = template.maps[map_at].clone();
-        config.seed = config.seed.wrapping_add(n);
+        setup.map = template.maps[map_at].clone();
+        setup.seed = setup.seed.wrapping_add(n);
         config.name = name;
         config.template = Some(template.name.clone());
-        let seats = template
-            .seats
-            .iter()
-            .map(|seat| Seat::Local(seat.name.clone(), (seat.agent)(&seat.name)))
-            .collect();
-        let spec = MatchSpec { config, seats, replay: None, gone_seats: None };
+        let spec = MatchSpec { setup, config, replay: None, gone_seats: None };
         self.launch(state, spec, Some(template), true)
     }
 
@@ -412,7 +390,7 @@ impl Arena {
         if state.stopping {
             return Err(ArenaError::Stopping);
         }
-        let MatchSpec { mut config, seats, replay, gone_seats } = spec;
+        let MatchSpec { setup, mut config, replay, gone_seats } = spec;
         if state.live.contains_key(&config.name) {
             return Err(ArenaError::NameTaken(config.name));
         }
@@ -431,8 +409,9 @@ impl Arena {
                 let kept = template.as_ref().is_some_and(|t| t.replays);
                 kept.then(|| self.inner.config.results.replay_writer(&id)).flatten()
             });
-        let open_seats = config.robots.saturating_sub(seats.len());
-        let host = MatchHost::new(config.clone(), seats, replay, std::time::Instant::now())
+        let open_seats = setup.seats.iter().filter(|s| matches!(s.player, Player::Open)).count();
+        let (map, seed, robots) = (Arc::new(setup.map.clone()), setup.seed, setup.robots());
+        let host = MatchHost::new(setup, config.clone(), replay, std::time::Instant::now())
             .map_err(ServerError::Host)?;
         state.runs.insert(name.clone(), run);
         let (events, events_rx) = mpsc::channel(driver::EVENT_QUEUE);
@@ -445,10 +424,10 @@ impl Arena {
             started: started.clone(),
             claims: 0,
             open_seats,
-            map: Arc::new(config.map.clone()),
+            map: map.clone(),
             mode: config.mode,
-            seed: config.seed,
-            robots: config.robots,
+            seed,
+            robots,
             watch_open: config.token.is_none() && config.spectator_token.is_none(),
             goes_on,
         };
@@ -457,7 +436,7 @@ impl Arena {
         }
         state.live.insert(name.clone(), live);
         self.inner.live_count.send_modify(|n| *n += 1);
-        tracing::info!(target: "bw4t::arena", r#match = %name, id = %id, map = %config.map.name(), seed = config.seed, "match made");
+        tracing::info!(target: "bw4t::arena", r#match = %name, id = %id, map = %map.name(), seed, "match made");
         let arena = self.clone();
         let mut stop = self.inner.shutdown.subscribe();
         let task_name = name.clone();
@@ -654,36 +633,45 @@ impl Arena {
                 })?,
             };
         let mut config = template.config.clone();
-        config.map = template.maps[0].clone();
+        let mut setup = template.setup.clone();
+        setup.map = template.maps[0].clone();
         if let Some(map) = &request.map {
-            config.map = self.find_map(&template, map)?;
+            setup.map = self.find_map(&template, map)?;
         }
         if let Some(seed) = request.seed {
-            config.seed = seed;
+            setup.seed = seed;
         }
         if let Some(mode) = request.mode {
             config.mode = mode;
         }
         if let Some(hz) = request.tick_hz {
-            config.game.ticks_per_second = hz;
-            config.game.validate().map_err(|e| ArenaError::Bad(format!("tick_hz: {e}")))?;
+            setup.game.ticks_per_second = hz;
+            setup.game.validate().map_err(|e| ArenaError::Bad(format!("tick_hz: {e}")))?;
         }
         if let Some(max) = request.max_ticks {
-            config.max_ticks = (max > 0).then_some(max);
+            setup.max_ticks = (max > 0).then_some(max);
         }
-        let builtin = request.builtin.unwrap_or(template.seats.len());
-        config.robots = request.robots.unwrap_or(config.robots.max(builtin));
-        if config.robots == 0 || config.robots > config.map.spawns().len() {
+        let mut builtin: Vec<Seat> =
+            template.setup.seats.iter().filter(|s| !matches!(s.player, Player::Open)).cloned().collect();
+        let builtins = request.builtin.unwrap_or(builtin.len());
+        let robots = request.robots.unwrap_or(template.setup.robots().max(builtins));
+        if robots == 0 || robots > setup.map.spawns().len() {
             return Err(ArenaError::Bad(format!(
-                "robots: {} but map '{}' has {} spawn points",
-                config.robots,
-                config.map.name(),
-                config.map.spawns().len()
+                "robots: {robots} but map '{}' has {} spawn points",
+                setup.map.name(),
+                setup.map.spawns().len()
             )));
         }
-        if builtin > config.robots {
-            return Err(ArenaError::Bad(format!("builtin: {builtin} but robots: {}", config.robots)));
+        if builtins > robots {
+            return Err(ArenaError::Bad(format!("builtin: {builtins} but robots: {robots}")));
         }
+        builtin.truncate(builtins);
+        let more = builtin.len()..builtins;
+        builtin.extend(
+            more.map(|i| Seat::builtin(bw4t_agents::bot_name(i), bw4t_agents::Strategy::Cooperative)),
+        );
+        builtin.resize_with(robots, Seat::open);
+        setup.seats = builtin;
         let name = match request.name {
             Some(name) => {
                 check_match_name(&name)?;
@@ -699,18 +687,9 @@ impl Arena {
         };
         config.name = name;
         config.template = Some(template.name.clone());
-        let seats = (1..=builtin)
-            .map(|i| {
-                let plan = template.seats.get(i - 1).cloned();
-                let plan = plan.unwrap_or_else(|| {
-                    SeatPlan::builtin(format!("Bot{i}"), bw4t_agents::Strategy::Cooperative)
-                });
-                Seat::Local(plan.name.clone(), (plan.agent)(&plan.name))
-            })
-            .collect();
         self.launch(
             &mut state,
-            MatchSpec { config, seats, replay: None, gone_seats: None },
+            MatchSpec { setup, config, replay: None, gone_seats: None },
             Some(template),
             false,
         )
@@ -783,7 +762,7 @@ impl Arena {
             .filter(|t| t.names.is_empty())
             .map(|t| TemplateInfo {
                 name: t.name.clone(),
-                robots: t.config.robots,
+                robots: t.setup.robots(),
                 map: t.maps[0].name().to_string(),
             })
             .collect();
