@@ -280,6 +280,11 @@ async fn the_operator_makes_lists_inspects_and_stops_matches_through_the_api() {
         http(server.http, "POST", "/api/matches", Some("op"), Some(r#"{"colour": 1}"#)).await;
     assert_eq!(status, 400, "{body}");
     assert!(body.contains("colour"), "{body}");
+    // A tick rate whose period would be zero is refused, and the server goes on answering.
+    let (status, body) =
+        http(server.http, "POST", "/api/matches", Some("op"), Some(r#"{"tick_hz": 2000000000}"#)).await;
+    assert_eq!(status, 400, "{body}");
+    assert!(body.contains("tick_hz: ticks per second must be from 1 to 1000"), "{body}");
     // A player joins the match the API made; the lobby listing shows it, without the seed.
     let _ann = AutoPlayer::join_with(server.addr, hello_in("Ann", "match", "demo")).await;
     let (status, body) = http(server.http, "GET", "/api/matches", None, None).await;

@@ -175,12 +175,48 @@ fn serve_runs_until_terminated_and_writes_its_result() {
     );
 }
 
+/// A server whose output reader has gone (a supervisor, a `tee` that died) still stops on
+/// SIGTERM and files its match as interrupted: a log line it cannot write is dropped.
+#[test]
+fn serve_whose_output_reader_is_gone_still_stops_on_sigterm() {
+    use std::io::{BufRead, BufReader};
+    let dir = std::env::temp_dir().join(format!("bw4t-serve-gone-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let results = dir.join("result.json");
+    let mut serve = Command::new(env!("CARGO_BIN_EXE_bw4t"));
+    serve.args(["serve", "--port", "0", "--map", "fixed", "--seed", "4", "-v", "--results"]).arg(&results);
+    let (mut child, stream) = serve_and_say_hello(serve);
+    let mut reader = BufReader::new(stream);
+    let mut line = String::new();
+    reader.read_line(&mut line).expect("welcome");
+    // The reader of standard output and error goes away: every later write fails.
+    drop(child.stderr.take());
+    let status = Command::new("kill").arg("-TERM").arg(child.id().to_string()).status().expect("kill");
+    assert!(status.success());
+    let mut rest = String::new();
+    while reader.read_line(&mut line).is_ok_and(|n| n > 0) {
+        rest.push_str(&line);
+        line.clear();
+    }
+    if !rest.contains("\"match_end\"") {
+        let _ = child.kill();
+        panic!("the server did not end its match on SIGTERM: {rest}");
+    }
+    let exit = child.wait().expect("exit");
+    let result = std::fs::read_to_string(&results).expect("result file");
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(exit.success(), "{exit:?}");
+    assert!(result.contains("\"end_reason\": \"interrupted\""), "{result}");
+}
+
 #[test]
 fn serve_refuses_bad_options() {
-    let cases: [(&[&str], &str); 3] = [
+    let cases: [(&[&str], &str); 4] = [
         (&["serve", "--mode", "warp"], "invalid value 'warp'"),
         (&["serve", "--robots", "50", "--port", "0"], "map 'default' has 12 spawn points"),
         (&["serve", "--tick-hz", "0", "--port", "0"], "bad --tick-hz"),
+        // A realtime match this fast would have a tick period of zero.
+        (&["serve", "--tick-hz", "2000000000", "--port", "0"], "must be from 1 to 1000, got 2000000000"),
     ];
     for (args, expected) in cases {
         let out = bw4t(args);

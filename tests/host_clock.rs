@@ -455,3 +455,51 @@ fn the_last_report_of_each_player_is_in_the_result_even_after_it_left() {
     );
     assert_eq!(usage("Bob"), None, "no report, no usage");
 }
+
+#[test]
+fn a_spectator_sees_the_present_tick_within_one_frame_period_while_lockstep_waits() {
+    let (setup, mut config) = lockstep_config(1);
+    config.deadline = None;
+    let mut sim = Sim::new((setup, config));
+    sim.open(9);
+    sim.say(9, json!({"type": "hello", "protocol": "bw4t", "versions": [1], "role": "spectator"}));
+    sim.join(1, "Ann");
+    // Ann answers five ticks at once, faster than frames may go out; then she thinks.
+    for _ in 0..5 {
+        sim.ready(1);
+        sim.run_until(Duration::ZERO);
+    }
+    let tick = sim.host.tick();
+    assert!(tick >= 5, "five ticks made, at {tick}");
+    let last_frame = |sim: &Sim| {
+        sim.messages(9)
+            .iter()
+            .rev()
+            .find_map(|m| if let ServerMessage::Frame(f) = m { Some(f.tick) } else { None })
+    };
+    assert!(last_frame(&sim) < Some(tick), "the rate limit held frames back");
+    // One frame period (20 a second: 50 ms) later the watcher has the present.
+    sim.run_until(Duration::from_millis(50));
+    assert_eq!(last_frame(&sim), Some(tick));
+    // And nothing more is owed: the match waits without waking the host.
+    assert_eq!(sim.host.poll_timeout(), None);
+}
+
+#[test]
+fn a_player_on_a_recycled_robot_id_does_not_inherit_the_last_players_report() {
+    let (mut setup, mut config) = (MatchSetup::new(shipped_map("fixed")), HostConfig::new());
+    config.mode = Mode::Realtime;
+    setup.seats = open_seats(1);
+    let mut sim = Sim::new((setup, config));
+    sim.join(1, "Ann");
+    sim.say(1, json!({"type": "report", "tool_calls": 7, "prompt_tokens": 900}));
+    sim.run_until(Duration::from_secs(1));
+    sim.say(1, json!({"type": "bye"}));
+    sim.run_until(Duration::from_secs(2));
+    sim.join(2, "Cat");
+    sim.run_until(Duration::from_secs(3));
+    let result = sim.finish();
+    let cat = result.per_robot.iter().find(|r| r.name == "Cat").expect("Cat's line");
+    assert_eq!(cat.id, 0, "Cat plays the robot Ann left");
+    assert_eq!(cat.usage, None, "Ann's report is not Cat's");
+}

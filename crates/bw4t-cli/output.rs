@@ -15,6 +15,12 @@ pub(crate) fn write(args: std::fmt::Arguments<'_>) {
     std::process::exit(i32::from(crate::status::ERROR));
 }
 
+/// Writes a line to standard error and goes on if it cannot: a server whose log reader
+/// has gone must still serve and stop (`eprintln!` would panic).
+pub(crate) fn note(args: std::fmt::Arguments<'_>) {
+    let _ = std::io::stderr().lock().write_fmt(format_args!("{args}\n"));
+}
+
 /// `print!` that ends bw4t quietly when standard output is closed.
 macro_rules! out {
     ($($arg:tt)*) => { $crate::output::write(format_args!($($arg)*)) };

@@ -49,7 +49,7 @@ pub(crate) struct ServeArgs {
     /// Pacing: ticks on the wall clock, or as fast as every player answers.
     #[arg(long, value_enum, default_value_t = PaceArg::Realtime, conflicts_with = "config")]
     mode: PaceArg,
-    /// Ticks per simulated second (and per wall-clock second in realtime mode).
+    /// Ticks per simulated second (and per wall-clock second in realtime mode), 1 to 1000.
     #[arg(long, default_value_t = 20, conflicts_with = "config")]
     tick_hz: u32,
     /// Players the match waits for before its first tick, and admits at most (built-in
@@ -309,6 +309,6 @@ fn announce(args: &ServeArgs, text: String) {
     if args.log.json {
         tracing::info!("{text}");
     } else {
-        eprintln!("bw4t: {text}");
+        crate::output::note(format_args!("bw4t: {text}"));
     }
 }

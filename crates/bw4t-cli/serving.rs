@@ -29,8 +29,15 @@ pub(crate) fn init_logs(log: &LogArgs) {
         (false, _) => tracing::Level::TRACE,
     };
     let colour = std::io::IsTerminal::is_terminal(&std::io::stderr());
-    let builder =
-        fmt().with_writer(std::io::stderr).with_max_level(level).with_target(false).with_ansi(colour);
+    // A line that cannot be written is dropped: the default would print the failure with
+    // `eprintln!`, which panics when standard error is gone, and a task that panics
+    // while ending its match would hold up the server's shutdown.
+    let builder = fmt()
+        .with_writer(std::io::stderr)
+        .with_max_level(level)
+        .with_target(false)
+        .with_ansi(colour)
+        .log_internal_errors(false);
     // A second subscriber (tests calling this twice in one process) is simply not installed.
     let _ = if log.json { builder.json().try_init() } else { builder.try_init() };
 }

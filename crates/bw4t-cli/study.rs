@@ -151,7 +151,10 @@ fn serve(args: &StudyArgs, file: &Path) -> Result<()> {
             .await;
         anyhow::Ok(())
     })?;
-    eprintln!("bw4t: stopped; the data is in {} (bw4t study export {0})", args.data.display());
+    crate::output::note(format_args!(
+        "bw4t: stopped; the data is in {} (bw4t study export {0})",
+        args.data.display()
+    ));
     Ok(())
 }
 

@@ -314,6 +314,9 @@ pub struct MatchHost {
     now: Instant,
     tick_sent_at: Instant,
     last_frame: Option<Instant>,
+    /// A frame was held back by the rate limit: one is sent when the period is over, so
+    /// watchers see the present even while a lockstep match waits.
+    frame_owed: bool,
     frame_messages: Vec<FrameMessage>,
     end: Option<EndReason>,
     sessions: u64,
@@ -411,6 +414,7 @@ impl MatchHost {
             now,
             tick_sent_at: now,
             last_frame: None,
+            frame_owed: false,
             frame_messages: Vec::new(),
             end: None,
             sessions: 0,
@@ -480,6 +484,9 @@ impl MatchHost {
         if self.end.is_some() {
             return;
         }
+        if self.trailing_frame_at().is_some_and(|at| now >= at) {
+            self.send_frames(false);
+        }
         self.expire_dropped();
         match self.phase {
             Phase::Waiting { start_by } => {
@@ -492,15 +499,16 @@ impl MatchHost {
             Phase::Playing { .. } if self.held => {}
             Phase::Playing { since, next_tick } => match self.config.mode {
                 Mode::Realtime if now >= next_tick => {
-                    // Ticks missed while the host was late are skipped, not made up.
-                    let period = self.tick_period();
-                    let mut next = next_tick + period;
-                    let mut skipped = 0;
-                    while next <= now {
-                        next += period;
-                        skipped += 1;
-                    }
-                    self.lateness = Some((now.saturating_duration_since(next_tick), skipped));
+                    // Ticks missed while the host was late are skipped, not made up: the
+                    // next falls on the old grid, counted, not stepped to (a long stall at
+                    // a high rate would be a long loop).
+                    let period = self.tick_period().max(Duration::from_nanos(1));
+                    let late = now.saturating_duration_since(next_tick);
+                    let skipped = u64::try_from(late.as_nanos() / period.as_nanos()).unwrap_or(u64::MAX);
+                    // The first grid point after `now`: `next_tick + (skipped + 1) * period`.
+                    let into_period = u64::try_from(late.as_nanos() % period.as_nanos()).unwrap_or(0);
+                    let next = now - Duration::from_nanos(into_period) + period;
+                    self.lateness = Some((late, skipped));
                     self.phase = Phase::Playing { since, next_tick: next };
                     self.advance();
                 }
@@ -559,6 +567,10 @@ impl MatchHost {
             return None;
         }
         let expiry = self.players.values().filter_map(|p| p.dropped_at).min().map(|t| t + self.config.grace);
+        let expiry = match (expiry, self.trailing_frame_at()) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        };
         let pacing = match self.phase {
             Phase::Waiting { start_by } => start_by,
             Phase::Playing { .. } if self.held => None,
@@ -879,6 +891,17 @@ impl MatchHost {
         true
     }
 
+    /// The shortest time between two frames.
+    fn frame_interval(&self) -> Duration {
+        Duration::from_secs_f64(1.0 / f64::from(self.config.spectator_hz.max(1)))
+    }
+
+    /// When the frame held back by the rate limit is due, if one is.
+    fn trailing_frame_at(&self) -> Option<Instant> {
+        let last = self.last_frame.filter(|_| self.frame_owed)?;
+        Some(last + self.frame_interval())
+    }
+
     /// Sends watchers a frame, at most `spectator_hz` a second unless `force`d.
     fn send_frames(&mut self, force: bool) {
         let watchers: Vec<(ConnId, Sight)> = self
@@ -892,13 +915,15 @@ impl MatchHost {
             self.frame_messages.clear();
             return;
         }
-        let interval = Duration::from_secs_f64(1.0 / f64::from(self.config.spectator_hz.max(1)));
+        let interval = self.frame_interval();
         // Ticks come with some jitter: allow a frame a little early rather than skip one.
         let recent =
             self.last_frame.is_some_and(|t| self.now.saturating_duration_since(t) < interval.mul_f64(0.8));
         if !force && recent {
+            self.frame_owed = true;
             return;
         }
+        self.frame_owed = false;
         self.last_frame = Some(self.now);
         let mut frame = Frame::of(&self.game, std::mem::take(&mut self.frame_messages));
         let wanted = |sight| watchers.iter().any(|w| w.1 == sight);

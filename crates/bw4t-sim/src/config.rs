@@ -20,9 +20,9 @@ impl Default for MatchConfig {
 /// A configuration value out of range.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum ConfigError {
-    /// Zero ticks per second.
-    #[error("ticks per second must be at least 1")]
-    TickRate,
+    /// Ticks per second outside `1..=MAX_TICKS_PER_SECOND`.
+    #[error("ticks per second must be from 1 to {max}, got {0}", max = MatchConfig::MAX_TICKS_PER_SECOND)]
+    TickRate(u32),
     /// Speed not positive, not finite, or so fast a robot would skip through a room.
     #[error("speed must be above 0 and at most {max} map units per tick, got {0}", max = MatchConfig::MAX_SPEED)]
     Speed(f32),
@@ -32,10 +32,14 @@ impl MatchConfig {
     /// Faster than this and a robot could step over a door's approach in one tick.
     pub const MAX_SPEED: f32 = 5.0;
 
+    /// The fastest tick rate: a realtime match ticks every millisecond at most, which
+    /// the server's timers can keep, and a tick period is never zero.
+    pub const MAX_TICKS_PER_SECOND: u32 = 1000;
+
     /// Checks every value is in range.
     pub fn validate(&self) -> Result<(), ConfigError> {
-        if self.ticks_per_second == 0 {
-            return Err(ConfigError::TickRate);
+        if !(1..=Self::MAX_TICKS_PER_SECOND).contains(&self.ticks_per_second) {
+            return Err(ConfigError::TickRate(self.ticks_per_second));
         }
         if !(self.speed > 0.0 && self.speed <= Self::MAX_SPEED) {
             return Err(ConfigError::Speed(self.speed));
@@ -46,5 +50,22 @@ impl MatchConfig {
     /// Simulated seconds after `ticks` ticks.
     pub fn seconds(&self, ticks: u64) -> f64 {
         ticks as f64 / f64::from(self.ticks_per_second)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{ConfigError, MatchConfig};
+
+    #[test]
+    fn a_tick_rate_outside_its_range_is_refused_with_the_range() {
+        for (rate, ok) in [(0, false), (1, true), (1000, true), (1001, false), (2_000_000_000, false)] {
+            let config = MatchConfig { ticks_per_second: rate, ..MatchConfig::default() };
+            assert_eq!(config.validate().is_ok(), ok, "{rate}");
+        }
+        let refused = MatchConfig { ticks_per_second: 0, ..MatchConfig::default() }.validate();
+        assert_eq!(refused, Err(ConfigError::TickRate(0)));
+        let message = refused.expect_err("refused").to_string();
+        assert_eq!(message, "ticks per second must be from 1 to 1000, got 0");
     }
 }

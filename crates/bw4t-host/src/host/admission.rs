@@ -165,6 +165,7 @@ impl MatchHost {
         // The id may have been another robot's: its figures belong to that one.
         self.late.remove(&id);
         self.gone.remove(&id);
+        self.usage.remove(&id);
         self.sessions += 1;
         let session = format!("{:016x}{:08x}", session_entropy(), self.sessions);
         self.players.insert(id, Player::new(name, session));
