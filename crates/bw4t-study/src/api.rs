@@ -17,6 +17,11 @@ pub(crate) enum Answer {
     Unauthorized,
 }
 
+/// The body of a JSON answer.
+pub(crate) fn reply_body(value: &Value) -> String {
+    value.to_string()
+}
+
 fn error(status: StatusCode, message: impl Into<String>) -> Answer {
     Answer::Json(status, json!({ "error": message.into() }))
 }

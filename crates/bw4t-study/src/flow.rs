@@ -235,8 +235,12 @@ pub(crate) fn valid_id(id: &str) -> bool {
 mod tests {
     use std::path::Path;
 
-    use super::order_for;
+    use super::{Participant, order_for};
     use crate::{Order, parse};
+
+    fn default_map(_: &str) -> Result<bw4t_map::Map, String> {
+        bw4t_map::Map::from_native(include_str!("../../../maps/default.toml")).map_err(|e| e.to_string())
+    }
 
     fn study(order: &str, conditions: usize) -> crate::Study {
         let mut text = format!("[study]\nname = \"s\"\norder = \"{order}\"\n");
@@ -244,10 +248,77 @@ mod tests {
             text += &format!("[[condition]]\nname = \"c{i}\"\n[[page]]\nkind = \"trial\"\n");
         }
         text += "[[page]]\nkind = \"final\"\n";
-        let map = |_: &str| {
-            bw4t_map::Map::from_native(include_str!("../../../maps/default.toml")).map_err(|e| e.to_string())
-        };
-        parse(&text, Path::new("s.toml"), &map).expect("a good study")
+        parse(&text, Path::new("s.toml"), &default_map).expect("a good study")
+    }
+
+    /// Every kind of page, each field the API shows set.
+    const EVERY_PAGE: &str = r#"
+[study]
+name = "s"
+[[condition]]
+name = "alpha"
+kinds = ["have"]
+free_text = false
+briefing = "Be *quick*."
+[[page]]
+kind = "consent"
+text = "Agree?"
+[[page]]
+kind = "instructions"
+text = "Read."
+[[page]]
+kind = "questionnaire"
+id = "q"
+text = "Say."
+[[page.item]]
+id = "l"
+kind = "likert"
+text = "L?"
+scale = 5
+labels = ["no", "yes"]
+[[page.item]]
+id = "c"
+kind = "choice"
+text = "C?"
+options = ["a", "b"]
+[[page.item]]
+id = "t"
+kind = "text"
+text = "T?"
+required = false
+[[page]]
+kind = "trial"
+[[page]]
+kind = "final"
+text = "Code {code} for {participant}."
+completion_code = "C 1"
+redirect = "https://x.invalid/?c={code}&p={participant}"
+"#;
+
+    /// The state of each step as the API answers it, byte for byte: keys in alphabetical
+    /// order, absent and `null` fields as they have always been.
+    #[test]
+    fn every_page_is_answered_with_the_same_bytes() {
+        let study = parse(EVERY_PAGE, Path::new("s.toml"), &default_map).expect("a good study");
+        let mut p = Participant::new("p-1", 0, vec![0], 0);
+        let mut answered = Vec::new();
+        for step in 0..=study.pages.len() {
+            p.step = step;
+            answered.push(crate::api::reply_body(&p.state(&study)));
+        }
+        p.step = 0;
+        p.declined = true;
+        answered.push(crate::api::reply_body(&p.state(&study)));
+        let expected = [
+            r#"{"page":{"agree":"I agree","decline":"I do not agree","html":"<p>Agree?</p>\n","kind":"consent","title":"Consent"},"participant":"p-1","step":0,"steps":5}"#,
+            r#"{"page":{"html":"<p>Read.</p>\n","kind":"instructions","title":"Instructions"},"participant":"p-1","step":1,"steps":5}"#,
+            r#"{"page":{"html":"<p>Say.</p>\n","id":"q","items":[{"id":"l","kind":"likert","labels":["no","yes"],"required":true,"scale":5,"text":"L?"},{"id":"c","kind":"choice","options":["a","b"],"required":true,"text":"C?"},{"id":"t","kind":"text","multiline":false,"required":false,"text":"T?"}],"kind":"questionnaire","title":"Questions"},"participant":"p-1","step":2,"steps":5}"#,
+            r#"{"page":{"condition":"alpha","hello":{"name":"P1","template":"alpha"},"html":"<p>Be <em>quick</em>.</p>\n","humans":1,"kind":"trial","language":{"free_text":false,"kinds":["have"]},"time_limit_s":600,"title":"Task 1 of 1","trial":1,"trials":1,"view":"own"},"participant":"p-1","step":3,"steps":5}"#,
+            r#"{"page":{"completion_code":"C 1","html":"<p>Code C 1 for p-1.</p>\n","kind":"final","redirect":"https://x.invalid/?c=C%201&p=p-1","title":"Thank you"},"participant":"p-1","step":4,"steps":5}"#,
+            r#"{"page":null,"participant":"p-1","step":5,"steps":5}"#,
+            r#"{"page":{"html":"<p>You did not consent, so the study ends here. You may close this page.</p>\n","kind":"declined","title":"Thank you"},"participant":"p-1","step":0,"steps":5}"#,
+        ];
+        assert_eq!(answered, expected);
     }
 
     #[test]
