@@ -2,8 +2,9 @@
 //! records make (replayed in order, so a restarted server continues where they were),
 //! their order of the conditions, and the page each step shows.
 
+use bw4t_protocol::{ParticipantState, StudyPage, TrialHello, TrialLanguage};
 use serde::{Deserialize, Serialize};
-use serde_json::{Value, json};
+use serde_json::Value;
 
 use super::config::{Order, Page, Study};
 
@@ -117,37 +118,37 @@ impl Participant {
     }
 
     /// The state the API answers: the step and its page.
-    pub(crate) fn state(&self, study: &Study) -> Value {
-        json!({
-            "participant": self.id,
-            "step": self.step,
-            "steps": study.pages.len(),
-            "page": self.page(study),
-        })
+    pub(crate) fn state(&self, study: &Study) -> ParticipantState {
+        ParticipantState {
+            participant: self.id.clone(),
+            step: self.step,
+            steps: study.pages.len(),
+            page: self.page(study),
+        }
     }
 
-    fn page(&self, study: &Study) -> Value {
-        let Some(page) = study.pages.get(self.step) else { return Value::Null };
-        match page {
+    fn page(&self, study: &Study) -> Option<StudyPage> {
+        let page = match study.pages.get(self.step)? {
             Page::Consent { declined_title, declined_html, .. } if self.declined => {
-                json!({"kind": "declined", "title": declined_title, "html": declined_html})
+                StudyPage::Declined { title: declined_title.clone(), html: declined_html.clone() }
             }
-            Page::Consent { title, html, agree, decline, .. } => {
-                json!({"kind": "consent", "title": title, "html": html, "agree": agree, "decline": decline})
-            }
+            Page::Consent { title, html, agree, decline, .. } => StudyPage::Consent {
+                title: title.clone(),
+                html: html.clone(),
+                agree: agree.clone(),
+                decline: decline.clone(),
+            },
             Page::Instructions { title, html } => {
-                json!({"kind": "instructions", "title": title, "html": html})
+                StudyPage::Instructions { title: title.clone(), html: html.clone() }
             }
-            Page::Questionnaire { id, title, html, items } => {
-                let items: Vec<Value> = items.iter().map(super::answers::item_json).collect();
-                let mut page = json!({"kind": "questionnaire", "id": id, "title": title, "items": items});
-                if let Some(html) = html {
-                    page["html"] = html.clone().into();
-                }
-                page
-            }
+            Page::Questionnaire { id, title, html, items } => StudyPage::Questionnaire {
+                id: id.clone(),
+                title: title.clone(),
+                html: html.clone(),
+                items: items.iter().map(super::answers::item_reply).collect(),
+            },
             Page::Trial { title, html } => {
-                let Some((trial, c)) = self.trial_at(study, self.step) else { return Value::Null };
+                let (trial, c) = self.trial_at(study, self.step)?;
                 let condition = &study.conditions[c];
                 let trials = study.trials();
                 let title = title
@@ -156,37 +157,37 @@ impl Participant {
                     .unwrap_or_else(|| format!("Task {trial} of {trials}"));
                 let html: Vec<&str> =
                     html.iter().chain(condition.briefing_html.iter()).map(String::as_str).collect();
-                json!({
-                    "kind": "trial",
-                    "trial": trial,
-                    "trials": trials,
-                    "condition": condition.name,
-                    "title": title,
-                    "html": if html.is_empty() { Value::Null } else { html.concat().into() },
-                    "hello": {"template": condition.name, "name": self.player_name()},
-                    "view": condition.view,
-                    "language": {
-                        "kinds": condition.language.allowed_kinds(),
-                        "free_text": condition.language.free_text,
+                StudyPage::Trial {
+                    trial,
+                    trials,
+                    condition: condition.name.clone(),
+                    title,
+                    html: (!html.is_empty()).then(|| html.concat()),
+                    hello: TrialHello { template: condition.name.clone(), name: self.player_name() },
+                    view: condition.view.clone(),
+                    language: TrialLanguage {
+                        kinds: condition.language.allowed_kinds(),
+                        free_text: condition.language.free_text,
                     },
-                    "time_limit_s": condition.time_limit_s,
-                    "humans": condition.humans,
-                })
+                    time_limit_s: condition.time_limit_s,
+                    humans: condition.humans,
+                }
             }
             Page::Final { title, html, completion_code, redirect } => {
                 let code = completion_code.clone().unwrap_or_default();
                 let fill = |text: &str| text.replace("{participant}", &self.id).replace("{code}", &code);
-                json!({
-                    "kind": "final",
-                    "title": title,
-                    "html": fill(html),
-                    "completion_code": completion_code,
-                    "redirect": redirect.as_deref().map(|url| {
-                        url.replace("{participant}", &url_encode(&self.id)).replace("{code}", &url_encode(&code))
+                StudyPage::Final {
+                    title: title.clone(),
+                    html: fill(html),
+                    completion_code: completion_code.clone(),
+                    redirect: redirect.as_deref().map(|url| {
+                        url.replace("{participant}", &url_encode(&self.id))
+                            .replace("{code}", &url_encode(&code))
                     }),
-                })
+                }
             }
-        }
+        };
+        Some(page)
     }
 }
 
@@ -304,11 +305,11 @@ redirect = "https://x.invalid/?c={code}&p={participant}"
         let mut answered = Vec::new();
         for step in 0..=study.pages.len() {
             p.step = step;
-            answered.push(crate::api::reply_body(&p.state(&study)));
+            answered.push(crate::api::reply_body(&p.state(&study)).expect("json"));
         }
         p.step = 0;
         p.declined = true;
-        answered.push(crate::api::reply_body(&p.state(&study)));
+        answered.push(crate::api::reply_body(&p.state(&study)).expect("json"));
         let expected = [
             r#"{"page":{"agree":"I agree","decline":"I do not agree","html":"<p>Agree?</p>\n","kind":"consent","title":"Consent"},"participant":"p-1","step":0,"steps":5}"#,
             r#"{"page":{"html":"<p>Read.</p>\n","kind":"instructions","title":"Instructions"},"participant":"p-1","step":1,"steps":5}"#,

@@ -1,11 +1,16 @@
-//! One finished match of a tournament, as written to `matches.jsonl` and `matches.csv`.
+//! One finished match as a row of a results index: a line of a tournament's or a server's
+//! `matches.jsonl`, a line of `matches.csv`, an element of `/api/results`.
 
-use bw4t_protocol::EndReason;
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-/// One finished match.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Row {
+use crate::result::MatchResult;
+use crate::vocabulary::EndReason;
+
+/// One finished match. `bw4t_tournament` names it `Row`; the tournament runner and the
+/// server's results store write it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct ResultRow {
     /// Identifies the match within the tournament: `team/map/seed/repetition`.
     pub key: String,
     /// The match's index in the tournament's fixed order (for sharding).
@@ -24,7 +29,8 @@ pub struct Row {
     pub completed: bool,
     /// Ticks simulated.
     pub ticks: u64,
-    /// The first tick whose percepts showed the sequence complete, when completed.
+    /// The first tick whose percepts showed the sequence complete, when completed (`null`
+    /// otherwise).
     pub completed_tick: Option<u64>,
     /// Wall-clock milliseconds from the match's first tick to its end, as in its result; 0
     /// for a match that could not run.
@@ -61,12 +67,12 @@ pub struct Row {
     pub error: Option<String>,
     /// The final state digest.
     pub digest: String,
-    /// The replay file, relative to the tournament directory, when kept.
+    /// The replay file, relative to the tournament directory, when kept (`null` otherwise).
     pub replay: Option<String>,
 }
 
 /// How a row fills one column of `matches.csv`.
-pub(crate) type CsvField = fn(&Row) -> String;
+pub(crate) type CsvField = fn(&ResultRow) -> String;
 
 /// The columns of `matches.csv`, in order, each with how a row fills it.
 pub const CSV_COLUMNS: &[(&str, CsvField)] = &[
@@ -96,11 +102,18 @@ pub const CSV_COLUMNS: &[(&str, CsvField)] = &[
     ("replay", |r| csv_field(r.replay.as_deref().unwrap_or(""))),
 ];
 
-impl Row {
-    /// The row of a match not (yet) played: end reason `error`, no figures; [`Row::record`]
+impl ResultRow {
+    /// The row of a match not (yet) played: end reason `error`, no figures; [`ResultRow::record`]
     /// fills in a result.
-    pub fn unplayed(key: String, index: u64, team: String, map: String, seed: u64, robots: usize) -> Row {
-        Row {
+    pub fn unplayed(
+        key: String,
+        index: u64,
+        team: String,
+        map: String,
+        seed: u64,
+        robots: usize,
+    ) -> ResultRow {
+        ResultRow {
             key,
             index,
             team,
@@ -131,7 +144,7 @@ impl Row {
 
     /// Takes the figures of a match's result (all but `crashed_agents`, which only the
     /// player of the agents knows).
-    pub fn record(&mut self, result: &bw4t_protocol::MatchResult) {
+    pub fn record(&mut self, result: &MatchResult) {
         self.completed = result.completed;
         self.ticks = result.ticks;
         self.completed_tick = result.completed_tick;
@@ -153,11 +166,11 @@ impl Row {
 
     /// The rows of a `matches.jsonl` text. A torn last line (its writer was killed
     /// mid-line) is dropped; any other line that is not a row is an error with its number.
-    pub fn parse_lines(text: &str) -> Result<Vec<Row>, (usize, serde_json::Error)> {
+    pub fn parse_lines(text: &str) -> Result<Vec<ResultRow>, (usize, serde_json::Error)> {
         let lines: Vec<&str> = text.lines().filter(|l| !l.trim().is_empty()).collect();
         let mut rows = Vec::with_capacity(lines.len());
         for (i, line) in lines.iter().enumerate() {
-            match serde_json::from_str::<Row>(line) {
+            match serde_json::from_str::<ResultRow>(line) {
                 Ok(row) => rows.push(row),
                 Err(_) if i + 1 == lines.len() => {}
                 Err(e) => return Err((i + 1, e)),
