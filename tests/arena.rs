@@ -296,6 +296,7 @@ async fn the_operator_makes_lists_inspects_and_stops_matches_through_the_api() {
     let (status, body) = http(server.http, "GET", "/api/results", None, None).await;
     assert_eq!(status, 401, "{body}");
     let (_, body) = http(server.http, "GET", "/api/results", Some("op"), None).await;
+    assert_eq!(body, json_of(&body).to_string(), "the index's keys in alphabetical order, as always");
     let rows = serde_json::from_str::<bw4t_protocol::ResultList>(&body).expect("the results index").results;
     assert_eq!(rows.len(), 1, "{body}");
     assert_eq!((rows[0].key.as_str(), rows[0].end_reason), ("demo.1", EndReason::Interrupted));

@@ -156,7 +156,13 @@ impl StudyRig {
     async fn call(&self, method: &str, path: &str, body: Option<Value>) -> (u16, Value) {
         let body = body.map(|b| b.to_string());
         let (status, text) = http(self.http, method, path, None, body.as_deref()).await;
-        (status, serde_json::from_str(&text).unwrap_or_else(|e| panic!("not JSON ({e}): {text}")))
+        let reply: Value = serde_json::from_str(&text).unwrap_or_else(|e| panic!("not JSON ({e}): {text}"));
+        assert_eq!(
+            text,
+            reply.to_string(),
+            "the study answers with its keys in alphabetical order, as always"
+        );
+        (status, reply)
     }
 
     async fn operator(&self, method: &str, path: &str) -> (u16, Value) {

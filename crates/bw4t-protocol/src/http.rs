@@ -258,13 +258,13 @@ pub enum Watch {
 }
 
 /// `POST /api/matches/NAME/stop` when the stopped run's summary is no longer kept: what
-/// is known of it.
+/// is known of it (its keys in this order, as this answer always had them).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct StoppedMatch {
-    /// The match's name.
-    pub name: String,
     /// The stopped run's id (`NAME.RUN`).
     pub id: String,
+    /// The match's name.
+    pub name: String,
     /// Where it is: `finished`.
     pub state: MatchState,
 }
@@ -300,6 +300,16 @@ mod tests {
         let layout = serde_json::to_value(MapLayout::of(&map)).expect("json");
         assert_eq!(layout["robot"], serde_json::json!(ROBOT_SIZE));
         assert_eq!(layout["drop_zone"], "DropZone");
+    }
+
+    #[test]
+    fn a_stopped_match_and_an_error_answer_as_they_always_have() {
+        let stopped = StoppedMatch { id: "demo.1".into(), name: "demo".into(), state: MatchState::Finished };
+        let text = serde_json::to_string(&stopped).expect("json");
+        assert_eq!(text, r#"{"id":"demo.1","name":"demo","state":"finished"}"#);
+        assert_eq!(serde_json::from_str::<StoppedMatch>(&text).ok(), Some(stopped));
+        let error = serde_json::to_string(&ErrorReply { error: "no \"x\"".into() }).expect("json");
+        assert_eq!(error, r#"{"error":"no \"x\""}"#);
     }
 
     #[test]
