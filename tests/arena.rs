@@ -8,7 +8,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use bw4t_agents::{Agent, Observation, Strategy, bot_name};
-use bw4t_protocol::{Mode, ServerMessage, SessionOptions};
+use bw4t_protocol::{EndReason, MatchState, Mode, ServerMessage, SessionOptions};
 use bw4t_server::{Arena, ArenaConfig, HostConfig, MatchSetup, OnEnd, ResultsStore, Seat, Template};
 use bw4t_sim::Action;
 use serde_json::{Value, json};
@@ -251,7 +251,8 @@ async fn the_operator_makes_lists_inspects_and_stops_matches_through_the_api() {
     let create = r#"{"name": "demo", "robots": 2, "builtin": 1}"#;
     let (status, body) = http(server.http, "POST", "/api/matches", None, Some(create)).await;
     assert_eq!(status, 401, "{body}");
-    assert!(json_of(&body)["error"].as_str().expect("error").contains("operator token"), "{body}");
+    let refused: bw4t_protocol::ErrorReply = serde_json::from_str(&body).expect("an error answer");
+    assert!(refused.error.contains("operator token"), "{body}");
     // A body sent in chunks, without Content-Length, is refused before it is read.
     let chunked = format!(
         "POST /api/matches HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer op\r\nTransfer-Encoding: chunked\r\n\r\n{:x}\r\n{create}\r\n0\r\n\r\n",
@@ -305,17 +306,15 @@ async fn the_operator_makes_lists_inspects_and_stops_matches_through_the_api() {
     // Stopping it ends it for the player and files its result.
     let (status, body) = http(server.http, "POST", "/api/matches/demo/stop", Some("op"), Some("")).await;
     assert_eq!(status, 200, "{body}");
-    assert_eq!(json_of(&body)["state"], "finished");
-    assert_eq!(json_of(&body)["end_reason"], "interrupted");
+    let stopped: bw4t_protocol::MatchSummary = serde_json::from_str(&body).expect("a summary");
+    assert_eq!((stopped.state, stopped.end_reason), (MatchState::Finished, Some(EndReason::Interrupted)));
     let (status, body) = http(server.http, "GET", "/api/results", None, None).await;
     assert_eq!(status, 401, "{body}");
     let (_, body) = http(server.http, "GET", "/api/results", Some("op"), None).await;
-    let rows = json_of(&body)["results"].as_array().expect("rows").clone();
+    assert_eq!(body, json_of(&body).to_string(), "the index's keys in alphabetical order, as always");
+    let rows = serde_json::from_str::<bw4t_protocol::ResultList>(&body).expect("the results index").results;
     assert_eq!(rows.len(), 1, "{body}");
-    assert_eq!(
-        (rows[0]["key"].as_str(), rows[0]["end_reason"].as_str()),
-        (Some("demo.1"), Some("interrupted"))
-    );
+    assert_eq!((rows[0].key.as_str(), rows[0].end_reason), ("demo.1", EndReason::Interrupted));
     let (status, body) = http(server.http, "GET", "/api/results/demo.1", Some("op"), None).await;
     assert_eq!(status, 200);
     assert_eq!(json_of(&body)["per_robot"].as_array().map(Vec::len), Some(2));

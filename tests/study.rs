@@ -5,6 +5,10 @@
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 
+use bw4t_protocol::{
+    ErrorReply, EventsRecorded, ParticipantList, ParticipantState, QuestionItem, QuestionKind, StepConflict,
+    StudyInfo, StudyPage, TrialHello, TrialLanguage,
+};
 use bw4t_server::{Arena, ArenaConfig, ResultsStore};
 use bw4t_study::{self as study, StudyServer};
 use serde_json::{Value, json};
@@ -152,7 +156,13 @@ impl StudyRig {
     async fn call(&self, method: &str, path: &str, body: Option<Value>) -> (u16, Value) {
         let body = body.map(|b| b.to_string());
         let (status, text) = http(self.http, method, path, None, body.as_deref()).await;
-        (status, serde_json::from_str(&text).unwrap_or_else(|e| panic!("not JSON ({e}): {text}")))
+        let reply: Value = serde_json::from_str(&text).unwrap_or_else(|e| panic!("not JSON ({e}): {text}"));
+        assert_eq!(
+            text,
+            reply.to_string(),
+            "the study answers with its keys in alphabetical order, as always"
+        );
+        (status, reply)
     }
 
     async fn operator(&self, method: &str, path: &str) -> (u16, Value) {
@@ -161,7 +171,7 @@ impl StudyRig {
     }
 
     /// Answers step `step` of `id` and expects the state after it.
-    async fn answer(&self, id: &str, step: u64, answers: Value) -> Value {
+    async fn answer(&self, id: &str, step: usize, answers: Value) -> ParticipantState {
         let (status, state) = self
             .call(
                 "POST",
@@ -170,20 +180,20 @@ impl StudyRig {
             )
             .await;
         assert_eq!(status, 200, "{state}");
-        assert_eq!(state["step"], step + 1, "{state}");
+        let state: ParticipantState = read(&state);
+        assert_eq!(state.step, step + 1, "{state:?}");
         state
     }
 
     /// Plays the trial the state shows to its end with a player answering every tick, and
     /// answers it; returns the state after.
-    async fn play_trial(&self, id: &str, state: &Value) -> Value {
-        let page = &state["page"];
-        assert_eq!(page["kind"], "trial", "{state}");
+    async fn play_trial(&self, id: &str, state: &ParticipantState) -> ParticipantState {
+        let Some(StudyPage::Trial { hello, .. }) = &state.page else { panic!("not a trial: {state:?}") };
         let ended: u64 = self.arena.totals().values().map(|t| t.ended).sum();
-        let hello = json!({"name": page["hello"]["name"], "template": page["hello"]["template"]});
+        let hello = json!({"name": hello.name, "template": hello.template});
         let mut player = AutoPlayer::join_with(self.addr, hello).await;
         let name = player.welcome.match_info.name.clone();
-        let step = state["step"].as_u64().expect("step");
+        let step = state.step;
         // Said twice, as a page that retries does: one trial row all the same.
         for _ in 0..2 {
             let started = json!({"step": step, "match": name, "match_id": player.welcome.match_info.id});
@@ -197,6 +207,17 @@ impl StudyRig {
         let match_id = summary["id"].as_str().expect("the operator sees the id").to_string();
         self.answer(id, step, json!({"match_id": match_id})).await
     }
+}
+
+/// A reply read back as its type in `bw4t_protocol`.
+fn read<T: serde::de::DeserializeOwned>(reply: &Value) -> T {
+    serde_json::from_value(reply.clone()).unwrap_or_else(|e| panic!("not the expected reply ({e}): {reply}"))
+}
+
+/// The `kind` of a state's page (`none` past the last page).
+fn kind_of(state: &ParticipantState) -> String {
+    let page = serde_json::to_value(&state.page).expect("json");
+    page["kind"].as_str().unwrap_or("none").to_string()
 }
 
 /// A CSV file's rows as maps of column to cell (no quoted commas in what these tests read).
@@ -232,33 +253,35 @@ async fn a_participant_goes_through_the_whole_study_and_the_export_has_every_row
     let dir = temp_dir("flow");
     let rig = StudyRig::start(&dir, STUDY).await;
     let (status, info) = rig.call("GET", "/api/study", None).await;
+    let info: StudyInfo = read(&info);
     assert_eq!(
-        (status, info["name"].as_str(), info["conditions"].clone()),
-        (200, Some("pilot"), json!(["alpha", "beta"]))
+        (status, info.name.as_str(), info.conditions),
+        (200, "pilot", vec!["alpha".into(), "beta".into()])
     );
 
     let (status, state) = arrive(&rig, "alice").await;
     assert_eq!(status, 201, "{state}");
-    assert_eq!((state["step"].as_u64(), state["steps"].as_u64()), (Some(0), Some(6)));
-    assert_eq!(state["page"]["kind"], "consent");
-    let html = state["page"]["html"].as_str().expect("html");
+    let state: ParticipantState = read(&state);
+    assert_eq!((state.step, state.steps), (0, 6));
+    let Some(StudyPage::Consent { html, .. }) = &state.page else { panic!("consent first: {state:?}") };
     assert!(html.contains("&lt;b&gt;raw&lt;/b&gt;") && !html.contains("<b>"), "raw HTML is escaped: {html}");
     // Coming back with the link, or asking again, gives the same step.
     let (status, again) = arrive(&rig, "alice").await;
-    assert_eq!((status, &again), (200, &state));
+    assert_eq!((status, read::<ParticipantState>(&again)), (200, state.clone()));
     let (_, got) = rig.call("GET", "/api/study/participants/alice", None).await;
-    assert_eq!(got, state);
+    assert_eq!(read::<ParticipantState>(&got), state);
 
     // Refusals name the problem.
     let (status, wrong) = rig
         .call("POST", "/api/study/participants/alice/answer", Some(json!({"step": 1, "answers": {}})))
         .await;
     assert_eq!(status, 409, "{wrong}");
-    assert!(wrong["error"].as_str().is_some_and(|e| e.contains("step 1")), "{wrong}");
-    assert_eq!(wrong["state"], state);
+    let wrong: StepConflict = read(&wrong);
+    assert!(wrong.error.contains("step 1"), "{wrong:?}");
+    assert_eq!(wrong.state, state);
     let (status, bad) =
         rig.call("POST", "/api/study/participants", Some(json!({"params": {"pid": "a b/c"}}))).await;
-    assert!(status == 400 && bad["error"].as_str().is_some_and(|e| e.contains("pid")), "{bad}");
+    assert!(status == 400 && read::<ErrorReply>(&bad).error.contains("pid"), "{bad}");
     let (status, bad) = rig.call("GET", "/api/study/participants/nobody", None).await;
     assert_eq!(status, 404, "{bad}");
     let (status, bad) = rig
@@ -268,7 +291,7 @@ async fn a_participant_goes_through_the_whole_study_and_the_export_has_every_row
             Some(json!({"step": 0, "answers": {"consent": "yes"}})),
         )
         .await;
-    assert!(status == 400 && bad["error"].as_str().is_some_and(|e| e.contains("consent")), "{bad}");
+    assert!(status == 400 && read::<ErrorReply>(&bad).error.contains("consent"), "{bad}");
     let (status, _) =
         http(rig.http, "POST", "/api/study/participants/alice/answer", None, Some("{not json")).await;
     assert_eq!(status, 400);
@@ -280,27 +303,25 @@ async fn a_participant_goes_through_the_whole_study_and_the_export_has_every_row
 
     rig.answer("alice", 0, json!({"consent": true})).await;
     let state = rig.answer("alice", 1, json!({})).await;
-    let page = &state["page"];
-    assert_eq!(
-        (page["kind"].as_str(), page["trial"].as_u64(), page["trials"].as_u64()),
-        (Some("trial"), Some(1), Some(2))
-    );
-    assert_eq!(
-        page["hello"],
-        json!({"template": "alpha", "name": "P1"}),
-        "the first to arrive starts with alpha"
-    );
-    assert_eq!(page["language"], json!({"kinds": ["going_to", "have"], "free_text": false}));
-    assert_eq!((page["view"].as_str(), page["time_limit_s"].as_u64()), (Some("own"), Some(1)));
-    assert!(page["html"].as_str().is_some_and(|h| h.contains("<strong>talks</strong>")), "{page}");
+    let Some(StudyPage::Trial { trial, trials, hello, language, view, time_limit_s, html, .. }) = &state.page
+    else {
+        panic!("a trial: {state:?}")
+    };
+    assert_eq!((*trial, *trials), (1, 2));
+    let first = TrialHello { template: "alpha".into(), name: "P1".into() };
+    assert_eq!(hello, &first, "the first to arrive starts with alpha");
+    assert_eq!(language, &TrialLanguage { kinds: vec!["going_to".into(), "have".into()], free_text: false });
+    assert_eq!((view.as_str(), *time_limit_s), ("own", 1));
+    assert!(html.as_deref().is_some_and(|h| h.contains("<strong>talks</strong>")), "{state:?}");
 
     // The second participant gets the other order.
     let (_, bob) = arrive(&rig, "bob").await;
     assert_eq!(bob["step"], 0);
     rig.answer("bob", 0, json!({"consent": true})).await;
     let bob = rig.answer("bob", 1, json!({})).await;
-    assert_eq!(bob["page"]["hello"], json!({"template": "beta", "name": "P2"}));
-    assert_eq!(bob["page"]["view"], "overview");
+    let Some(StudyPage::Trial { hello, view, .. }) = &bob.page else { panic!("a trial: {bob:?}") };
+    assert_eq!(hello, &TrialHello { template: "beta".into(), name: "P2".into() });
+    assert_eq!(view, "overview");
 
     // Events: any content type, appended with the server's time; unknown kinds refused.
     let events = json!({"events": [
@@ -309,11 +330,11 @@ async fn a_participant_goes_through_the_whole_study_and_the_export_has_every_row
         {"wall_ms": 3, "tick": 4, "step": 2, "kind": "act", "id": 1, "action": "goTo", "args": ["RoomA1"]},
     ]});
     let (status, recorded) = rig.call("POST", "/api/study/participants/alice/events", Some(events)).await;
-    assert_eq!((status, recorded["recorded"].as_u64()), (200, Some(3)), "{recorded}");
+    assert_eq!((status, read::<EventsRecorded>(&recorded).recorded), (200, 3), "{recorded}");
     let (status, bad) = rig
         .call("POST", "/api/study/participants/alice/events", Some(json!({"events": [{"kind": "dance"}]})))
         .await;
-    assert!(status == 400 && bad["error"].as_str().is_some_and(|e| e.contains("dance")), "{bad}");
+    assert!(status == 400 && read::<ErrorReply>(&bad).error.contains("dance"), "{bad}");
 
     // The trial: an answer while its match runs is refused; a finished one is taken.
     let hello =
@@ -342,7 +363,7 @@ async fn a_participant_goes_through_the_whole_study_and_the_export_has_every_row
         )
         .await;
     assert_eq!(status, 409, "{running}");
-    assert!(running["error"].as_str().is_some_and(|e| e.contains("still running")), "{running}");
+    assert!(read::<ErrorReply>(&running).error.contains("still running"), "{running}");
     let (status, resumed) = rig.operator("POST", &format!("/api/matches/{name}/resume")).await;
     assert_eq!((status, resumed["paused"].as_bool()), (200, Some(false)), "{resumed}");
     let (status, _) = rig.operator("POST", "/api/matches/nothing-here/pause").await;
@@ -360,14 +381,19 @@ async fn a_participant_goes_through_the_whole_study_and_the_export_has_every_row
             Some(json!({"step": 2, "answers": {"match_id": alice_match}})),
         )
         .await;
-    assert!(status == 400 && bad["error"].as_str().is_some_and(|e| e.contains("beta")), "{status} {bad}");
+    assert!(status == 400 && read::<ErrorReply>(&bad).error.contains("beta"), "{status} {bad}");
     let state = rig.answer("alice", 2, json!({"match_id": alice_match})).await;
-    let page = &state["page"];
-    assert_eq!((page["kind"].as_str(), page["id"].as_str()), (Some("questionnaire"), Some("after")));
-    assert_eq!(
-        page["items"][0],
-        json!({"id": "teamwork", "kind": "likert", "text": "We worked well together.", "scale": 7, "labels": ["no", "yes"], "required": true})
-    );
+    let Some(StudyPage::Questionnaire { id, items, .. }) = &state.page else {
+        panic!("questions: {state:?}")
+    };
+    assert_eq!(id, "after");
+    let teamwork = QuestionItem {
+        id: "teamwork".into(),
+        text: "We worked well together.".into(),
+        required: true,
+        kind: QuestionKind::Likert { scale: 7, labels: ["no".into(), "yes".into()] },
+    };
+    assert_eq!(items[0], teamwork);
 
     // Questionnaire checks name the item.
     for (answers, needle) in [
@@ -383,36 +409,32 @@ async fn a_participant_goes_through_the_whole_study_and_the_export_has_every_row
                 Some(json!({"step": 3, "answers": answers})),
             )
             .await;
-        assert!(
-            status == 400 && bad["error"].as_str().is_some_and(|e| e.contains(needle)),
-            "{answers}: {bad}"
-        );
+        assert!(status == 400 && read::<ErrorReply>(&bad).error.contains(needle), "{answers}: {bad}");
     }
     let state = rig.answer("alice", 3, json!({"teamwork": 6, "load": "hard", "note": "fun"})).await;
-    assert_eq!(state["page"]["hello"]["template"], "beta");
+    assert!(
+        matches!(&state.page, Some(StudyPage::Trial { hello, .. }) if hello.template == "beta"),
+        "{state:?}"
+    );
     let state = rig.play_trial("alice", &state).await;
-    let page = &state["page"];
-    assert_eq!(page["kind"], "final", "{state}");
-    assert_eq!(page["completion_code"], "ABC123");
-    assert_eq!(page["redirect"], "https://example.org/done?cc=ABC123&p=alice");
-    assert!(page["html"].as_str().is_some_and(|h| h.contains("Code ABC123 for alice.")), "{page}");
+    let Some(StudyPage::Final { html, completion_code, redirect, .. }) = &state.page else {
+        panic!("the final page: {state:?}")
+    };
+    assert_eq!(completion_code.as_deref(), Some("ABC123"));
+    assert_eq!(redirect.as_deref(), Some("https://example.org/done?cc=ABC123&p=alice"));
+    assert!(html.contains("Code ABC123 for alice."), "{html}");
     let (status, done) = rig
         .call("POST", "/api/study/participants/alice/answer", Some(json!({"step": 5, "answers": {}})))
         .await;
     assert_eq!(status, 409, "{done}");
+    assert!(read::<StepConflict>(&done).error.contains("final page"), "{done}");
 
     let (status, list) = rig.operator("GET", "/api/study/participants").await;
     assert_eq!(status, 200, "{list}");
-    let people = list["participants"].as_array().expect("list");
+    let people = read::<ParticipantList>(&list).participants;
     assert_eq!(people.len(), 2);
-    assert_eq!(
-        (people[0]["participant"].as_str(), people[0]["completed"].as_bool()),
-        (Some("alice"), Some(true))
-    );
-    assert_eq!(
-        (people[1]["page_kind"].as_str(), people[1]["condition"].as_str()),
-        (Some("trial"), Some("beta"))
-    );
+    assert_eq!((people[0].participant.as_str(), people[0].completed), ("alice", true));
+    assert_eq!((people[1].page_kind.as_str(), people[1].condition.as_deref()), ("trial", Some("beta")));
     rig.shutdown().await;
 
     let out = dir.join("export");
@@ -490,6 +512,7 @@ async fn a_restarted_server_continues_each_participant_and_gives_a_lost_trial_ag
 
     let rig = StudyRig::start(&dir, STUDY).await;
     let (status, again) = rig.call("GET", "/api/study/participants/carol", None).await;
+    let again: ParticipantState = read(&again);
     assert_eq!((status, &again), (200, &state), "the same trial is given again");
     let log = std::fs::read_to_string(dir.join("participants/carol.jsonl")).expect("log");
     assert!(log.contains("\"trial_incomplete\""), "{log}");
@@ -499,12 +522,12 @@ async fn a_restarted_server_continues_each_participant_and_gives_a_lost_trial_ag
         .collect();
     assert_eq!(seqs, (1..=seqs.len() as u64).collect::<Vec<_>>(), "seq numbers go on across the restart");
     let state = rig.play_trial("carol", &again).await;
-    assert_eq!(state["page"]["kind"], "questionnaire");
+    assert_eq!(kind_of(&state), "questionnaire");
     // Declining consent ends the study for that participant.
     arrive(&rig, "dan").await;
     let body = json!({"step": 0, "answers": {"consent": false}});
     let (status, dan) = rig.call("POST", "/api/study/participants/dan/answer", Some(body.clone())).await;
-    assert_eq!((status, dan["page"]["kind"].as_str()), (200, Some("declined")), "{dan}");
+    assert_eq!((status, kind_of(&read(&dan))), (200, "declined".into()), "{dan}");
     let (status, _) = rig.call("POST", "/api/study/participants/dan/answer", Some(body)).await;
     assert_eq!(status, 409);
     rig.shutdown().await;
@@ -698,9 +721,13 @@ text = "Thank you."
 /// The trial page's hello for `id`, who has just arrived.
 async fn trial_hello(rig: &StudyRig, id: &str) -> Value {
     let (status, state) = arrive(rig, id).await;
-    assert_eq!((status, &state["page"]["kind"]), (201, &json!("trial")), "a new participant: {state}");
-    assert_eq!(state["page"]["humans"], 2, "{state}");
-    json!({"name": state["page"]["hello"]["name"], "template": state["page"]["hello"]["template"]})
+    assert_eq!(status, 201, "a new participant: {state}");
+    let state: ParticipantState = read(&state);
+    let Some(StudyPage::Trial { hello, humans, .. }) = &state.page else {
+        panic!("a trial first: {state:?}")
+    };
+    assert_eq!(*humans, 2, "{state:?}");
+    json!({"name": hello.name, "template": hello.template})
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -727,7 +754,7 @@ async fn two_people_meet_in_the_waiting_room_and_a_lone_one_gets_a_built_in_part
     for (id, player) in [("ann", &ann), ("bob", &bob)] {
         let answer = json!({"match_id": player.welcome.match_info.id});
         let state = rig.answer(id, 0, answer).await;
-        assert_eq!(state["page"]["kind"], "final", "{state}");
+        assert_eq!(kind_of(&state), "final", "{state:?}");
     }
 
     // Alone: after the partner timeout a built-in agent takes the empty seat.
@@ -738,6 +765,6 @@ async fn two_people_meet_in_the_waiting_room_and_a_lone_one_gets_a_built_in_part
     let (_, summary) = rig.operator("GET", &format!("/api/matches/{}", cy.welcome.match_info.name)).await;
     assert_eq!(summary["players"].as_array().map(Vec::len), Some(4), "the empty seat filled: {summary}");
     let state = rig.answer("cy", 0, json!({"match_id": cy.welcome.match_info.id})).await;
-    assert_eq!(state["page"]["kind"], "final", "{state}");
+    assert_eq!(kind_of(&state), "final", "{state:?}");
     rig.shutdown().await;
 }

@@ -1,11 +1,13 @@
 //! The JSON replies of the web port: the map's layout (`/map.json`), what the server serves
-//! (`/info.json`) and the matches it lists (`/api/matches`). Their schemas are generated
-//! into `protocol/schema/http/`.
+//! (`/info.json`), the matches it lists (`/api/matches`), a stopped match, the results
+//! index (`/api/results`) and every error. Their schemas are generated into
+//! `protocol/schema/http/` (the study API's replies are `study.rs`).
 
 use bw4t_map::{Map, ROBOT_SIZE, ZoneKind};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
+use crate::row::ResultRow;
 use crate::vocabulary::{EndReason, Mode};
 
 /// `/map.json`: the map's layout for drawing. Zones are top-left boxes in map units (y
@@ -150,10 +152,8 @@ pub enum ServerInfo {
         /// The protocol version ([`VERSION`](crate::VERSION)).
         protocol: u32,
         /// The default match's map, while it is live (`null` otherwise).
-        #[schemars(required)]
         map: Option<String>,
         /// The match a `hello` naming none joins, if it is live or has ended (`null` if none).
-        #[schemars(required)]
         default_match: Option<String>,
         /// Whether the server hosts many matches (the page opens on the lobby).
         lobby: bool,
@@ -194,7 +194,6 @@ pub struct MatchSummary {
     /// The match's name.
     pub name: String,
     /// The template it was made from, if any (`null` if none).
-    #[schemars(required)]
     pub template: Option<String>,
     /// Its map's name.
     pub map: String,
@@ -258,6 +257,32 @@ pub enum Watch {
     Token,
 }
 
+/// `POST /api/matches/NAME/stop` when the stopped run's summary is no longer kept: what
+/// is known of it (its keys in this order, as this answer always had them).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct StoppedMatch {
+    /// The stopped run's id (`NAME.RUN`).
+    pub id: String,
+    /// The match's name.
+    pub name: String,
+    /// Where it is: `finished`.
+    pub state: MatchState,
+}
+
+/// `/api/results`: the results index, oldest first.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct ResultList {
+    /// One row per finished match, as in `matches.jsonl`.
+    pub results: Vec<ResultRow>,
+}
+
+/// Every error answer of the web port (a 4xx or 5xx): what is wrong.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct ErrorReply {
+    /// What is wrong, for a person to read.
+    pub error: String,
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -275,6 +300,16 @@ mod tests {
         let layout = serde_json::to_value(MapLayout::of(&map)).expect("json");
         assert_eq!(layout["robot"], serde_json::json!(ROBOT_SIZE));
         assert_eq!(layout["drop_zone"], "DropZone");
+    }
+
+    #[test]
+    fn a_stopped_match_and_an_error_answer_as_they_always_have() {
+        let stopped = StoppedMatch { id: "demo.1".into(), name: "demo".into(), state: MatchState::Finished };
+        let text = serde_json::to_string(&stopped).expect("json");
+        assert_eq!(text, r#"{"id":"demo.1","name":"demo","state":"finished"}"#);
+        assert_eq!(serde_json::from_str::<StoppedMatch>(&text).ok(), Some(stopped));
+        let error = serde_json::to_string(&ErrorReply { error: "no \"x\"".into() }).expect("json");
+        assert_eq!(error, r#"{"error":"no \"x\""}"#);
     }
 
     #[test]

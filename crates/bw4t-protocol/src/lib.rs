@@ -11,8 +11,10 @@ mod language;
 mod messages;
 mod replay;
 mod result;
+mod row;
 mod schema;
 mod session;
+mod study;
 mod table;
 mod view;
 mod vocabulary;
@@ -24,16 +26,21 @@ pub use convert::{
     percept_to_fact, percepts_delta, receiver,
 };
 pub use http::{
-    DoorLayout, MapLayout, MatchList, MatchState, MatchSummary, ServerInfo, TemplateInfo, Watch,
-    ZoneKindWord, ZoneLayout,
+    DoorLayout, ErrorReply, MapLayout, MatchList, MatchState, MatchSummary, ResultList, ServerInfo,
+    StoppedMatch, TemplateInfo, Watch, ZoneKindWord, ZoneLayout,
 };
 pub use knowledge::{Heard, Knowledge, RoomSeen, RoomTold, is_room};
 pub use language::{Group, KINDS, KindRow, MessagePolicy, Said, SaidError, Slot, kind_row, language_json};
 pub use messages::*;
 pub use replay::{REPLAY_FORMAT, Recorder, ReplayEvent, ReplayHeader, ReplayLine, ReplayMeta};
 pub use result::{MatchResult, PlayerUsage, RobotExtra, RobotResult};
+pub use row::{CSV_COLUMNS, ResultRow};
 pub use schema::schemas;
 pub use session::{ClientSession, Closed, Request, SessionError, SessionEvent, SessionOptions};
+pub use study::{
+    EventsRecorded, ParticipantList, ParticipantRow, ParticipantState, QuestionItem, QuestionKind,
+    StepConflict, StudyInfo, StudyPage, TrialHello, TrialLanguage,
+};
 pub use table::{
     ACTIONS, ActionRow, PERCEPTS, PerceptRow, Scope, SendType, action_row, percept_row, table_json,
 };

@@ -1,17 +1,20 @@
 //! JSON Schemas of every message, generated from the Rust types (`protocol/schema/`).
 
-use schemars::schema_for;
+use schemars::generate::SchemaSettings;
+use schemars::{JsonSchema, Schema, schema_for};
 use serde_json::{Value, json};
 
-use crate::http::{MapLayout, MatchList, MatchSummary, ServerInfo};
+use crate::http::{ErrorReply, MapLayout, MatchList, MatchSummary, ResultList, ServerInfo, StoppedMatch};
 use crate::messages::{ClientMessage, ServerMessage};
+use crate::study::{EventsRecorded, ParticipantList, ParticipantState, StepConflict, StudyInfo};
 use crate::vocabulary::{AckCode, AgentStatus, ByeReason, EndReason, ErrorCode, Leaving, MoveState, Outcome};
 
 /// Every message's schema as (relative path, schema): `client/hello.json`, `server/welcome.json`, ...,
 /// `vocabulary.json`, every word list of the protocol and of bw4t's result files, and
 /// `table.json`, the percepts and actions ([`PERCEPTS`](crate::PERCEPTS), [`ACTIONS`](crate::ACTIONS)),
 /// and the web port's JSON replies under `http/` ([`MapLayout`], [`ServerInfo`], [`MatchList`],
-/// [`MatchSummary`]).
+/// [`MatchSummary`], [`StoppedMatch`], [`ResultList`], [`ErrorReply`]; the study API's under
+/// `http/study/`).
 pub fn schemas() -> Vec<(String, Value)> {
     let mut out = vec![
         ("vocabulary.json".to_string(), vocabulary()),
@@ -56,14 +59,27 @@ pub fn schemas() -> Vec<(String, Value)> {
     out
 }
 
-/// The web port's replies: `http/map.json`, `http/info.json`, `http/matches.json` and
-/// `http/match.json`.
+/// The web port's replies: `http/map.json`, `http/info.json`, `http/matches.json`,
+/// `http/match.json`, `http/stopped.json`, `http/results.json`, `http/error.json`, and the
+/// study API's under `http/study/`.
 fn http() -> Vec<(String, Value)> {
     [
-        ("map", "GET /map.json: the map's layout", schema_for!(MapLayout)),
-        ("info", "GET /info.json: what the server serves", schema_for!(ServerInfo)),
-        ("matches", "GET /api/matches: the matches listed", schema_for!(MatchList)),
-        ("match", "GET /api/matches/NAME: one match's summary", schema_for!(MatchSummary)),
+        ("map", "GET /map.json: the map's layout", reply::<MapLayout>()),
+        ("info", "GET /info.json: what the server serves", reply::<ServerInfo>()),
+        ("matches", "GET /api/matches: the matches listed", reply::<MatchList>()),
+        ("match", "GET /api/matches/NAME: one match's summary", reply::<MatchSummary>()),
+        ("stopped", "POST /api/matches/NAME/stop: a stopped match no longer kept", reply::<StoppedMatch>()),
+        ("results", "GET /api/results: the results index", reply::<ResultList>()),
+        ("error", "every error answer of the web port", reply::<ErrorReply>()),
+        ("study/info", "GET /api/study: the study", reply::<StudyInfo>()),
+        ("study/participant", "a participant's state and page", reply::<ParticipantState>()),
+        ("study/participants", "GET /api/study/participants: everyone", reply::<ParticipantList>()),
+        (
+            "study/events",
+            "POST /api/study/participants/ID/events: events recorded",
+            reply::<EventsRecorded>(),
+        ),
+        ("study/conflict", "409 at a step not the participant's current one", reply::<StepConflict>()),
     ]
     .into_iter()
     .map(|(name, title, schema)| {
@@ -75,6 +91,12 @@ fn http() -> Vec<(String, Value)> {
         (format!("http/{name}.json"), schema)
     })
     .collect()
+}
+
+/// The schema of a reply the server writes: every field it always writes is required, a
+/// `null` one too (the schema of what is serialised, not of what would be read).
+fn reply<T: JsonSchema>() -> Schema {
+    SchemaSettings::draft2020_12().for_serialize().into_generator().into_root_schema_for::<T>()
 }
 
 /// One schema whose `$defs` are the word lists ([`crate::vocabulary`]).

@@ -1,29 +1,19 @@
 //! A questionnaire's items as the page shows them, and the check of a participant's
 //! answers to them: every required item answered, each value of its item's kind.
 
-use serde_json::{Map, Value, json};
+use bw4t_protocol::{QuestionItem, QuestionKind};
+use serde_json::{Map, Value};
 
 use super::config::{Item, ItemKind};
 
 /// An item as the API shows it.
-pub(crate) fn item_json(item: &Item) -> Value {
-    let mut out = json!({"id": item.id, "text": item.text, "required": item.required});
-    match &item.kind {
-        ItemKind::Likert { scale, labels } => {
-            out["kind"] = "likert".into();
-            out["scale"] = (*scale).into();
-            out["labels"] = json!(labels);
-        }
-        ItemKind::Choice { options } => {
-            out["kind"] = "choice".into();
-            out["options"] = json!(options);
-        }
-        ItemKind::Text { multiline } => {
-            out["kind"] = "text".into();
-            out["multiline"] = (*multiline).into();
-        }
-    }
-    out
+pub(crate) fn item_reply(item: &Item) -> QuestionItem {
+    let kind = match &item.kind {
+        ItemKind::Likert { scale, labels } => QuestionKind::Likert { scale: *scale, labels: labels.clone() },
+        ItemKind::Choice { options } => QuestionKind::Choice { options: options.clone() },
+        ItemKind::Text { multiline } => QuestionKind::Text { multiline: *multiline },
+    };
+    QuestionItem { id: item.id.clone(), text: item.text.clone(), required: item.required, kind }
 }
 
 /// The longest text answer kept, in characters.

@@ -2,8 +2,12 @@
 //! participant's arrival, state, answers, trial starts and events; the operator's list
 //! of participants. Every refusal is a 4xx whose `error` names the problem.
 
-use bw4t_protocol::{MatchState, MatchSummary};
+use bw4t_protocol::{
+    ErrorReply, EventsRecorded, MatchState, MatchSummary, ParticipantList, ParticipantRow, StepConflict,
+    StudyInfo,
+};
 use http::{Method, StatusCode};
+use serde::Serialize;
 use serde_json::{Value, json};
 
 use super::flow::{Participant, Record, order_for, valid_id};
@@ -12,13 +16,28 @@ use super::{Ended, Slot, StudyServer, TrialRefusal, append, lock, now_ms};
 /// What a study request is answered with.
 pub(crate) enum Answer {
     /// A JSON body with a status.
-    Json(StatusCode, Value),
+    Json(StatusCode, String),
     /// The operator's token is needed.
     Unauthorized,
 }
 
+/// The body of a JSON answer. Made through a `Value`, so the keys come in alphabetical
+/// order at every depth, as the study's answers always have.
+pub(crate) fn reply_body(body: &impl Serialize) -> Result<String, serde_json::Error> {
+    serde_json::to_value(body).map(|value| value.to_string())
+}
+
+/// A JSON answer (one of `bw4t_protocol`'s study replies) with a status.
+fn reply(status: StatusCode, body: &impl Serialize) -> Answer {
+    match reply_body(body) {
+        Ok(text) => Answer::Json(status, text),
+        Err(e) => error(StatusCode::INTERNAL_SERVER_ERROR, format!("reply not serialisable: {e}")),
+    }
+}
+
 fn error(status: StatusCode, message: impl Into<String>) -> Answer {
-    Answer::Json(status, json!({ "error": message.into() }))
+    let body = ErrorReply { error: message.into() };
+    Answer::Json(status, serde_json::to_string(&body).unwrap_or_default())
 }
 
 /// The parameters of a link that may carry the participant's id, in the order looked at.
@@ -59,17 +78,17 @@ pub(crate) async fn respond(
     match (method, rest) {
         (&Method::GET, []) => {
             let s = study.study();
-            let conditions: Vec<&str> = s.conditions.iter().map(|c| c.name.as_str()).collect();
-            Answer::Json(StatusCode::OK, json!({"name": s.name, "title": s.title, "conditions": conditions}))
+            let conditions = s.conditions.iter().map(|c| c.name.clone()).collect();
+            reply(StatusCode::OK, &StudyInfo { name: s.name.clone(), title: s.title.clone(), conditions })
         }
         (&Method::GET, ["participants"]) if !operator => Answer::Unauthorized,
-        (&Method::GET, ["participants"]) => Answer::Json(StatusCode::OK, study.list().await),
+        (&Method::GET, ["participants"]) => reply(StatusCode::OK, &study.list().await),
         (&Method::POST, ["participants"]) => match parse(body) {
             Ok(body) => study.arrive(&body),
             Err(answer) => answer,
         },
         (&Method::GET, ["participants", id]) => {
-            with_participant(study, id, |slot| Answer::Json(StatusCode::OK, slot.state.state(study.study())))
+            with_participant(study, id, |slot| reply(StatusCode::OK, &slot.state.state(study.study())))
         }
         (&Method::POST, ["participants", id, what @ ("answer" | "trial" | "events")]) => {
             let body = match parse(body) {
@@ -141,12 +160,14 @@ fn check_step(study: &StudyServer, p: &Participant, body: &Value) -> Result<(), 
         } else {
             format!("step {step} is not the participant's current step ({})", p.step)
         };
-        return Err(Answer::Json(
-            StatusCode::CONFLICT,
-            json!({"error": why, "state": p.state(study.study())}),
-        ));
+        return Err(conflict(why, p, study));
     }
     Ok(())
+}
+
+/// `409`: why, and the participant's state.
+fn conflict(why: String, p: &Participant, study: &StudyServer) -> Answer {
+    reply(StatusCode::CONFLICT, &StepConflict { error: why, state: p.state(study.study()) })
 }
 
 impl StudyServer {
@@ -180,7 +201,7 @@ impl StudyServer {
             drop(all);
             let mut slot = lock(&slot);
             return match append(&mut slot, &[Record::Resumed { params }]) {
-                Ok(()) => Answer::Json(StatusCode::OK, slot.state.state(self.study())),
+                Ok(()) => reply(StatusCode::OK, &slot.state.state(self.study())),
                 Err(e) => write_failed(&e),
             };
         }
@@ -200,7 +221,7 @@ impl StudyServer {
         }
         let state = slot.state.state(self.study());
         all.insert(id, std::sync::Arc::new(std::sync::Mutex::new(slot)));
-        Answer::Json(StatusCode::CREATED, state)
+        reply(StatusCode::CREATED, &state)
     }
 
     /// `POST .../ID/answer`.
@@ -301,14 +322,11 @@ impl StudyServer {
                 }
             }
             super::Page::Final { .. } => {
-                return Answer::Json(
-                    StatusCode::CONFLICT,
-                    json!({"error": "the final page takes no answer", "state": slot.state.state(self.study())}),
-                );
+                return conflict("the final page takes no answer".into(), &slot.state, self);
             }
         };
         match append(&mut slot, &records) {
-            Ok(()) => Answer::Json(StatusCode::OK, slot.state.state(self.study())),
+            Ok(()) => reply(StatusCode::OK, &slot.state.state(self.study())),
             Err(e) => write_failed(&e),
         }
     }
@@ -347,10 +365,7 @@ impl StudyServer {
             }
             let step = slot.state.step;
             let Some((trial, c)) = slot.state.trial_at(self.study(), step) else {
-                return Answer::Json(
-                    StatusCode::CONFLICT,
-                    json!({"error": format!("step {step} is not a trial"), "state": slot.state.state(self.study())}),
-                );
+                return conflict(format!("step {step} is not a trial"), &slot.state, self);
             };
             let (Some(name), Some(match_id)) =
                 (body.get("match").and_then(Value::as_str), body.get("match_id").and_then(Value::as_str))
@@ -370,7 +385,7 @@ impl StudyServer {
             }
             if slot.state.playing.as_ref().is_some_and(|(_, playing)| playing == match_id) {
                 // Said again (a page that retried): it is recorded already.
-                return Answer::Json(StatusCode::OK, slot.state.state(self.study()));
+                return reply(StatusCode::OK, &slot.state.state(self.study()));
             }
             let condition = self.study().conditions[c].name.clone();
             let record = Record::TrialStarted {
@@ -381,7 +396,7 @@ impl StudyServer {
                 match_id: match_id.to_string(),
             };
             match append(slot, &[record]) {
-                Ok(()) => Answer::Json(StatusCode::OK, slot.state.state(self.study())),
+                Ok(()) => reply(StatusCode::OK, &slot.state.state(self.study())),
                 Err(e) => write_failed(&e),
             }
         })
@@ -414,51 +429,47 @@ impl StudyServer {
         with_participant(self, id, |slot| {
             let records: Vec<Record> = events.iter().map(|e| Record::Event { event: e.clone() }).collect();
             match append(slot, &records) {
-                Ok(()) => Answer::Json(StatusCode::OK, json!({"recorded": records.len()})),
+                Ok(()) => reply(StatusCode::OK, &EventsRecorded { recorded: records.len() }),
                 Err(e) => write_failed(&e),
             }
         })
     }
 
     /// `GET /api/study/participants` (operator): everyone, by id.
-    async fn list(&self) -> Value {
+    async fn list(&self) -> ParticipantList {
         let slots: Vec<_> = lock(&self.inner.participants).values().cloned().collect();
-        let mut out = Vec::with_capacity(slots.len());
+        let mut participants = Vec::with_capacity(slots.len());
         for slot in slots {
             let mut row = {
                 let slot = lock(&slot);
                 let p = &slot.state;
                 let study = self.study();
                 let page = study.pages.get(p.step);
-                let mut row = json!({
-                    "participant": p.id,
-                    "number": p.number,
-                    "step": p.step,
-                    "steps": study.pages.len(),
-                    "page_kind": if p.declined { "declined" } else { page.map_or("", |p| p.kind()) },
-                    "completed": p.completed(study),
-                    "started_ms": p.started_ms,
-                    "last_ms": p.last_ms,
-                });
-                if let Some((_, c)) = p.trial_at(study, p.step) {
-                    row["condition"] = study.conditions[c].name.clone().into();
+                ParticipantRow {
+                    participant: p.id.clone(),
+                    number: p.number,
+                    step: p.step,
+                    steps: study.pages.len(),
+                    page_kind: if p.declined { "declined" } else { page.map_or("", |p| p.kind()) }
+                        .to_string(),
+                    completed: p.completed(study),
+                    started_ms: p.started_ms,
+                    last_ms: p.last_ms,
+                    condition: p.trial_at(study, p.step).map(|(_, c)| study.conditions[c].name.clone()),
+                    match_name: p.playing.as_ref().map(|(name, _)| name.clone()),
+                    match_id: p.playing.as_ref().map(|(_, id)| id.clone()),
                 }
-                if let Some((name, id)) = &p.playing {
-                    row["match"] = name.clone().into();
-                    row["match_id"] = id.clone().into();
-                }
-                row
             };
             // A match that has ended is no longer live.
-            if let (Some(name), Some(id)) = (row["match"].as_str(), row["match_id"].as_str()) {
+            if let (Some(name), Some(id)) = (&row.match_name, &row.match_id) {
                 let live = self.inner.arena.summary(name, true).await;
                 if !live.is_some_and(|s| is_live_run(&s, id)) {
-                    row.as_object_mut().map(|r| r.remove("match"));
+                    row.match_name = None;
                 }
             }
-            out.push(row);
+            participants.push(row);
         }
-        json!({ "participants": out })
+        ParticipantList { participants }
     }
 }
 

@@ -2,8 +2,9 @@
 //! records make (replayed in order, so a restarted server continues where they were),
 //! their order of the conditions, and the page each step shows.
 
+use bw4t_protocol::{ParticipantState, StudyPage, TrialHello, TrialLanguage};
 use serde::{Deserialize, Serialize};
-use serde_json::{Value, json};
+use serde_json::Value;
 
 use super::config::{Order, Page, Study};
 
@@ -117,37 +118,37 @@ impl Participant {
     }
 
     /// The state the API answers: the step and its page.
-    pub(crate) fn state(&self, study: &Study) -> Value {
-        json!({
-            "participant": self.id,
-            "step": self.step,
-            "steps": study.pages.len(),
-            "page": self.page(study),
-        })
+    pub(crate) fn state(&self, study: &Study) -> ParticipantState {
+        ParticipantState {
+            participant: self.id.clone(),
+            step: self.step,
+            steps: study.pages.len(),
+            page: self.page(study),
+        }
     }
 
-    fn page(&self, study: &Study) -> Value {
-        let Some(page) = study.pages.get(self.step) else { return Value::Null };
-        match page {
+    fn page(&self, study: &Study) -> Option<StudyPage> {
+        let page = match study.pages.get(self.step)? {
             Page::Consent { declined_title, declined_html, .. } if self.declined => {
-                json!({"kind": "declined", "title": declined_title, "html": declined_html})
+                StudyPage::Declined { title: declined_title.clone(), html: declined_html.clone() }
             }
-            Page::Consent { title, html, agree, decline, .. } => {
-                json!({"kind": "consent", "title": title, "html": html, "agree": agree, "decline": decline})
-            }
+            Page::Consent { title, html, agree, decline, .. } => StudyPage::Consent {
+                title: title.clone(),
+                html: html.clone(),
+                agree: agree.clone(),
+                decline: decline.clone(),
+            },
             Page::Instructions { title, html } => {
-                json!({"kind": "instructions", "title": title, "html": html})
+                StudyPage::Instructions { title: title.clone(), html: html.clone() }
             }
-            Page::Questionnaire { id, title, html, items } => {
-                let items: Vec<Value> = items.iter().map(super::answers::item_json).collect();
-                let mut page = json!({"kind": "questionnaire", "id": id, "title": title, "items": items});
-                if let Some(html) = html {
-                    page["html"] = html.clone().into();
-                }
-                page
-            }
+            Page::Questionnaire { id, title, html, items } => StudyPage::Questionnaire {
+                id: id.clone(),
+                title: title.clone(),
+                html: html.clone(),
+                items: items.iter().map(super::answers::item_reply).collect(),
+            },
             Page::Trial { title, html } => {
-                let Some((trial, c)) = self.trial_at(study, self.step) else { return Value::Null };
+                let (trial, c) = self.trial_at(study, self.step)?;
                 let condition = &study.conditions[c];
                 let trials = study.trials();
                 let title = title
@@ -156,37 +157,37 @@ impl Participant {
                     .unwrap_or_else(|| format!("Task {trial} of {trials}"));
                 let html: Vec<&str> =
                     html.iter().chain(condition.briefing_html.iter()).map(String::as_str).collect();
-                json!({
-                    "kind": "trial",
-                    "trial": trial,
-                    "trials": trials,
-                    "condition": condition.name,
-                    "title": title,
-                    "html": if html.is_empty() { Value::Null } else { html.concat().into() },
-                    "hello": {"template": condition.name, "name": self.player_name()},
-                    "view": condition.view,
-                    "language": {
-                        "kinds": condition.language.allowed_kinds(),
-                        "free_text": condition.language.free_text,
+                StudyPage::Trial {
+                    trial,
+                    trials,
+                    condition: condition.name.clone(),
+                    title,
+                    html: (!html.is_empty()).then(|| html.concat()),
+                    hello: TrialHello { template: condition.name.clone(), name: self.player_name() },
+                    view: condition.view.clone(),
+                    language: TrialLanguage {
+                        kinds: condition.language.allowed_kinds(),
+                        free_text: condition.language.free_text,
                     },
-                    "time_limit_s": condition.time_limit_s,
-                    "humans": condition.humans,
-                })
+                    time_limit_s: condition.time_limit_s,
+                    humans: condition.humans,
+                }
             }
             Page::Final { title, html, completion_code, redirect } => {
                 let code = completion_code.clone().unwrap_or_default();
                 let fill = |text: &str| text.replace("{participant}", &self.id).replace("{code}", &code);
-                json!({
-                    "kind": "final",
-                    "title": title,
-                    "html": fill(html),
-                    "completion_code": completion_code,
-                    "redirect": redirect.as_deref().map(|url| {
-                        url.replace("{participant}", &url_encode(&self.id)).replace("{code}", &url_encode(&code))
+                StudyPage::Final {
+                    title: title.clone(),
+                    html: fill(html),
+                    completion_code: completion_code.clone(),
+                    redirect: redirect.as_deref().map(|url| {
+                        url.replace("{participant}", &url_encode(&self.id))
+                            .replace("{code}", &url_encode(&code))
                     }),
-                })
+                }
             }
-        }
+        };
+        Some(page)
     }
 }
 
@@ -235,8 +236,12 @@ pub(crate) fn valid_id(id: &str) -> bool {
 mod tests {
     use std::path::Path;
 
-    use super::order_for;
+    use super::{Participant, order_for};
     use crate::{Order, parse};
+
+    fn default_map(_: &str) -> Result<bw4t_map::Map, String> {
+        bw4t_map::Map::from_native(include_str!("../../../maps/default.toml")).map_err(|e| e.to_string())
+    }
 
     fn study(order: &str, conditions: usize) -> crate::Study {
         let mut text = format!("[study]\nname = \"s\"\norder = \"{order}\"\n");
@@ -244,10 +249,77 @@ mod tests {
             text += &format!("[[condition]]\nname = \"c{i}\"\n[[page]]\nkind = \"trial\"\n");
         }
         text += "[[page]]\nkind = \"final\"\n";
-        let map = |_: &str| {
-            bw4t_map::Map::from_native(include_str!("../../../maps/default.toml")).map_err(|e| e.to_string())
-        };
-        parse(&text, Path::new("s.toml"), &map).expect("a good study")
+        parse(&text, Path::new("s.toml"), &default_map).expect("a good study")
+    }
+
+    /// Every kind of page, each field the API shows set.
+    const EVERY_PAGE: &str = r#"
+[study]
+name = "s"
+[[condition]]
+name = "alpha"
+kinds = ["have"]
+free_text = false
+briefing = "Be *quick*."
+[[page]]
+kind = "consent"
+text = "Agree?"
+[[page]]
+kind = "instructions"
+text = "Read."
+[[page]]
+kind = "questionnaire"
+id = "q"
+text = "Say."
+[[page.item]]
+id = "l"
+kind = "likert"
+text = "L?"
+scale = 5
+labels = ["no", "yes"]
+[[page.item]]
+id = "c"
+kind = "choice"
+text = "C?"
+options = ["a", "b"]
+[[page.item]]
+id = "t"
+kind = "text"
+text = "T?"
+required = false
+[[page]]
+kind = "trial"
+[[page]]
+kind = "final"
+text = "Code {code} for {participant}."
+completion_code = "C 1"
+redirect = "https://x.invalid/?c={code}&p={participant}"
+"#;
+
+    /// The state of each step as the API answers it, byte for byte: keys in alphabetical
+    /// order, absent and `null` fields as they have always been.
+    #[test]
+    fn every_page_is_answered_with_the_same_bytes() {
+        let study = parse(EVERY_PAGE, Path::new("s.toml"), &default_map).expect("a good study");
+        let mut p = Participant::new("p-1", 0, vec![0], 0);
+        let mut answered = Vec::new();
+        for step in 0..=study.pages.len() {
+            p.step = step;
+            answered.push(crate::api::reply_body(&p.state(&study)).expect("json"));
+        }
+        p.step = 0;
+        p.declined = true;
+        answered.push(crate::api::reply_body(&p.state(&study)).expect("json"));
+        let expected = [
+            r#"{"page":{"agree":"I agree","decline":"I do not agree","html":"<p>Agree?</p>\n","kind":"consent","title":"Consent"},"participant":"p-1","step":0,"steps":5}"#,
+            r#"{"page":{"html":"<p>Read.</p>\n","kind":"instructions","title":"Instructions"},"participant":"p-1","step":1,"steps":5}"#,
+            r#"{"page":{"html":"<p>Say.</p>\n","id":"q","items":[{"id":"l","kind":"likert","labels":["no","yes"],"required":true,"scale":5,"text":"L?"},{"id":"c","kind":"choice","options":["a","b"],"required":true,"text":"C?"},{"id":"t","kind":"text","multiline":false,"required":false,"text":"T?"}],"kind":"questionnaire","title":"Questions"},"participant":"p-1","step":2,"steps":5}"#,
+            r#"{"page":{"condition":"alpha","hello":{"name":"P1","template":"alpha"},"html":"<p>Be <em>quick</em>.</p>\n","humans":1,"kind":"trial","language":{"free_text":false,"kinds":["have"]},"time_limit_s":600,"title":"Task 1 of 1","trial":1,"trials":1,"view":"own"},"participant":"p-1","step":3,"steps":5}"#,
+            r#"{"page":{"completion_code":"C 1","html":"<p>Code C 1 for p-1.</p>\n","kind":"final","redirect":"https://x.invalid/?c=C%201&p=p-1","title":"Thank you"},"participant":"p-1","step":4,"steps":5}"#,
+            r#"{"page":null,"participant":"p-1","step":5,"steps":5}"#,
+            r#"{"page":{"html":"<p>You did not consent, so the study ends here. You may close this page.</p>\n","kind":"declined","title":"Thank you"},"participant":"p-1","step":0,"steps":5}"#,
+        ];
+        assert_eq!(answered, expected);
     }
 
     #[test]

@@ -312,7 +312,7 @@ impl Routes for StudyServer {
             let rest = rest.trim_start_matches('/');
             let rest: Vec<&str> = if rest.is_empty() { Vec::new() } else { rest.split('/').collect() };
             match api::respond(self, &request.method, &rest, &request.body, request.operator).await {
-                api::Answer::Json(status, body) => Reply::json(status, body.to_string()),
+                api::Answer::Json(status, body) => Reply::json(status, body),
                 api::Answer::Unauthorized => {
                     Reply::unauthorized(self.inner.arena.config().server.operator_token.is_some())
                 }

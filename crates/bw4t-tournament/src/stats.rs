@@ -12,7 +12,7 @@ use bw4t_map::SeededRng;
 use bw4t_protocol::EndReason;
 use serde::{Deserialize, Serialize};
 
-use super::row::Row;
+use crate::Row;
 
 /// Confidence level of every interval in the summary.
 const CONFIDENCE: f64 = 0.95;

@@ -3,10 +3,9 @@
 //! (`Authorization: Bearer TOKEN`, or `?token=` on a GET). Also the live `/map.json` and
 //! `/info.json`.
 
-use bw4t_protocol::MatchList;
+use bw4t_protocol::{MatchList, MatchState, ResultList, StoppedMatch};
 use hyper::{HeaderMap, Method, StatusCode};
 use serde::Serialize;
-use serde_json::json;
 
 use super::routes::query_value;
 use super::{Reply, WebRequest};
@@ -62,7 +61,10 @@ pub(crate) async fn respond(request: WebRequest, arena: &Arena) -> Reply {
             // The stopped run's summary (a template that goes on has a new run by now).
             Ok(id) => match arena.finished_summary(&id, true) {
                 Some(summary) => ok(StatusCode::OK, &summary),
-                None => ok(StatusCode::OK, &json!({ "name": name, "id": id, "state": "finished" })),
+                None => ok(
+                    StatusCode::OK,
+                    &StoppedMatch { name: name.to_string(), id, state: MatchState::Finished },
+                ),
             },
             Err(e) => arena_error(&e),
         },
@@ -77,8 +79,15 @@ pub(crate) async fn respond(request: WebRequest, arena: &Arena) -> Reply {
         }
         (&Method::GET, ["api", "results", ..]) if !operator => unauthorized(arena),
         (&Method::GET, ["api", "results"]) => {
-            let rows = arena.results().rows();
-            ok(StatusCode::OK, &json!({ "results": rows }))
+            // Through a `Value`, whose keys are in alphabetical order, as this answer's always
+            // were (the rows of `matches.jsonl` keep the fields' order).
+            let results = ResultList { results: arena.results().rows() };
+            match serde_json::to_value(&results) {
+                Ok(value) => ok(StatusCode::OK, &value),
+                Err(e) => {
+                    Reply::error(StatusCode::INTERNAL_SERVER_ERROR, format!("reply not serialisable: {e}"))
+                }
+            }
         }
         (&Method::GET, ["api", "results", id]) => match arena.results().result(id) {
             Some(result) => Reply::json(StatusCode::OK, result),

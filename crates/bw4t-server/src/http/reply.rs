@@ -3,6 +3,7 @@
 
 use std::borrow::Cow;
 
+use bw4t_protocol::ErrorReply;
 use bytes::Bytes;
 use http_body_util::Full;
 use hyper::{Response, StatusCode, header};
@@ -35,9 +36,10 @@ impl Reply {
         Reply::new(status, "application/json", body)
     }
 
-    /// A JSON error answer: `{"error": "..."}`.
+    /// A JSON error answer: `{"error": "..."}` ([`ErrorReply`]).
     pub fn error(status: StatusCode, message: impl Into<String>) -> Reply {
-        Reply::json(status, serde_json::json!({ "error": message.into() }).to_string())
+        // A struct of one string always serialises.
+        Reply::json(status, serde_json::to_string(&ErrorReply { error: message.into() }).unwrap_or_default())
     }
 
     /// `503 Service Unavailable` with `Retry-After`.

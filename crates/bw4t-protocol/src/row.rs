@@ -1,11 +1,16 @@
-//! One finished match of a tournament, as written to `matches.jsonl` and `matches.csv`.
+//! One finished match as a row of a results index: a line of a tournament's or a server's
+//! `matches.jsonl`, a line of `matches.csv`, an element of `/api/results`.
 
-use bw4t_protocol::EndReason;
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-/// One finished match.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Row {
+use crate::result::MatchResult;
+use crate::vocabulary::EndReason;
+
+/// One finished match. `bw4t_tournament` names it `Row`; the tournament runner and the
+/// server's results store write it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct ResultRow {
     /// Identifies the match within the tournament: `team/map/seed/repetition`.
     pub key: String,
     /// The match's index in the tournament's fixed order (for sharding).
@@ -24,7 +29,8 @@ pub struct Row {
     pub completed: bool,
     /// Ticks simulated.
     pub ticks: u64,
-    /// The first tick whose percepts showed the sequence complete, when completed.
+    /// The first tick whose percepts showed the sequence complete, when completed (`null`
+    /// otherwise).
     pub completed_tick: Option<u64>,
     /// Wall-clock milliseconds from the match's first tick to its end, as in its result; 0
     /// for a match that could not run.
@@ -61,12 +67,12 @@ pub struct Row {
     pub error: Option<String>,
     /// The final state digest.
     pub digest: String,
-    /// The replay file, relative to the tournament directory, when kept.
+    /// The replay file, relative to the tournament directory, when kept (`null` otherwise).
     pub replay: Option<String>,
 }
 
 /// How a row fills one column of `matches.csv`.
-pub(crate) type CsvField = fn(&Row) -> String;
+pub(crate) type CsvField = fn(&ResultRow) -> String;
 
 /// The columns of `matches.csv`, in order, each with how a row fills it.
 pub const CSV_COLUMNS: &[(&str, CsvField)] = &[
@@ -96,11 +102,18 @@ pub const CSV_COLUMNS: &[(&str, CsvField)] = &[
     ("replay", |r| csv_field(r.replay.as_deref().unwrap_or(""))),
 ];
 
-impl Row {
-    /// The row of a match not (yet) played: end reason `error`, no figures; [`Row::record`]
+impl ResultRow {
+    /// The row of a match not (yet) played: end reason `error`, no figures; [`ResultRow::record`]
     /// fills in a result.
-    pub fn unplayed(key: String, index: u64, team: String, map: String, seed: u64, robots: usize) -> Row {
-        Row {
+    pub fn unplayed(
+        key: String,
+        index: u64,
+        team: String,
+        map: String,
+        seed: u64,
+        robots: usize,
+    ) -> ResultRow {
+        ResultRow {
             key,
             index,
             team,
@@ -131,7 +144,7 @@ impl Row {
 
     /// Takes the figures of a match's result (all but `crashed_agents`, which only the
     /// player of the agents knows).
-    pub fn record(&mut self, result: &bw4t_protocol::MatchResult) {
+    pub fn record(&mut self, result: &MatchResult) {
         self.completed = result.completed;
         self.ticks = result.ticks;
         self.completed_tick = result.completed_tick;
@@ -140,12 +153,13 @@ impl Row {
         self.wrong_drops = result.wrong_drops;
         self.messages = result.messages;
         self.late_agents = result.per_robot.iter().filter(|r| r.late_ticks > 0).count() as u32;
+        // Players report their own usage: sums saturate rather than wrap on made-up figures.
         let usage = result.per_robot.iter().filter_map(|r| r.usage);
         for u in usage {
-            self.tool_calls += u.tool_calls;
-            self.think_ms += u.think_ms;
-            self.prompt_tokens += u.prompt_tokens;
-            self.completion_tokens += u.completion_tokens;
+            self.tool_calls = self.tool_calls.saturating_add(u.tool_calls);
+            self.think_ms = self.think_ms.saturating_add(u.think_ms);
+            self.prompt_tokens = self.prompt_tokens.saturating_add(u.prompt_tokens);
+            self.completion_tokens = self.completion_tokens.saturating_add(u.completion_tokens);
         }
         self.end_reason = result.end_reason;
         self.digest = result.digest.clone();
@@ -153,11 +167,11 @@ impl Row {
 
     /// The rows of a `matches.jsonl` text. A torn last line (its writer was killed
     /// mid-line) is dropped; any other line that is not a row is an error with its number.
-    pub fn parse_lines(text: &str) -> Result<Vec<Row>, (usize, serde_json::Error)> {
+    pub fn parse_lines(text: &str) -> Result<Vec<ResultRow>, (usize, serde_json::Error)> {
         let lines: Vec<&str> = text.lines().filter(|l| !l.trim().is_empty()).collect();
         let mut rows = Vec::with_capacity(lines.len());
         for (i, line) in lines.iter().enumerate() {
-            match serde_json::from_str::<Row>(line) {
+            match serde_json::from_str::<ResultRow>(line) {
                 Ok(row) => rows.push(row),
                 Err(_) if i + 1 == lines.len() => {}
                 Err(e) => return Err((i + 1, e)),
@@ -183,5 +197,27 @@ fn csv_field(text: &str) -> String {
         format!("\"{}\"", text.replace('"', "\"\""))
     } else {
         text.to_string()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::ResultRow;
+    use crate::{EndReason, MatchResult, PlayerUsage, RobotExtra};
+
+    #[test]
+    fn usage_sums_saturate_instead_of_wrapping() {
+        let map = bw4t_map::Map::from_native(include_str!("../../../maps/fixed.toml")).expect("map");
+        let mut game = bw4t_sim::Match::new(&map, &bw4t_sim::MatchConfig::default(), 1).expect("match");
+        for name in ["Ann", "Bob"] {
+            game.join(name).expect("join");
+        }
+        let huge =
+            PlayerUsage { tool_calls: u64::MAX, prompt_tokens: u64::MAX - 1, ..PlayerUsage::default() };
+        let extra = |_| RobotExtra { usage: Some(huge), ..RobotExtra::LOCAL };
+        let result = MatchResult::of(&game, None, EndReason::MaxTicks, 0, extra);
+        let mut row = ResultRow::unplayed("k".into(), 1, "team".into(), "fixed".into(), 1, 2);
+        row.record(&result);
+        assert_eq!((row.tool_calls, row.prompt_tokens), (u64::MAX, u64::MAX));
     }
 }

@@ -1,0 +1,262 @@
+//! The JSON replies of the study API (`/api/study/...` under `bw4t study`): the study, a
+//! participant's state and the page of their step, the operator's list of participants,
+//! recorded events and a refusal at the wrong step. Their schemas are generated into
+//! `protocol/schema/http/study/`. The study answers them with their keys in alphabetical
+//! order, as serde_json's maps order them.
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+/// `GET /api/study`: the study's name, title and conditions.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct StudyInfo {
+    /// The study's name.
+    pub name: String,
+    /// Its title, for the participants.
+    pub title: String,
+    /// Its conditions' names, in the study file's order.
+    pub conditions: Vec<String>,
+}
+
+/// A participant's state: the step they are at and its page. The answer to their arrival,
+/// to `GET /api/study/participants/ID` and to each accepted answer, trial start or event.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct ParticipantState {
+    /// The participant's id.
+    pub participant: String,
+    /// Their step, from 0.
+    pub step: usize,
+    /// The study's pages.
+    pub steps: usize,
+    /// The page of their step (`null` past the last page).
+    pub page: Option<StudyPage>,
+}
+
+/// The page a participant is shown, named by `kind`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum StudyPage {
+    /// Asks for consent.
+    Consent {
+        /// Title.
+        title: String,
+        /// Text, as HTML.
+        html: String,
+        /// The agree button's label.
+        agree: String,
+        /// The decline button's label.
+        decline: String,
+    },
+    /// Consent was declined: the study has ended for the participant.
+    Declined {
+        /// Title.
+        title: String,
+        /// Text, as HTML.
+        html: String,
+    },
+    /// Text to read.
+    Instructions {
+        /// Title.
+        title: String,
+        /// Text, as HTML.
+        html: String,
+    },
+    /// Questions.
+    Questionnaire {
+        /// The questionnaire's id.
+        id: String,
+        /// Title.
+        title: String,
+        /// Text above the items, as HTML (absent if none).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        html: Option<String>,
+        /// The items, in order.
+        items: Vec<QuestionItem>,
+    },
+    /// A match to play: the next condition of the participant's order.
+    Trial {
+        /// Which trial this is, from 1.
+        trial: usize,
+        /// The study's trials.
+        trials: usize,
+        /// The condition's name.
+        condition: String,
+        /// Title.
+        title: String,
+        /// The page's text and the condition's briefing, as HTML (`null` if neither).
+        html: Option<String>,
+        /// What the page's `hello` names.
+        hello: TrialHello,
+        /// What the player sees: `own` (what the robot perceives) or `overview`.
+        view: String,
+        /// Which messages the player may send.
+        language: TrialLanguage,
+        /// The match's time limit, in seconds.
+        time_limit_s: u64,
+        /// People in each of the condition's matches.
+        humans: usize,
+    },
+    /// The end: a completion code and/or a redirect.
+    Final {
+        /// Title.
+        title: String,
+        /// Text, as HTML, the participant's id and the code filled in.
+        html: String,
+        /// The completion code (`null` if none).
+        completion_code: Option<String>,
+        /// Where to send the participant, filled in (`null` if nowhere).
+        redirect: Option<String>,
+    },
+}
+
+/// The `hello` of a trial: the condition's template and the participant's player name.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct TrialHello {
+    /// The template to join (the condition's name).
+    pub template: String,
+    /// The name to play under.
+    pub name: String,
+}
+
+/// The messages a trial's player may send.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct TrialLanguage {
+    /// The kinds of message allowed.
+    pub kinds: Vec<String>,
+    /// Whether free text may be sent.
+    pub free_text: bool,
+}
+
+/// One item of a questionnaire.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct QuestionItem {
+    /// Its id (a key of the answers).
+    pub id: String,
+    /// The question.
+    pub text: String,
+    /// Whether it must be answered.
+    pub required: bool,
+    /// What it asks for.
+    #[serde(flatten)]
+    pub kind: QuestionKind,
+}
+
+/// What a [`QuestionItem`] asks for, named by `kind`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum QuestionKind {
+    /// An integer from 1 to `scale`.
+    Likert {
+        /// Points on the scale.
+        scale: u32,
+        /// The left and right ends' labels.
+        labels: [String; 2],
+    },
+    /// One of the options.
+    Choice {
+        /// The options.
+        options: Vec<String>,
+    },
+    /// A text.
+    Text {
+        /// Whether it has several lines.
+        multiline: bool,
+    },
+}
+
+/// `409` to an answer or trial start at a step that is not the participant's current one
+/// (or that takes none): why, and the participant's state.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct StepConflict {
+    /// What is wrong.
+    pub error: String,
+    /// The participant's state.
+    pub state: ParticipantState,
+}
+
+/// `POST /api/study/participants/ID/events`: how many events were recorded.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct EventsRecorded {
+    /// The events recorded.
+    pub recorded: usize,
+}
+
+/// `GET /api/study/participants` (operator): everyone, by id.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct ParticipantList {
+    /// One row per participant, by id.
+    pub participants: Vec<ParticipantRow>,
+}
+
+/// One participant as the operator's list shows them.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct ParticipantRow {
+    /// The participant's id.
+    pub participant: String,
+    /// Their arrival number, from 0.
+    pub number: u64,
+    /// Their step, from 0.
+    pub step: usize,
+    /// The study's pages.
+    pub steps: usize,
+    /// The kind of their step's page (`declined` after declining consent).
+    pub page_kind: String,
+    /// Whether they reached the final page.
+    pub completed: bool,
+    /// When they arrived, in milliseconds since the Unix epoch.
+    pub started_ms: u64,
+    /// When they were last heard from, in milliseconds since the Unix epoch.
+    pub last_ms: u64,
+    /// The condition of their step, when it is a trial.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub condition: Option<String>,
+    /// The name of the trial's match they play, while it is live.
+    #[serde(default, rename = "match", skip_serializing_if = "Option::is_none")]
+    pub match_name: Option<String>,
+    /// The id of the trial's match they started and have not answered with.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub match_id: Option<String>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_item_is_one_object_named_by_kind() {
+        let item = QuestionItem {
+            id: "load".into(),
+            text: "How hard?".into(),
+            required: true,
+            kind: QuestionKind::Choice { options: vec!["easy".into(), "hard".into()] },
+        };
+        let json = serde_json::to_value(&item).expect("json");
+        assert_eq!(
+            json,
+            serde_json::json!({"id": "load", "text": "How hard?", "required": true, "kind": "choice", "options": ["easy", "hard"]})
+        );
+        assert_eq!(serde_json::from_value::<QuestionItem>(json).ok(), Some(item));
+    }
+
+    #[test]
+    fn a_page_without_a_state_is_null_and_absent_fields_are_left_out() {
+        let state = ParticipantState { participant: "p".into(), step: 3, steps: 3, page: None };
+        assert_eq!(serde_json::to_value(&state).expect("json")["page"], serde_json::Value::Null);
+        let row = ParticipantRow {
+            participant: "p".into(),
+            number: 0,
+            step: 1,
+            steps: 3,
+            page_kind: "trial".into(),
+            completed: false,
+            started_ms: 1,
+            last_ms: 2,
+            condition: Some("alpha".into()),
+            match_name: None,
+            match_id: Some("m.1".into()),
+        };
+        let json = serde_json::to_value(&row).expect("json");
+        assert!(json.get("match").is_none() && json["match_id"] == "m.1", "{json}");
+        assert_eq!(serde_json::from_value::<ParticipantRow>(json).ok(), Some(row));
+    }
+}
