@@ -1,35 +1,43 @@
 //! Between simulation types and wire shapes: percepts as JSON facts, `act` as an action.
+//! Percepts convert generically, from the simulation's description of each
+//! ([`bw4t_sim::PERCEPTS`]); actions one by one.
 
 use std::sync::Arc;
 
 use bw4t_map::Colour;
-use bw4t_sim::{Action, MoveState, Percept, Receiver};
+use bw4t_sim::{Action, ArgKind, ArgReader, ArgRef, MoveState, Percept, Receiver};
+use serde::Deserialize;
 use serde_json::{Value, json};
 
 use crate::language::Said;
 use crate::messages::{Act, ActId, ClientMessage, Fact};
 use crate::vocabulary::AckCode;
 
-/// A percept as a fact array, e.g. `["color",12,"Red"]`. A message of the language is
-/// `["message", sender, sentence, said]`; free text is `["message", sender, text]`.
+/// A percept as a fact array, e.g. `["color",12,"Red"]`: its name, then each argument in
+/// the form its Rust type has (a name or text as a string, an id or index as a number, a
+/// colour or state by name, colours as a list of names). A text that is a message of the
+/// language is followed by its structure: `["message", sender, sentence, said]`; free text
+/// is `["message", sender, text]`. Driven by the simulation's description of each percept,
+/// so no percept needs code of its own here.
 pub fn percept_to_fact(p: &Percept) -> Fact {
-    let name = Value::from(p.name());
-    let args: Vec<Value> = match p {
-        Percept::Place(s) | Percept::Player(s) | Percept::OwnName(s) | Percept::At(s) => vec![json!(&**s)],
-        Percept::In(s) | Percept::Occupied(s) => vec![json!(&**s)],
-        Percept::Bot(n) | Percept::SequenceIndex(n) => vec![json!(n)],
-        Percept::AtBlock(b) | Percept::Holding(b) | Percept::Block(b) => vec![json!(b)],
-        Percept::Sequence(colours) => vec![Value::from(colours.iter().map(|c| c.name()).collect::<Vec<_>>())],
-        Percept::State(s) => vec![json!(s.name())],
-        Percept::Color(b, c) => vec![json!(b), json!(c.name())],
-        Percept::Message { from, text } => match Said::from_text(text) {
+    // Room for a message's structure besides the name and arguments.
+    let mut fact = Vec::with_capacity(2 + p.kind().args.len());
+    fact.push(Value::from(p.name()));
+    p.for_each_arg(|kind, arg| match arg {
+        ArgRef::Text(text) if kind == ArgKind::Text => match Said::from_text(text) {
             Some(said) => {
-                vec![json!(&**from), json!(said.sentence().unwrap_or_default()), json!(said)]
+                fact.push(json!(said.sentence().unwrap_or_default()));
+                fact.push(json!(said));
             }
-            None => vec![json!(&**from), json!(&**text)],
+            None => fact.push(Value::from(text)),
         },
-    };
-    std::iter::once(name).chain(args).collect()
+        ArgRef::Text(text) => fact.push(Value::from(text)),
+        ArgRef::Number(n) => fact.push(Value::from(n)),
+        ArgRef::Colour(colour) => fact.push(Value::from(colour.name())),
+        ArgRef::Colours(colours) => fact.push(colours.iter().map(|c| c.name()).collect()),
+        ArgRef::State(state) => fact.push(Value::from(state.name())),
+    });
+    fact
 }
 
 /// A fact that is not a percept of this protocol version.
@@ -49,54 +57,67 @@ pub fn percepts_delta(percepts: &crate::messages::Percepts) -> Result<bw4t_sim::
     })
 }
 
-/// Reads a fact array back into a percept.
+/// Reads a fact array back into a percept (the inverse of [`percept_to_fact`]).
 pub fn fact_to_percept(fact: &[Value]) -> Result<Percept, FactError> {
     let bad = || FactError(Value::from(fact.to_vec()).to_string());
-    let text = |i: usize| fact.get(i).and_then(Value::as_str).map(Arc::<str>::from).ok_or_else(bad);
-    let number =
-        |i: usize| fact.get(i).and_then(Value::as_u64).and_then(|n| u32::try_from(n).ok()).ok_or_else(bad);
-    let colour = |v: &Value| v.as_str().and_then(|s| s.parse::<Colour>().ok()).ok_or_else(bad);
     let name = fact.first().and_then(Value::as_str).ok_or_else(bad)?;
-    let arity = match name {
-        "color" => 3,
-        "message" if fact.len() == 4 => 4,
-        "message" => 3,
-        _ => 2,
-    };
-    if fact.len() != arity {
-        return Err(bad());
+    let mut args = FactArgs { fact, next: 1 };
+    match Percept::from_args(name, &mut args) {
+        Some(percept) if args.next == fact.len() => Ok(percept),
+        _ => Err(bad()),
     }
-    Ok(match name {
-        "place" => Percept::Place(text(1)?),
-        "player" => Percept::Player(text(1)?),
-        "ownName" => Percept::OwnName(text(1)?),
-        "bot" => Percept::Bot(number(1)?),
-        "sequence" => {
-            let list = fact[1].as_array().ok_or_else(bad)?;
-            Percept::Sequence(list.iter().map(colour).collect::<Result<Vec<_>, _>>()?.into())
+}
+
+/// A fact's arguments, read in order.
+struct FactArgs<'a> {
+    fact: &'a [Value],
+    /// The position of the next argument.
+    next: usize,
+}
+
+impl<'a> FactArgs<'a> {
+    fn take(&mut self) -> Option<&'a Value> {
+        let value = self.fact.get(self.next)?;
+        self.next += 1;
+        Some(value)
+    }
+}
+
+/// A colour by name.
+fn colour(value: &Value) -> Option<Colour> {
+    value.as_str()?.parse().ok()
+}
+
+impl ArgReader for FactArgs<'_> {
+    fn text(&mut self, kind: ArgKind) -> Option<Arc<str>> {
+        let value = self.take()?;
+        // A message of the language: the structure after the sentence is what counts.
+        if kind == ArgKind::Text
+            && let Some(said @ Value::Object(_)) = self.fact.get(self.next)
+        {
+            self.next += 1;
+            let said = Said::deserialize(said).ok()?;
+            said.check().ok()?;
+            return Some(said.to_text().into());
         }
-        "at" => Percept::At(text(1)?),
-        "sequenceIndex" => Percept::SequenceIndex(number(1)?),
-        "state" => Percept::State(match fact[1].as_str() {
-            Some("arrived") => MoveState::Arrived,
-            Some("traveling") => MoveState::Traveling,
-            Some("collided") => MoveState::Collided,
-            _ => return Err(bad()),
-        }),
-        "in" => Percept::In(text(1)?),
-        "atBlock" => Percept::AtBlock(number(1)?),
-        "occupied" => Percept::Occupied(text(1)?),
-        "color" => Percept::Color(number(1)?, colour(&fact[2])?),
-        "holding" => Percept::Holding(number(1)?),
-        "block" => Percept::Block(number(1)?),
-        "message" if arity == 4 => {
-            let said: Said = serde_json::from_value(fact[3].clone()).map_err(|_| bad())?;
-            said.check().map_err(|_| bad())?;
-            Percept::Message { from: text(1)?, text: said.to_text().into() }
-        }
-        "message" => Percept::Message { from: text(1)?, text: text(2)? },
-        _ => return Err(bad()),
-    })
+        value.as_str().map(Arc::from)
+    }
+
+    fn number(&mut self, _: ArgKind) -> Option<u32> {
+        self.take()?.as_u64().and_then(|n| u32::try_from(n).ok())
+    }
+
+    fn colour(&mut self, _: ArgKind) -> Option<Colour> {
+        colour(self.take()?)
+    }
+
+    fn colours(&mut self, _: ArgKind) -> Option<Arc<[Colour]>> {
+        self.take()?.as_array()?.iter().map(colour).collect()
+    }
+
+    fn state(&mut self, _: ArgKind) -> Option<MoveState> {
+        MoveState::from_name(self.take()?.as_str()?)
+    }
 }
 
 /// Why an `act` names no action: `unknown_action` or `bad_args`, and in words.
@@ -199,38 +220,75 @@ pub fn receiver(to: &str) -> Receiver {
 
 #[cfg(test)]
 mod tests {
+    use bw4t_sim::PERCEPTS;
+
     use super::*;
+
+    /// Gives made-up arguments of the form asked for.
+    struct Samples;
+
+    impl ArgReader for Samples {
+        fn text(&mut self, kind: ArgKind) -> Option<Arc<str>> {
+            Some(if kind == ArgKind::Text { "hi there".into() } else { "RoomA1".into() })
+        }
+        fn number(&mut self, _: ArgKind) -> Option<u32> {
+            Some(12)
+        }
+        fn colour(&mut self, _: ArgKind) -> Option<Colour> {
+            Some(Colour::Red)
+        }
+        fn colours(&mut self, _: ArgKind) -> Option<Arc<[Colour]>> {
+            Some(vec![Colour::Red, Colour::Blue].into())
+        }
+        fn state(&mut self, _: ArgKind) -> Option<MoveState> {
+            Some(MoveState::Collided)
+        }
+    }
 
     #[test]
     fn every_percept_round_trips_through_its_fact() {
-        let name = |s: &str| Arc::<str>::from(s);
-        let all = [
-            Percept::Place(name("RoomA1")),
-            Percept::Player(name("Bob")),
-            Percept::OwnName(name("Ann")),
-            Percept::Bot(3),
-            Percept::Sequence(vec![Colour::Red, Colour::Blue].into()),
-            Percept::At(name("FrontA1")),
-            Percept::SequenceIndex(2),
-            Percept::State(MoveState::Collided),
-            Percept::In(name("RoomC1")),
-            Percept::AtBlock(4),
-            Percept::Occupied(name("DropZone")),
-            Percept::Color(12, Colour::Red),
-            Percept::Holding(4),
-            Percept::Block(12),
-            Percept::Message { from: name("Bob"), text: name("hi there") },
-        ];
-        for p in all {
-            let fact = percept_to_fact(&p);
-            assert_eq!(fact_to_percept(&fact), Ok(p));
+        for kind in PERCEPTS {
+            let percept = Percept::from_args(kind.name, &mut Samples).expect("a percept of every row");
+            let fact = percept_to_fact(&percept);
+            assert_eq!(fact[0], kind.name);
+            assert_eq!(fact.len(), 1 + kind.args.len(), "{}: one value per argument", kind.name);
+            assert_eq!(fact_to_percept(&fact), Ok(percept), "{}", kind.name);
+            // One value too few or too many is not a percept.
+            assert!(fact_to_percept(&fact[..fact.len() - 1]).is_err(), "{} cut short", kind.name);
+            let mut longer = fact.clone();
+            longer.push(json!(1));
+            assert!(fact_to_percept(&longer).is_err(), "{} with an extra value", kind.name);
         }
-        assert_eq!(
-            percept_to_fact(&Percept::Color(12, Colour::Red)),
-            vec![json!("color"), json!(12), json!("Red")]
-        );
-        assert!(fact_to_percept(&[json!("color"), json!(1)]).is_err());
-        assert!(fact_to_percept(&[json!("fly")]).is_err());
+        let name = |s: &str| Arc::<str>::from(s);
+        for (percept, fact) in [
+            (Percept::Color(12, Colour::Red), json!(["color", 12, "Red"])),
+            (Percept::Sequence(vec![Colour::Red, Colour::Blue].into()), json!(["sequence", ["Red", "Blue"]])),
+            (Percept::State(MoveState::Collided), json!(["state", "collided"])),
+            (Percept::At(name("FrontA1")), json!(["at", "FrontA1"])),
+            (
+                Percept::Message { from: name("Bob"), text: name("hi there") },
+                json!(["message", "Bob", "hi there"]),
+            ),
+        ] {
+            assert_eq!(Value::from(percept_to_fact(&percept)), fact);
+        }
+        for wrong in [
+            json!(["color", 1]),
+            json!(["fly"]),
+            json!([]),
+            json!([3, 1]),
+            json!(["bot", -1]),
+            json!(["bot", 4294967296u64]),
+            json!(["bot", "3"]),
+            json!(["color", 1, "Purple"]),
+            json!(["sequence", "Red"]),
+            json!(["state", "Arrived"]),
+            json!(["at", 3]),
+            json!(["message", "Ann", {"kind": "yes"}]),
+            json!(["message", "Ann", "Yes.", "yes"]),
+        ] {
+            assert!(fact_to_percept(wrong.as_array().expect("a list")).is_err(), "{wrong}");
+        }
     }
 
     #[test]

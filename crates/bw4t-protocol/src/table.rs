@@ -1,9 +1,12 @@
 //! The protocol's percepts and actions, a row each: name, arguments, how a percept is sent
-//! and to whom, whether an action is durative. Exported as `protocol/schema/table.json`
-//! with the schemas; the converters, the simulation and the clients are checked against it.
+//! and to whom, whether an action is durative. The percept rows are the simulation's
+//! descriptions ([`bw4t_sim::PERCEPTS`]) in the protocol's words. Exported as
+//! `protocol/schema/table.json` with the schemas; the converters and the clients are
+//! checked against it.
 
+use bw4t_sim::{ArgKind, PerceptKind};
 use schemars::JsonSchema;
-use serde::Serialize;
+use serde::{Serialize, Serializer};
 
 /// How a percept is sent (the spec's four types; "send always" is not used).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, JsonSchema)]
@@ -19,6 +22,18 @@ pub enum SendType {
     Event,
 }
 
+impl SendType {
+    /// The simulation's send type in the protocol's words.
+    pub const fn of(send: bw4t_sim::SendType) -> SendType {
+        match send {
+            bw4t_sim::SendType::Once => SendType::Once,
+            bw4t_sim::SendType::OnChange => SendType::OnChange,
+            bw4t_sim::SendType::OnChangeWithNegation => SendType::OnChangeWithNegation,
+            bw4t_sim::SendType::Event => SendType::Event,
+        }
+    }
+}
+
 /// Who is sent a percept.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
@@ -29,13 +44,25 @@ pub enum Scope {
     Global,
 }
 
+impl Scope {
+    /// The simulation's scope in the protocol's words.
+    pub const fn of(scope: bw4t_sim::Scope) -> Scope {
+        match scope {
+            bw4t_sim::Scope::Local => Scope::Local,
+            bw4t_sim::Scope::Global => Scope::Global,
+        }
+    }
+}
+
 /// One percept.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, JsonSchema)]
 pub struct PerceptRow {
     /// The predicate name.
     pub name: &'static str,
     /// Its arguments' kinds, in order (`place`, `player`, `block`, `colour`, `colours`, ...).
-    pub args: &'static [&'static str],
+    #[serde(serialize_with = "arg_names")]
+    #[schemars(with = "Vec<String>")]
+    pub args: &'static [ArgKind],
     /// How it is sent.
     pub send: SendType,
     /// To whom.
@@ -55,33 +82,34 @@ pub struct ActionRow {
     pub durative: bool,
 }
 
-const fn percept(
-    name: &'static str,
-    args: &'static [&'static str],
-    send: SendType,
-    scope: Scope,
-) -> PerceptRow {
-    PerceptRow { name, args, send, scope }
+impl PerceptRow {
+    /// The row of a percept the simulation describes.
+    pub const fn of(kind: &PerceptKind) -> PerceptRow {
+        PerceptRow {
+            name: kind.name,
+            args: kind.args,
+            send: SendType::of(kind.send),
+            scope: Scope::of(kind.scope),
+        }
+    }
 }
 
-/// Every percept, in the order the protocol documents them.
-pub const PERCEPTS: &[PerceptRow] = &[
-    percept("place", &["place"], SendType::Once, Scope::Global),
-    percept("player", &["player"], SendType::Once, Scope::Global),
-    percept("ownName", &["player"], SendType::Once, Scope::Local),
-    percept("bot", &["robot"], SendType::Once, Scope::Local),
-    percept("sequence", &["colours"], SendType::Once, Scope::Global),
-    percept("at", &["place"], SendType::OnChange, Scope::Local),
-    percept("sequenceIndex", &["index"], SendType::OnChange, Scope::Global),
-    percept("state", &["state"], SendType::OnChange, Scope::Local),
-    percept("in", &["room"], SendType::OnChangeWithNegation, Scope::Local),
-    percept("atBlock", &["block"], SendType::OnChangeWithNegation, Scope::Local),
-    percept("occupied", &["room"], SendType::OnChangeWithNegation, Scope::Global),
-    percept("color", &["block", "colour"], SendType::OnChangeWithNegation, Scope::Local),
-    percept("holding", &["block"], SendType::OnChangeWithNegation, Scope::Local),
-    percept("block", &["block"], SendType::OnChangeWithNegation, Scope::Local),
-    percept("message", &["player", "text"], SendType::Event, Scope::Local),
-];
+/// An argument list as the kinds' names.
+fn arg_names<S: Serializer>(args: &&'static [ArgKind], serializer: S) -> Result<S::Ok, S::Error> {
+    serializer.collect_seq(args.iter().map(|kind| kind.name()))
+}
+
+/// Every percept, in the order the protocol documents them: the simulation's
+/// [`bw4t_sim::PERCEPTS`], row for row.
+pub const PERCEPTS: [PerceptRow; bw4t_sim::PERCEPTS.len()] = {
+    let mut rows = [PerceptRow::of(&bw4t_sim::PERCEPTS[0]); bw4t_sim::PERCEPTS.len()];
+    let mut i = 1;
+    while i < rows.len() {
+        rows[i] = PerceptRow::of(&bw4t_sim::PERCEPTS[i]);
+        i += 1;
+    }
+    rows
+};
 
 /// Every action.
 pub const ACTIONS: &[ActionRow] = &[
@@ -106,62 +134,38 @@ pub fn action_row(name: &str) -> Option<&'static ActionRow> {
 pub fn table_json() -> serde_json::Value {
     serde_json::json!({
         "$comment": "The percepts and actions of the bw4t protocol (bw4t-protocol/src/table.rs).",
-        "percepts": PERCEPTS,
+        "percepts": &PERCEPTS[..],
         "actions": ACTIONS,
     })
 }
 
 #[cfg(test)]
 mod tests {
-    use std::sync::Arc;
-
-    use bw4t_map::Colour;
-    use bw4t_sim::{MoveState, Percept};
     use serde_json::{Value, json};
 
     use super::*;
-    use crate::convert::{action_from_act, fact_to_percept, percept_to_fact};
-
-    /// One percept of every kind the simulation makes.
-    fn every_percept() -> Vec<Percept> {
-        let s = |t: &str| -> Arc<str> { t.into() };
-        vec![
-            Percept::Place(s("RoomA1")),
-            Percept::Player(s("Bob")),
-            Percept::OwnName(s("Ann")),
-            Percept::Bot(0),
-            Percept::Sequence(vec![Colour::Red].into()),
-            Percept::At(s("RoomA1")),
-            Percept::SequenceIndex(1),
-            Percept::State(MoveState::Arrived),
-            Percept::In(s("RoomA1")),
-            Percept::AtBlock(3),
-            Percept::Occupied(s("RoomA1")),
-            Percept::Color(3, Colour::Red),
-            Percept::Holding(3),
-            Percept::Block(3),
-            Percept::Message { from: s("Bob"), text: s("hi") },
-        ]
-    }
+    use crate::convert::action_from_act;
 
     #[test]
-    fn the_simulation_and_the_converters_agree_with_the_table() {
-        let percepts = every_percept();
-        assert_eq!(percepts.len(), PERCEPTS.len(), "a percept of every row");
-        for percept in percepts {
-            let row =
-                percept_row(percept.name()).unwrap_or_else(|| panic!("{} is in the table", percept.name()));
-            let send = match percept.send_type() {
-                bw4t_sim::SendType::Once => SendType::Once,
-                bw4t_sim::SendType::OnChange => SendType::OnChange,
-                bw4t_sim::SendType::OnChangeWithNegation => SendType::OnChangeWithNegation,
-                bw4t_sim::SendType::Event => SendType::Event,
-            };
-            assert_eq!(send, row.send, "{}", row.name);
-            let fact = percept_to_fact(&percept);
-            assert_eq!(fact.len(), 1 + row.args.len(), "{}: arity", row.name);
-            assert_eq!(fact_to_percept(&fact).ok(), Some(percept), "{} converts back", row.name);
+    fn the_exported_table_has_a_row_for_every_percept_the_simulation_describes_and_no_other() {
+        let table = table_json();
+        let rows = table["percepts"].as_array().expect("a list of percepts");
+        assert_eq!(rows.len(), bw4t_sim::PERCEPTS.len(), "a row of every percept");
+        for (row, kind) in rows.iter().zip(bw4t_sim::PERCEPTS) {
+            assert_eq!(row["name"], kind.name, "in the simulation's order");
+            let args: Vec<&str> = kind.args.iter().map(|a| a.name()).collect();
+            assert_eq!(row["args"], json!(args), "{}", kind.name);
+            assert_eq!(row["send"], json!(SendType::of(kind.send)), "{}", kind.name);
+            assert_eq!(row["scope"], json!(Scope::of(kind.scope)), "{}", kind.name);
+            assert_eq!(percept_row(kind.name), Some(&PerceptRow::of(kind)));
         }
+        // The words as clients read them.
+        let color = rows.iter().find(|r| r["name"] == "color").expect("a color row");
+        assert_eq!(
+            *color,
+            json!({"name": "color", "args": ["block", "colour"], "send": "on_change_with_negation", "scope": "local"})
+        );
+        assert_eq!(percept_row("fly"), None);
     }
 
     #[test]

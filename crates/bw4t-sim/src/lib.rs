@@ -20,7 +20,10 @@ pub use boundary::{Applied, Intent, Journal, Seats};
 pub use config::{ConfigError, MatchConfig};
 pub use digest::Digest;
 pub use game::{BlockPlace, JoinError, MAX_NAME_LEN, Match, MatchError, REACH, RobotView, StepReport};
-pub use percept::{BlockId, MoveState, Percept, PerceptDelta, SendType};
+pub use percept::{
+    ArgKind, ArgReader, ArgRef, BlockId, MoveState, PERCEPTS, Percept, PerceptDelta, PerceptKind, Scope,
+    SendType,
+};
 pub use physics::ROBOT_HALF;
 pub use random_play::{PlayCounts, RandomPlay};
 pub use stats::{MatchStats, RobotStats};
