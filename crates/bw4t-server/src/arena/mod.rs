@@ -208,7 +208,7 @@ pub enum ArenaError {
 }
 
 /// A handle on the server's matches; clones share them. Every decision is taken by the
-/// arena's task ([`shell`]), which owns the state ([`core`]); the handle sends it
+/// arena's task (`arena/shell.rs`), which owns the state (`arena/core/`); the handle sends it
 /// commands and reads what it publishes.
 #[derive(Clone)]
 pub struct Arena {

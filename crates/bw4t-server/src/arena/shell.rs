@@ -375,11 +375,14 @@ impl Shell {
         row.replay = self.config.results.replay_name(&row.key, replays);
         self.config.results.record(&row, outcome.as_ref().ok());
         let id = row.key;
+        let name = id.rsplit_once('.').map_or(id.as_str(), |(name, _)| name);
         match &outcome {
             Ok(result) => {
-                tracing::info!(target: "bw4t::arena", id = %id, reason = %result.end_reason, ticks = result.ticks, secs = lasted.as_secs_f64(), "match ended");
+                tracing::info!(target: "bw4t::arena", r#match = %name, id = %id, reason = %result.end_reason, ticks = result.ticks, secs = lasted.as_secs_f64(), "match ended");
             }
-            Err(why) => tracing::error!(target: "bw4t::arena", id = %id, error = %why, "match failed"),
+            Err(why) => {
+                tracing::error!(target: "bw4t::arena", r#match = %name, id = %id, error = %why, "match failed")
+            }
         }
         self.published.send_modify(|published| {
             if published.outcomes.len() == core::FINISHED_KEPT {
