@@ -531,11 +531,10 @@ async fn a_restarted_server_numbers_runs_on_from_its_results() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// Stopping a match while its template makes the next one: the stop waits on the count of
-/// live matches, which the arena changes under its own lock, so the stop must never look
-/// at the arena while it holds the count (that deadlocked, now and then, every thread
-/// stuck). Many stops of a ladder that restarts at once, watched from another thread so
-/// that a deadlock fails the test instead of hanging it.
+/// Stopping a match while its template makes the next one, many times over: each stop is
+/// answered once its run has ended, even as the next run of the name starts at once (an
+/// arena that guarded its state with locks deadlocked here now and then, every thread
+/// stuck). Watched from another thread, so that a hang fails the test instead of hanging it.
 #[test]
 fn stops_racing_restarts_never_deadlock() {
     let (done, finished) = std::sync::mpsc::channel();

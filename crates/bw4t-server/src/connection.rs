@@ -16,7 +16,7 @@ use tokio::sync::{Notify, mpsc, watch};
 
 use bw4t_host::{ConnId, bye_line, error_line, pong_line};
 
-use crate::arena::{Arena, QueueNews, Route, Routed};
+use crate::arena::{Arena, QueueNews, Route, Routed, Waiting};
 use crate::events::{Event, Opened, Outbound};
 
 /// How many connections the kernel may hold for a listener before they are accepted. The
@@ -338,7 +338,7 @@ async fn greet(
                     continue;
                 }
             };
-            let route = match arena.route(&hello) {
+            let route = match arena.route(&hello).await {
                 Err((code, message)) => {
                     refuse_fatally(tx, code, &message);
                     return None;
@@ -363,7 +363,7 @@ async fn wait_in_queue(
     source: &mut impl LineSource,
     tx: &mpsc::Sender<Outbound>,
     done: &mut watch::Receiver<bool>,
-    mut news: mpsc::Receiver<QueueNews>,
+    mut news: Waiting,
     mut place: usize,
     template: &str,
 ) -> Option<Route> {

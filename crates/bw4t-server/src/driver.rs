@@ -7,7 +7,6 @@
 use std::collections::BTreeMap;
 use std::future::Future;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 use bw4t_protocol::MatchResult;
 use tokio::sync::{Notify, mpsc, watch};
@@ -40,17 +39,19 @@ struct Handles {
 pub(crate) type Outcome = Result<MatchResult, String>;
 
 /// Runs `host` to its end on the events from `events` (and names of reserved seats whose
-/// player will not come from `gone_seats`), or until `shutdown`; returns the result once
-/// every client's queue has drained (or [`FLUSH_LIMIT`] has passed), or why the host failed.
+/// player will not come from `gone_seats`), or until `shutdown`; calls `started` once the
+/// match has started; returns the result once every client's queue has drained (or
+/// [`FLUSH_LIMIT`] has passed), or why the host failed.
 pub(crate) async fn run(
     mut host: MatchHost,
     mut events: mpsc::Receiver<Event>,
     mut gone_seats: Option<mpsc::Receiver<String>>,
-    started: Arc<AtomicBool>,
+    started: impl FnOnce(),
     lateness: Option<Arc<TickLateness>>,
     shutdown: impl Future<Output = ()>,
 ) -> Outcome {
     tokio::pin!(shutdown);
+    let mut started = Some(started);
     let mut handles: BTreeMap<ConnId, Handles> = BTreeMap::new();
     let mut closing: Vec<watch::Receiver<bool>> = Vec::new();
     let outcome = guarded(|| async {
@@ -60,9 +61,11 @@ pub(crate) async fn run(
             if host.is_over() {
                 break;
             }
-            if !started.load(Ordering::Relaxed) && host.has_started() {
+            if started.is_some() && host.has_started() {
                 // The server stops seating players here by template.
-                started.store(true, Ordering::Relaxed);
+                if let Some(started) = started.take() {
+                    started();
+                }
             }
             let timeout = host.poll_timeout();
             let now = Instant::now();

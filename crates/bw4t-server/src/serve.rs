@@ -66,7 +66,7 @@ pub async fn serve_with(
         setup,
         config,
     };
-    arena.spawn(spec).map_err(one_match_error)?;
+    arena.spawn(spec).await.map_err(one_match_error)?;
     serve_arena(&arena, listener, extras.http.take().map(Web::from), shutdown).await;
     match arena.outcomes().into_iter().next() {
         Some((_, outcome)) => outcome.map_err(ServerError::Failed),

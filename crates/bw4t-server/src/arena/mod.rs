@@ -1,33 +1,40 @@
 //! The arena: every match a server hosts, from its making to its result. Matches are made
 //! from templates (at the start, when a player asks for one, when one ends and its
 //! template says to go on) or by the operator; each runs as its own host task, so a
-//! failing match ends alone. Connections are routed to a match by their `hello`
-//! ([`route`]); finished matches go to the results store ([`store`]).
+//! failing match ends alone. Connections are routed to a match by their `hello`.
+//!
+//! Every decision (routing, templates, queues, seat claims, restarts, run numbers) is
+//! taken by one sans-IO state machine, [`core`], driven by one task, [`shell`], which
+//! performs what it decides; the [`Arena`] handle talks to that task. What a routed
+//! connection holds is in [`route`], the lobby's summaries in [`lobby`], finished
+//! matches go to the results store ([`store`]).
 
+mod core;
+mod lobby;
 mod route;
+mod shell;
 mod store;
 
-use std::collections::{BTreeMap, VecDeque};
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::sync::{Arc, Mutex, MutexGuard};
-use std::time::Duration;
+use std::collections::BTreeMap;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
 
 use bw4t_agents::{MatchSetup, Player, Seat};
 use bw4t_map::Map;
-use bw4t_protocol::{
-    EndReason, MapLayout, MatchResult, MatchState, MatchSummary, Mode, ServerInfo, TemplateInfo, Watch,
-};
-use bw4t_tournament::Row;
+use bw4t_protocol::{ErrorCode, Hello, MatchResult, MatchSummary, Mode, ServerInfo, TemplateInfo};
 use tokio::sync::{mpsc, oneshot, watch};
 
-use bw4t_host::{HostConfig, HostStatus, MatchHost};
+use bw4t_host::HostConfig;
 
 use crate::config::{ServerConfig, ServerError};
-use crate::driver;
 use crate::events::{Control, Event};
 use crate::lateness::TickLateness;
 
-pub(crate) use route::{QueueNews, Route, Routed};
+use self::core::{Core, Make, MakeFrom, Refusal, Rules, Seek};
+use self::lobby::StatusAsked;
+use self::shell::{Command, Published, Shell};
+
+pub(crate) use route::{QueueNews, Route, Routed, Waiting};
 pub use store::ResultsStore;
 
 /// What a template does when one of its matches ends.
@@ -145,45 +152,6 @@ pub struct MatchSpec {
     pub gone_seats: Option<mpsc::Receiver<String>>,
 }
 
-/// A match the arena is running.
-struct LiveMatch {
-    /// Unique among every match the server ever ran: `NAME.RUN`.
-    id: String,
-    run: u64,
-    template: Option<String>,
-    events: mpsc::Sender<Event>,
-    started: Arc<AtomicBool>,
-    /// Players routed to it while it waits whose connections are still open.
-    claims: usize,
-    /// Players it waits for besides its built-in seats.
-    open_seats: usize,
-    map: Arc<Map>,
-    mode: Mode,
-    seed: u64,
-    robots: usize,
-    watch_open: bool,
-    /// Its template's `on_end` applies when it ends (not to matches the operator made).
-    goes_on: bool,
-}
-
-/// A finished match, as the lobby lists it.
-#[derive(Clone, Debug)]
-struct Finished {
-    name: String,
-    id: String,
-    run: u64,
-    template: Option<String>,
-    map: String,
-    mode: Mode,
-    seed: u64,
-    robots: usize,
-    players: Vec<String>,
-    tick: u64,
-    sequence: (usize, usize),
-    end_reason: EndReason,
-    watch_open: bool,
-}
-
 /// Matches ended since the server started, counted together (by template, or by name for a
 /// match made without one).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -196,59 +164,6 @@ pub struct Totals {
     pub failed: u64,
     /// Ticks the ended matches made.
     pub ticks: u64,
-}
-
-/// How many finished matches the lobby keeps.
-const FINISHED_KEPT: usize = 100;
-
-struct TemplateState {
-    template: Arc<Template>,
-    /// Matches made so far (the next one's number and seed offset).
-    made: u64,
-    /// Its matches running now.
-    running: usize,
-    /// Players waiting for a seat, oldest first.
-    queue: VecDeque<mpsc::Sender<QueueNews>>,
-}
-
-#[derive(Default)]
-struct State {
-    templates: BTreeMap<String, TemplateState>,
-    live: BTreeMap<String, LiveMatch>,
-    finished: VecDeque<Finished>,
-    /// Runs per match name.
-    runs: BTreeMap<String, u64>,
-    /// The n-th match finished (the index's `index`).
-    ended: u64,
-    /// Whether any match has ended (for `once`).
-    any_ended: bool,
-    /// Counts of the matches ended, by template (or name).
-    totals: BTreeMap<String, Totals>,
-    stopping: bool,
-}
-
-struct Inner {
-    config: ArenaConfig,
-    state: Mutex<State>,
-    /// Connection ids, for the protocol and web ports alike.
-    ids: AtomicU64,
-    /// Becomes true when the server stops: every match ends.
-    shutdown: watch::Sender<bool>,
-    /// Counts live matches, for waiting until all have ended.
-    live_count: watch::Sender<usize>,
-    /// Counts matches ended.
-    ended_count: watch::Sender<u64>,
-    /// The outcomes of the last [`FINISHED_KEPT`] matches, in the order they ended (for
-    /// `serve` and tests; the results store keeps the rest).
-    outcomes: Mutex<VecDeque<(String, Result<MatchResult, String>)>>,
-    /// Map layouts (`/map.json`), by map name.
-    layouts: Mutex<BTreeMap<String, Arc<str>>>,
-}
-
-/// A handle on the server's matches; clones share them.
-#[derive(Clone)]
-pub struct Arena {
-    inner: Arc<Inner>,
 }
 
 /// Why the arena could not make a match.
@@ -274,66 +189,58 @@ pub enum ArenaError {
     Stopping,
 }
 
+/// A handle on the server's matches; clones share them. Every decision is taken by the
+/// arena's task (`arena/shell.rs`), which owns the state (`arena/core/`); the handle sends it
+/// commands and reads what it publishes.
+#[derive(Clone)]
+pub struct Arena {
+    inner: Arc<Inner>,
+}
+
+struct Inner {
+    config: Arc<ArenaConfig>,
+    commands: mpsc::UnboundedSender<Command>,
+    /// Connection ids, for the protocol and web ports alike.
+    ids: AtomicU64,
+    /// Counts, totals and outcomes, as of the last command the task took.
+    published: watch::Receiver<Published>,
+}
+
 impl Arena {
     /// An arena with `config`; its templates' named matches are made at once. Must be
     /// called inside a tokio runtime.
     pub fn start(config: ArenaConfig) -> Result<Arena, ArenaError> {
-        let mut names = std::collections::BTreeSet::new();
-        for template in &config.templates {
-            if template.maps.is_empty() {
-                return Err(ArenaError::Bad(format!("template '{}' has no map", template.name)));
-            }
-            for name in &template.names {
-                if !names.insert(name.clone()) {
-                    return Err(ArenaError::Bad(format!("two matches are named '{name}'")));
-                }
-            }
-        }
-        let templates = config
-            .templates
-            .iter()
-            .map(|t| {
-                let state = TemplateState {
-                    template: Arc::new(t.clone()),
-                    made: 0,
-                    running: 0,
-                    queue: VecDeque::new(),
-                };
-                (t.name.clone(), state)
-            })
-            .collect();
+        let rules = config.templates.iter().map(rules_of).collect();
         // Runs and the index go on from the results already kept, so ids stay unique.
-        let (runs, ended) = config.results.history();
-        let arena = Arena {
-            inner: Arc::new(Inner {
-                config,
-                state: Mutex::new(State { templates, runs, ended, ..State::default() }),
-                ids: AtomicU64::new(1),
-                shutdown: watch::Sender::new(false),
-                live_count: watch::Sender::new(0),
-                ended_count: watch::Sender::new(0),
-                outcomes: Mutex::new(VecDeque::new()),
-                layouts: Mutex::new(BTreeMap::new()),
-            }),
-        };
-        let starting: Vec<(String, String)> = arena
-            .inner
-            .config
-            .templates
-            .iter()
-            .flat_map(|t| t.names.iter().map(|n| (t.name.clone(), n.clone())))
-            .collect();
+        let core = Core::new(rules, config.results.history(), config.default.clone(), config.once)?;
+        let config = Arc::new(config);
+        let (commands, commands_rx) = mpsc::unbounded_channel();
+        let (publish, published) = watch::channel(Published::default());
+        let mut shell = Shell::new(core, config.clone(), commands.downgrade(), publish);
+        let starting =
+            config.templates.iter().flat_map(|t| t.names.iter().map(|n| (t.name.clone(), n.clone())));
         for (template, name) in starting {
-            let mut state = arena.lock();
-            arena.make_from_template(&mut state, &template, Some(name))?;
+            shell.make_now(Make { name: Some(name), template: Some(template), from: MakeFrom::Template })?;
         }
-        Ok(arena)
+        tokio::spawn(shell.run(commands_rx));
+        Ok(Arena { inner: Arc::new(Inner { config, commands, ids: AtomicU64::new(1), published }) })
     }
 
     /// Runs a match made from `spec` (not from a template): it stays finished when it ends.
-    pub fn spawn(&self, spec: MatchSpec) -> Result<String, ArenaError> {
-        let mut state = self.lock();
-        self.launch(&mut state, spec, None, false)
+    pub async fn spawn(&self, spec: MatchSpec) -> Result<String, ArenaError> {
+        let open_seats = open_seats(&spec.setup);
+        let make = Make {
+            name: Some(spec.config.name.clone()),
+            template: None,
+            from: MakeFrom::Given { open_seats },
+        };
+        self.make(make, spec).await
+    }
+
+    async fn make(&self, make: Make, spec: MatchSpec) -> Result<String, ArenaError> {
+        let (reply, answer) = oneshot::channel();
+        let _ = self.inner.commands.send(Command::Make { make, spec: Some(Box::new(spec)), reply });
+        answer.await.unwrap_or(Err(ArenaError::Stopping))
     }
 
     /// The server's settings.
@@ -346,208 +253,54 @@ impl Arena {
         self.inner.ids.fetch_add(1, Ordering::SeqCst)
     }
 
-    fn lock(&self) -> MutexGuard<'_, State> {
-        // A panic while the lock was held cannot leave the maps half-changed in a way that
-        // matters more than stopping every match would.
-        self.inner.state.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+    /// Where `hello` goes.
+    pub(crate) async fn route(&self, hello: &Hello) -> Result<Routed, Refusal> {
+        let (reply, routed) = oneshot::channel();
+        let _ = self.inner.commands.send(Command::Hello { seek: Seek::of(hello), reply });
+        routed.await.unwrap_or_else(|_| Err((ErrorCode::ServerStopping, "the server is stopping".into())))
     }
 
-    /// Makes the next match of `template`, named `name` (or `TEMPLATE-N`).
-    fn make_from_template(
+    /// Runs `look` on the arena's task; `None` if the task is gone.
+    async fn look<T: Send + 'static>(
         &self,
-        state: &mut State,
-        template: &str,
-        name: Option<String>,
-    ) -> Result<String, ArenaError> {
-        let t =
-            state.templates.get_mut(template).ok_or_else(|| ArenaError::UnknownTemplate(template.into()))?;
-        let template = t.template.clone();
-        let n = t.made;
-        t.made += 1;
-        let name = name.unwrap_or_else(|| format!("{}-{}", template.name, n + 1));
-        let run = state.runs.get(&name).copied().unwrap_or(0) + 1;
-        let mut config = template.config.clone();
-        let mut setup = template.setup.clone();
-        // `Next` walks the list by the match name's runs; otherwise every match plays the first map.
-        let map_at =
-            if template.on_end == OnEnd::Next { (run as usize - 1) % template.maps.len() } else { 0 };
-        setup.map = template.maps[map_at].clone();
-        setup.seed = setup.seed.wrapping_add(n);
-        config.name = name;
-        config.template = Some(template.name.clone());
-        let spec = MatchSpec { setup, config, replay: None, gone_seats: None };
-        self.launch(state, spec, Some(template), true)
-    }
-
-    /// Starts a match's host task.
-    fn launch(
-        &self,
-        state: &mut State,
-        spec: MatchSpec,
-        template: Option<Arc<Template>>,
-        goes_on: bool,
-    ) -> Result<String, ArenaError> {
-        if state.stopping {
-            return Err(ArenaError::Stopping);
-        }
-        let MatchSpec { setup, mut config, replay, gone_seats } = spec;
-        if state.live.contains_key(&config.name) {
-            return Err(ArenaError::NameTaken(config.name));
-        }
-        if config.operator_token.is_none() {
-            config.operator_token.clone_from(&self.inner.config.server.operator_token);
-        }
-        let name = config.name.clone();
-        let run = state.runs.get(&name).copied().unwrap_or(0) + 1;
-        let id = format!("{name}.{run}");
-        config.id.clone_from(&id);
-        // Its own replay, else the one `--replay` asked for (taken by the first match made),
-        // else one in the results directory if its template keeps them.
-        let replay = replay
-            .or_else(|| self.inner.config.first_replay.lock().unwrap_or_else(|p| p.into_inner()).take())
-            .or_else(|| {
-                let kept = template.as_ref().is_some_and(|t| t.replays);
-                kept.then(|| self.inner.config.results.replay_writer(&id)).flatten()
-            });
-        let open_seats = setup.seats.iter().filter(|s| matches!(s.player, Player::Open)).count();
-        let (map, seed, robots) = (Arc::new(setup.map.clone()), setup.seed, setup.robots());
-        let host = MatchHost::new(setup, config.clone(), replay, std::time::Instant::now())
-            .map_err(ServerError::Host)?;
-        state.runs.insert(name.clone(), run);
-        let (events, events_rx) = mpsc::channel(driver::EVENT_QUEUE);
-        let started = Arc::new(AtomicBool::new(false));
-        let live = LiveMatch {
-            id: id.clone(),
-            run,
-            template: template.as_ref().map(|t| t.name.clone()),
-            events,
-            started: started.clone(),
-            claims: 0,
-            open_seats,
-            map: map.clone(),
-            mode: config.mode,
-            seed,
-            robots,
-            watch_open: config.token.is_none() && config.spectator_token.is_none(),
-            goes_on,
-        };
-        if let Some(t) = template.as_ref().and_then(|t| state.templates.get_mut(&t.name)) {
-            t.running += 1;
-        }
-        state.live.insert(name.clone(), live);
-        self.inner.live_count.send_modify(|n| *n += 1);
-        tracing::info!(target: "bw4t::arena", r#match = %name, id = %id, map = %map.name(), seed, "match made");
-        let arena = self.clone();
-        let mut stop = self.inner.shutdown.subscribe();
-        let task_name = name.clone();
-        let lateness = template.as_ref().and_then(|t| t.lateness.clone());
-        tokio::spawn(async move {
-            let shutdown = async move {
-                let _ = stop.wait_for(|s| *s).await;
-            };
-            let outcome = driver::run(host, events_rx, gone_seats, started, lateness, shutdown).await;
-            arena.record_end(&task_name, &id, outcome);
+        look: impl FnOnce(&mut Shell) -> T + Send + 'static,
+    ) -> Option<T> {
+        let (reply, answer) = oneshot::channel();
+        let look = Box::new(move |shell: &mut Shell| {
+            let _ = reply.send(look(shell));
         });
-        Ok(name)
-    }
-
-    /// Records a match's end and does what its template says next.
-    fn record_end(&self, name: &str, id: &str, outcome: Result<MatchResult, String>) {
-        let mut state = self.lock();
-        let Some(live) = state.live.remove(name).filter(|l| l.id == id) else { return };
-        state.ended += 1;
-        state.any_ended = true;
-        let template =
-            live.template.as_ref().and_then(|t| state.templates.get(t)).map(|t| t.template.clone());
-        let mut row = Row::unplayed(
-            id.to_string(),
-            state.ended,
-            live.template.clone().unwrap_or_else(|| name.to_string()),
-            live.map.name().to_string(),
-            live.seed,
-            live.robots,
-        );
-        row.repetition = u32::try_from(live.run.saturating_sub(1)).unwrap_or(u32::MAX);
-        let (players, tick, sequence) = match &outcome {
-            Ok(result) => {
-                row.record(result);
-                tracing::info!(target: "bw4t::arena", r#match = %name, id = %id, reason = %result.end_reason, ticks = result.ticks, "match ended");
-                let players = result.per_robot.iter().map(|r| r.name.clone()).collect();
-                (players, result.ticks, (result.sequence_index as usize, result.sequence.len()))
-            }
-            Err(why) => {
-                row.error = Some(format!("the match failed in the server: {why}"));
-                tracing::error!(target: "bw4t::arena", r#match = %name, id = %id, error = %why, "match failed");
-                (Vec::new(), 0, (0, 0))
-            }
-        };
-        row.replay = self.inner.config.results.replay_name(id, template.as_ref().is_some_and(|t| t.replays));
-        self.inner.config.results.record(&row, outcome.as_ref().ok());
-        let totals = state.totals.entry(row.team.clone()).or_default();
-        totals.ended += 1;
-        totals.completed += u64::from(row.completed);
-        totals.failed += u64::from(outcome.is_err());
-        totals.ticks += row.ticks;
-        state.finished.push_front(Finished {
-            name: name.to_string(),
-            id: id.to_string(),
-            run: live.run,
-            template: live.template.clone(),
-            map: live.map.name().to_string(),
-            mode: live.mode,
-            seed: live.seed,
-            robots: live.robots,
-            players,
-            tick,
-            sequence,
-            end_reason: row.end_reason,
-            watch_open: live.watch_open,
-        });
-        state.finished.truncate(FINISHED_KEPT);
-        if let Some(t) = live.template.as_ref().and_then(|t| state.templates.get_mut(t)) {
-            t.running = t.running.saturating_sub(1);
-        }
-        let mut outcomes = self.inner.outcomes.lock().unwrap_or_else(|p| p.into_inner());
-        if outcomes.len() == FINISHED_KEPT {
-            outcomes.pop_front();
-        }
-        outcomes.push_back((id.to_string(), outcome));
-        drop(outcomes);
-        if let Some(template) = template {
-            if live.goes_on && template.on_end != OnEnd::Stay && !state.stopping && !self.inner.config.once {
-                if let Err(e) = self.make_from_template(&mut state, &template.name, Some(name.to_string())) {
-                    tracing::error!(target: "bw4t::arena", r#match = %name, error = %e, "match not restarted");
-                }
-            }
-            self.serve_queue(&mut state, &template.name);
-        }
-        drop(state);
-        self.inner.live_count.send_modify(|n| *n = n.saturating_sub(1));
-        self.inner.ended_count.send_modify(|n| *n += 1);
+        self.inner.commands.send(Command::Look(look)).ok()?;
+        answer.await.ok()
     }
 
     /// How many matches have ended since the server started.
     pub fn ended_so_far(&self) -> u64 {
-        *self.inner.ended_count.borrow()
+        self.inner.published.borrow().ended
     }
 
     /// Resolves once `n` matches have ended (in all, since the server started).
     pub async fn ended(&self, n: u64) {
-        let mut count = self.inner.ended_count.subscribe();
-        let _ = count.wait_for(|ended| *ended >= n).await;
+        self.wait_until(|p| p.ended >= n).await;
+    }
+
+    /// Waits until what the task published meets `done`, or the task is gone.
+    async fn wait_until(&self, done: impl FnMut(&Published) -> bool) {
+        let mut published = self.inner.published.clone();
+        let _ = published.wait_for(done).await;
     }
 
     /// Where every live and recently finished match is: the live ones by name, then the
-    /// finished ones, newest first. Each live
-    /// match answers for itself; one that does not answer at once is listed as waiting
-    /// at tick 0.
+    /// finished ones, newest first. Each live match answers for itself; one that does not
+    /// answer at once is listed as waiting at tick 0.
     pub async fn list(&self, operator: bool) -> Vec<MatchSummary> {
-        let (asks, finished) = {
-            let state = self.lock();
-            let asks: Vec<StatusAsked> =
-                state.live.iter().map(|(name, live)| StatusAsked::of(name, live, operator)).collect();
-            (asks, state.finished.iter().map(|f| summary_of_finished(f, operator)).collect::<Vec<_>>())
-        };
+        let looked = self.look(move |shell| {
+            let live = shell.core.live().iter().filter(|(_, l)| l.handle.is_some());
+            let asks: Vec<StatusAsked> = live.map(|(name, l)| StatusAsked::of(name, l, operator)).collect();
+            let finished: Vec<MatchSummary> =
+                shell.core.finished().iter().map(|f| lobby::summary_of_finished(f, operator)).collect();
+            (asks, finished)
+        });
+        let Some((asks, finished)) = looked.await else { return Vec::new() };
         let mut out = Vec::with_capacity(asks.len() + finished.len());
         for asked in asks {
             out.push(asked.answered(operator).await);
@@ -558,85 +311,66 @@ impl Arena {
 
     /// One match's summary: the live one of that name, else the latest finished.
     pub async fn summary(&self, name: &str, operator: bool) -> Option<MatchSummary> {
-        let asked = {
-            let state = self.lock();
-            match state.live.get(name) {
-                Some(live) => StatusAsked::of(name, live, operator),
+        let name = name.to_string();
+        let asked =
+            self.look(move |shell| match shell.core.live().get(&name).filter(|l| l.handle.is_some()) {
+                Some(live) => (Some(StatusAsked::of(&name, live, operator)), None),
                 None => {
-                    let finished = state.finished.iter().find(|f| f.name == name);
-                    return finished.map(|f| summary_of_finished(f, operator));
+                    let finished = shell.core.finished().iter().find(|f| f.name == name);
+                    (None, finished.map(|f| lobby::summary_of_finished(f, operator)))
                 }
-            }
-        };
-        Some(asked.answered(operator).await)
+            });
+        match asked.await? {
+            (Some(asked), _) => Some(asked.answered(operator).await),
+            (None, finished) => finished,
+        }
     }
 
     /// Ends a live match as `interrupted`; returns its id once it has ended.
     pub async fn stop(&self, name: &str) -> Result<String, ArenaError> {
-        let (events, id) = {
-            let state = self.lock();
-            let live = state.live.get(name).ok_or_else(|| ArenaError::UnknownMatch(name.into()))?;
-            (live.events.clone(), live.id.clone())
-        };
-        let _ = events.send(Event::Control(Control::Stop)).await;
-        // The match's task holds the other end until it has recorded its end.
-        events.closed().await;
-        self.wait_live_until(|state, _| state.live.get(name).is_none_or(|l| l.id != id)).await;
-        Ok(id)
-    }
-
-    /// Waits until `done` (given the state and the number of live matches) holds, checked
-    /// at the start and whenever that number changes. The arena's lock is taken only
-    /// between looks at the count, never inside `watch::Receiver::wait_for`: a match is
-    /// counted under that lock, so taking it while the count is borrowed would deadlock.
-    async fn wait_live_until(&self, mut done: impl FnMut(&State, usize) -> bool) {
-        let mut count = self.inner.live_count.subscribe();
-        loop {
-            let live = *count.borrow_and_update();
-            let met = done(&self.lock(), live);
-            if met || count.changed().await.is_err() {
-                return;
-            }
-        }
+        let (reply, answer) = oneshot::channel();
+        let _ = self.inner.commands.send(Command::Stop { name: name.to_string(), reply });
+        answer.await.unwrap_or(Err(ArenaError::Stopping))
     }
 
     /// Stops a live match's clock (`paused`) or starts it again; players stay connected.
     pub async fn pause(&self, name: &str, paused: bool) -> Result<(), ArenaError> {
-        let events = {
-            let state = self.lock();
-            state.live.get(name).ok_or_else(|| ArenaError::UnknownMatch(name.into()))?.events.clone()
-        };
-        events
-            .send(Event::Control(Control::Pause(paused)))
-            .await
-            .map_err(|_| ArenaError::UnknownMatch(name.into()))
+        let unknown = || ArenaError::UnknownMatch(name.into());
+        let wanted = name.to_string();
+        let live = self.look(move |shell| shell.core.live().get(&wanted).and_then(|l| l.handle.clone()));
+        let live = live.await.flatten().ok_or_else(unknown)?;
+        live.events.send(Event::Control(Control::Pause(paused))).await.map_err(|_| unknown())
     }
 
     /// The summary of the finished match with this id, if the lobby still lists it.
-    pub fn finished_summary(&self, id: &str, operator: bool) -> Option<MatchSummary> {
-        self.lock().finished.iter().find(|f| f.id == id).map(|f| summary_of_finished(f, operator))
+    pub async fn finished_summary(&self, id: &str, operator: bool) -> Option<MatchSummary> {
+        let id = id.to_string();
+        let found = self.look(move |shell| {
+            shell.core.finished().iter().find(|f| f.id == id).map(|f| lobby::summary_of_finished(f, operator))
+        });
+        found.await.flatten()
     }
 
     /// Makes a match from a template (by name) or from the first template, changed by
     /// `changes`; returns its name. For the API.
-    pub fn create(&self, request: CreateRequest) -> Result<String, ArenaError> {
-        let mut state = self.lock();
-        let template =
-            match &request.template {
-                Some(name) => state
-                    .templates
-                    .get(name)
-                    .map(|t| t.template.clone())
-                    .ok_or_else(|| ArenaError::UnknownTemplate(name.clone()))?,
-                None => state.templates.values().next().map(|t| t.template.clone()).ok_or_else(|| {
-                    ArenaError::Bad("the server has no template to make a match from".into())
-                })?,
-            };
+    pub async fn create(&self, request: CreateRequest) -> Result<String, ArenaError> {
+        let templates = &self.inner.config.templates;
+        let template = match &request.template {
+            Some(name) => templates
+                .iter()
+                .find(|t| &t.name == name)
+                .ok_or_else(|| ArenaError::UnknownTemplate(name.clone()))?,
+            // The first by name.
+            None => templates
+                .iter()
+                .min_by(|a, b| a.name.cmp(&b.name))
+                .ok_or_else(|| ArenaError::Bad("the server has no template to make a match from".into()))?,
+        };
         let mut config = template.config.clone();
         let mut setup = template.setup.clone();
         setup.map = template.maps[0].clone();
         if let Some(map) = &request.map {
-            setup.map = self.find_map(&template, map)?;
+            setup.map = self.find_map(template, map)?;
         }
         if let Some(seed) = request.seed {
             setup.seed = seed;
@@ -651,10 +385,11 @@ impl Arena {
         if let Some(max) = request.max_ticks {
             setup.max_ticks = (max > 0).then_some(max);
         }
-        let mut builtin: Vec<Seat> =
+        // The template's built-in seats first (more are cooperative `BotN`s), open ones after.
+        let mut seats: Vec<Seat> =
             template.setup.seats.iter().filter(|s| !matches!(s.player, Player::Open)).cloned().collect();
-        let builtins = request.builtin.unwrap_or(builtin.len());
-        let robots = request.robots.unwrap_or(template.setup.robots().max(builtins));
+        let builtin = request.builtin.unwrap_or(seats.len());
+        let robots = request.robots.unwrap_or(template.setup.robots().max(builtin));
         if robots == 0 || robots > setup.map.spawns().len() {
             return Err(ArenaError::Bad(format!(
                 "robots: {robots} but map '{}' has {} spawn points",
@@ -662,37 +397,26 @@ impl Arena {
                 setup.map.spawns().len()
             )));
         }
-        if builtins > robots {
-            return Err(ArenaError::Bad(format!("builtin: {builtins} but robots: {robots}")));
+        if builtin > robots {
+            return Err(ArenaError::Bad(format!("builtin: {builtin} but robots: {robots}")));
         }
-        builtin.truncate(builtins);
-        let more = builtin.len()..builtins;
-        builtin.extend(
+        if let Some(name) = &request.name {
+            check_match_name(name)?;
+        }
+        config.template = Some(template.name.clone());
+        seats.truncate(builtin);
+        let more = seats.len()..builtin;
+        seats.extend(
             more.map(|i| Seat::builtin(bw4t_agents::bot_name(i), bw4t_agents::Strategy::Cooperative)),
         );
-        builtin.resize_with(robots, Seat::open);
-        setup.seats = builtin;
-        let name = match request.name {
-            Some(name) => {
-                check_match_name(&name)?;
-                name
-            }
-            None => {
-                let t = state.templates.get_mut(&template.name).map(|t| {
-                    t.made += 1;
-                    t.made
-                });
-                format!("{}-{}", template.name, t.unwrap_or(1))
-            }
+        seats.resize_with(robots, Seat::open);
+        setup.seats = seats;
+        let make = Make {
+            name: request.name,
+            template: Some(template.name.clone()),
+            from: MakeFrom::Given { open_seats: robots - builtin },
         };
-        config.name = name;
-        config.template = Some(template.name.clone());
-        self.launch(
-            &mut state,
-            MatchSpec { setup, config, replay: None, gone_seats: None },
-            Some(template),
-            false,
-        )
+        self.make(make, MatchSpec { setup, config, replay: None, gone_seats: None }).await
     }
 
     fn find_map(&self, template: &Template, name: &str) -> Result<Map, ArenaError> {
@@ -715,48 +439,15 @@ impl Arena {
 
     /// The layout (`/map.json`) of a live or finished match's map; without a name, the
     /// default match's.
-    pub fn layout(&self, name: Option<&str>) -> Option<Arc<str>> {
-        let map = {
-            let state = self.lock();
-            let name = name.map(str::to_string).or_else(|| self.default_match(&state))?;
-            match state.live.get(&name) {
-                Some(live) => live.map.clone(),
-                None => {
-                    let finished = state.finished.iter().find(|f| f.name == name)?;
-                    let map = self
-                        .inner
-                        .config
-                        .templates
-                        .iter()
-                        .flat_map(|t| &t.maps)
-                        .find(|m| m.name() == finished.map)?;
-                    Arc::new(map.clone())
-                }
-            }
-        };
-        let mut layouts = self.inner.layouts.lock().unwrap_or_else(|p| p.into_inner());
-        let layout = layouts
-            .entry(map.name().to_string())
-            .or_insert_with(|| serde_json::to_string(&MapLayout::of(&map)).unwrap_or_default().into());
-        Some(layout.clone())
-    }
-
-    /// The name of the match a `hello` naming none joins, if it is live or has ended.
-    fn default_match(&self, state: &State) -> Option<String> {
-        let default = self.inner.config.default.as_ref()?;
-        if state.live.contains_key(default) || state.finished.iter().any(|f| &f.name == default) {
-            return Some(default.clone());
-        }
-        // A template's name: its first live match.
-        state.live.iter().find(|(_, l)| l.template.as_deref() == Some(default)).map(|(n, _)| n.clone())
+    pub async fn layout(&self, name: Option<&str>) -> Option<Arc<str>> {
+        let name = name.map(str::to_string);
+        self.look(move |shell| shell.layout(name.as_deref())).await.flatten()
     }
 
     /// `/info.json` of a live server.
-    pub fn info(&self) -> ServerInfo {
-        let state = self.lock();
-        let templates: Vec<_> = self
-            .inner
-            .config
+    pub async fn info(&self) -> ServerInfo {
+        let config = self.inner.config.clone();
+        let templates: Vec<_> = config
             .templates
             .iter()
             .filter(|t| t.names.is_empty())
@@ -766,51 +457,65 @@ impl Arena {
                 map: t.maps[0].name().to_string(),
             })
             .collect();
-        let default = self.default_match(&state);
+        let looked = self.look(|shell| {
+            let default = shell.core.default_match();
+            let map = default.as_ref().and_then(|n| shell.core.live().get(n)).map(|l| l.facts.map.clone());
+            (default, map)
+        });
+        let (default_match, map) = looked.await.unwrap_or_default();
         ServerInfo::Live {
             protocol: bw4t_protocol::VERSION,
-            map: default.as_ref().and_then(|n| state.live.get(n)).map(|l| l.map.name().to_string()),
-            default_match: default,
-            lobby: !self.inner.config.once,
+            map,
+            default_match,
+            lobby: !config.once,
             templates,
         }
     }
 
     /// Ends every match (`interrupted`) and waits until each has recorded its end.
     pub async fn shutdown(&self) {
-        {
-            let mut state = self.lock();
-            state.stopping = true;
-            // Players waiting in a queue are told the server is stopping.
-            for template in state.templates.values_mut() {
-                template.queue.clear();
-            }
-        }
-        self.inner.shutdown.send_replace(true);
-        let mut count = self.inner.live_count.subscribe();
-        let _ = count.wait_for(|n| *n == 0).await;
+        // Players waiting in a queue are told the server is stopping.
+        let _ = self.inner.commands.send(Command::Shutdown);
+        self.wait_until(|p| p.live == 0).await;
     }
 
     /// Resolves when no match is live any more and at least one has ended.
     pub async fn idle(&self) {
-        self.wait_live_until(|state, live| live == 0 && state.any_ended).await;
+        self.wait_until(|p| p.live == 0 && p.ended > 0).await;
     }
 
     /// How many matches have ended, how and in how many ticks, by template (or, for a
     /// match made without one, by name), since the server started.
     pub fn totals(&self) -> BTreeMap<String, Totals> {
-        self.lock().totals.clone()
+        self.inner.published.borrow().totals.clone()
     }
 
     /// The outcomes of the last hundred matches ended, by match id, in the order they ended.
     pub fn outcomes(&self) -> Vec<(String, Result<MatchResult, String>)> {
-        self.inner.outcomes.lock().unwrap_or_else(|p| p.into_inner()).iter().cloned().collect()
+        self.inner.published.borrow().outcomes.iter().cloned().collect()
     }
 
     /// The results store.
     pub fn results(&self) -> &ResultsStore {
         &self.inner.config.results
     }
+}
+
+/// What the core needs to know of `template`.
+fn rules_of(template: &Template) -> Rules {
+    Rules {
+        name: template.name.clone(),
+        names: template.names.clone(),
+        max_running: template.max_running,
+        on_end: template.on_end,
+        maps: template.maps.len(),
+        open_seats: open_seats(&template.setup),
+    }
+}
+
+/// How many of a match's seats wait for whoever joins.
+fn open_seats(setup: &MatchSetup) -> usize {
+    setup.seats.iter().filter(|s| matches!(s.player, Player::Open)).count()
 }
 
 /// What the operator asks for in `POST /api/matches`.
@@ -848,94 +553,5 @@ pub fn check_match_name(name: &str) -> Result<(), ArenaError> {
         Err(ArenaError::Bad(format!(
             "name: '{name}' is not a match name (1 to 64 letters, digits, '-', '_' or '.')"
         )))
-    }
-}
-
-/// Whether anyone may watch: the summaries' `watch`.
-fn watch_of(open: bool) -> Watch {
-    if open { Watch::Open } else { Watch::Token }
-}
-
-/// A live match's summary before its task says where it is (waiting at tick 0).
-fn summary_of_live(name: &str, live: &LiveMatch, operator: bool) -> MatchSummary {
-    MatchSummary {
-        name: name.to_string(),
-        template: live.template.clone(),
-        map: live.map.name().to_string(),
-        mode: live.mode,
-        state: MatchState::Waiting,
-        players: Vec::new(),
-        robots: live.robots,
-        awaited: 0,
-        tick: 0,
-        sequence: [0, 0],
-        watch: watch_of(live.watch_open),
-        paused: None,
-        end_reason: None,
-        run: live.run,
-        seed: operator.then_some(live.seed),
-        id: operator.then(|| live.id.clone()),
-        connections: None,
-        result: None,
-    }
-}
-
-/// A live match's summary, its status asked of its task (taken without waiting on the
-/// task: one whose queue is full is listed as waiting at tick 0).
-struct StatusAsked {
-    summary: MatchSummary,
-    answer: Option<oneshot::Receiver<HostStatus>>,
-}
-
-impl StatusAsked {
-    fn of(name: &str, live: &LiveMatch, operator: bool) -> StatusAsked {
-        let (tx, rx) = oneshot::channel();
-        let asked = live.events.try_send(Event::Control(Control::Status(tx))).is_ok();
-        StatusAsked { summary: summary_of_live(name, live, operator), answer: asked.then_some(rx) }
-    }
-
-    /// The summary with the status the match gave within a second.
-    async fn answered(mut self, operator: bool) -> MatchSummary {
-        let status = match self.answer {
-            Some(rx) => tokio::time::timeout(Duration::from_secs(1), rx).await.ok().and_then(Result::ok),
-            None => None,
-        };
-        fill_status(&mut self.summary, &status.unwrap_or_default(), operator);
-        self.summary
-    }
-}
-
-fn fill_status(summary: &mut MatchSummary, status: &HostStatus, operator: bool) {
-    summary.state = if status.started { MatchState::Playing } else { MatchState::Waiting };
-    summary.players = status.players.clone();
-    summary.awaited = status.awaited;
-    summary.tick = status.tick;
-    summary.paused = Some(status.paused);
-    summary.sequence = [status.sequence.0, status.sequence.1];
-    if operator {
-        summary.connections = Some(status.connections);
-    }
-}
-
-fn summary_of_finished(f: &Finished, operator: bool) -> MatchSummary {
-    MatchSummary {
-        name: f.name.clone(),
-        template: f.template.clone(),
-        map: f.map.clone(),
-        mode: f.mode,
-        state: MatchState::Finished,
-        players: f.players.clone(),
-        robots: f.robots,
-        awaited: 0,
-        tick: f.tick,
-        sequence: [f.sequence.0, f.sequence.1],
-        watch: watch_of(f.watch_open),
-        paused: None,
-        end_reason: Some(f.end_reason),
-        run: f.run,
-        seed: operator.then_some(f.seed),
-        id: operator.then(|| f.id.clone()),
-        connections: None,
-        result: operator.then(|| f.id.clone()),
     }
 }

@@ -31,11 +31,11 @@ pub(crate) async fn respond(request: WebRequest, arena: &Arena) -> Reply {
     let method = request.method.clone();
     let parts: Vec<&str> = path.trim_start_matches('/').split('/').collect();
     match (&method, parts.as_slice()) {
-        (&Method::GET, ["map.json"]) => match arena.layout(query_value(query, "match").as_deref()) {
+        (&Method::GET, ["map.json"]) => match arena.layout(query_value(query, "match").as_deref()).await {
             Some(layout) => Reply::json(StatusCode::OK, layout.to_string()),
             None => Reply::error(StatusCode::NOT_FOUND, "no such match"),
         },
-        (&Method::GET, ["info.json"]) => ok(StatusCode::OK, &arena.info()),
+        (&Method::GET, ["info.json"]) => ok(StatusCode::OK, &arena.info().await),
         (&Method::GET, ["api", "matches"]) => {
             ok(StatusCode::OK, &MatchList { matches: arena.list(operator).await })
         }
@@ -49,7 +49,7 @@ pub(crate) async fn respond(request: WebRequest, arena: &Arena) -> Reply {
                 Ok(create) => create,
                 Err(e) => return Reply::error(StatusCode::BAD_REQUEST, format!("not a match request: {e}")),
             };
-            match arena.create(create) {
+            match arena.create(create).await {
                 Ok(name) => match arena.summary(&name, true).await {
                     Some(summary) => ok(StatusCode::CREATED, &summary),
                     None => Reply::error(StatusCode::INTERNAL_SERVER_ERROR, "the match ended at once"),
@@ -59,7 +59,7 @@ pub(crate) async fn respond(request: WebRequest, arena: &Arena) -> Reply {
         }
         (&Method::POST, ["api", "matches", name, "stop"]) => match arena.stop(name).await {
             // The stopped run's summary (a template that goes on has a new run by now).
-            Ok(id) => match arena.finished_summary(&id, true) {
+            Ok(id) => match arena.finished_summary(&id, true).await {
                 Some(summary) => ok(StatusCode::OK, &summary),
                 None => ok(
                     StatusCode::OK,
