@@ -111,7 +111,7 @@ pub async fn serve_http(server: RobotServer, listener: TcpListener, options: Htt
                     if request.uri().path() != MCP_PATH {
                         return Ok(plain(StatusCode::NOT_FOUND, "not found: the MCP endpoint is /mcp\n"));
                     }
-                    if let Err(refusal) = gate.admit(request.headers()) {
+                    if let Some(refusal) = gate.refusal(request.headers()) {
                         return Ok::<_, Infallible>(refusal);
                     }
                     mcp.call(request).await
@@ -152,7 +152,8 @@ impl Gate {
         Gate { token: options.token.clone(), hosts, origins }
     }
 
-    fn admit(&self, headers: &HeaderMap) -> Result<(), http::Response<Body>> {
+    /// The answer refusing a request with these headers, if it is refused.
+    fn refusal(&self, headers: &HeaderMap) -> Option<http::Response<Body>> {
         if let Some(origin) = headers.get(header::ORIGIN) {
             let origin = origin.to_str().unwrap_or("(not text)");
             if !self.origin_allowed(origin) {
@@ -160,14 +161,14 @@ impl Gate {
                     "forbidden: requests from the web origin '{origin}' are not accepted (only this \
                      machine's and the --allow-host names' origins, and --allow-origin ones)\n"
                 );
-                return Err(plain(StatusCode::FORBIDDEN, &message));
+                return Some(plain(StatusCode::FORBIDDEN, &message));
             }
         }
         let given = headers.get(header::AUTHORIZATION).and_then(|v| v.to_str().ok()).and_then(bearer);
         match given {
-            Some(token) if same_secret(token, &self.token) => Ok(()),
-            Some(_) => Err(unauthorized("the bearer token is wrong")),
-            None => Err(unauthorized(
+            Some(token) if same_secret(token, &self.token) => None,
+            Some(_) => Some(unauthorized("the bearer token is wrong")),
+            None => Some(unauthorized(
                 "this robot is driven by whoever holds its bearer token: send `Authorization: Bearer TOKEN` \
                  with the token `bw4t mcp` printed at start (or was given with --http-token)",
             )),
