@@ -78,7 +78,9 @@ pub(crate) struct McpArgs {
     /// request head within 10 s of opening and between requests.
     #[arg(long, default_value_t = 64, value_name = "N", requires = "http")]
     http_max_connections: usize,
-    /// Seconds a tool call may take (wall time) before it returns `timeout`.
+    /// Seconds a tool call may take before it returns `timeout`: wall time, and in a
+    /// lockstep match simulated time too (no call runs the match further), as `wait`'s
+    /// `seconds` are there.
     #[arg(long, default_value_t = 120.0)]
     tool_timeout_s: f64,
     /// Seconds to wait for a seat when joining.
