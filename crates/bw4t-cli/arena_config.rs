@@ -208,6 +208,7 @@ fn template(t: TemplateFile, base: &Path, seed: u64) -> Result<Template> {
         bail!("fill = true needs start_timeout_s: the seats are filled when the timeout passes");
     }
     config.fill = t.fill.then_some(strategy);
+    config.check().map_err(anyhow::Error::msg)?;
     let names = match (t.teams, t.names.is_empty()) {
         (Some(_), false) => bail!("give names or teams, not both"),
         (Some(n), true) => team_names(n),

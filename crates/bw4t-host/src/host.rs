@@ -379,6 +379,7 @@ impl MatchHost {
         now: Instant,
     ) -> Result<MatchHost, HostError> {
         admission::check_tokens_differ(&config)?;
+        config.check().map_err(HostError::Config)?;
         setup.check().map_err(|e| HostError::Seat(e.to_string()))?;
         setup
             .only_players("in a served match", |p| {
