@@ -149,7 +149,8 @@ mod tests {
     #[test]
     fn figures_out_of_range_are_refused_by_name() {
         assert_eq!(HostConfig::new().check(), Ok(()));
-        let cases: [(fn(&mut HostConfig), &str); 5] = [
+        type Spoil = fn(&mut HostConfig);
+        let cases: [(Spoil, &str); 5] = [
             (
                 |c| c.grace = MAX_WAIT + Duration::from_secs(1),
                 "the reconnect grace must be from 0ns to 86400s",
