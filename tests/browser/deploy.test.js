@@ -76,9 +76,9 @@ function testCaddyfile(dir, { port, httpPort, upstream, cert, key }) {
   let text = fs.readFileSync(CADDYFILE, 'utf8');
   const replace = (pattern, by, what) => {
     assert.match(text, pattern, `deploy/Caddyfile has ${what}`);
-    text = text.replace(pattern, by);
+    text = text.replace(pattern, () => by);
   };
-  const global = [
+  const options = [
     '{',
     '\tadmin off',
     '\tauto_https disable_redirects',
@@ -89,7 +89,7 @@ function testCaddyfile(dir, { port, httpPort, upstream, cert, key }) {
     `\thttp_port ${httpPort}`,
     '}',
   ];
-  replace(/^\{\n(?:[^\n]*\n)*?\}\n/m, `${global.join('\n')}\n`, 'a global options block');
+  replace(/^\{\n(?:[^\n]*\n)*?\}\n/m, `${options.join('\n')}\n`, 'a global options block');
   replace(/^study\.example\.org \{$/m, `https://${SITE}:${port} {\n\ttls ${cert} ${key}`, 'the site study.example.org');
   replace(/reverse_proxy 127\.0\.0\.1:8080\b/, `reverse_proxy ${upstream}`, 'reverse_proxy 127.0.0.1:8080');
   const file = path.join(dir, 'Caddyfile');
