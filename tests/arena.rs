@@ -562,3 +562,52 @@ fn stops_racing_restarts_never_deadlock() {
     let stopped = finished.recv_timeout(Duration::from_secs(120)).expect("every stop answered: no deadlock");
     assert!(stopped > 0, "some stops found the ladder live");
 }
+
+/// `hello` joining template `template` as `name`.
+fn hello_template(name: &str, template: &str) -> Value {
+    json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": name, "template": template})
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_player_who_leaves_a_waiting_match_frees_its_seat_for_the_next() {
+    let mut open = template("open", lockstep("default", 2, 40));
+    open.max_running = 1;
+    open.config.grace = Duration::from_secs(600);
+    let server = ArenaServer::start(ArenaConfig::new(vec![open])).await;
+    let (mal, welcome) = crate::util::welcomed(server.addr, hello_template("Mal", "open")).await;
+    assert_eq!(welcome.match_info.name, "open-1");
+    drop(mal);
+    // Mal's seat is free at once, not after the grace period: Ann and Bob both sit in open-1.
+    let (_ann, ann) = crate::util::welcomed(server.addr, hello_template("Ann", "open")).await;
+    let (_bob, bob) = crate::util::welcomed(server.addr, hello_template("Bob", "open")).await;
+    assert_eq!((ann.match_info.name.as_str(), bob.match_info.name.as_str()), ("open-1", "open-1"));
+    server.shutdown().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn sixteen_players_who_join_a_template_and_leave_do_not_block_it() {
+    // As examples/arena.toml's `open`: four seats, four matches at most, a long tick limit.
+    let mut open = template("open", lockstep("default", 4, 1_000_000));
+    open.config.mode = Mode::Realtime;
+    open.max_running = 4;
+    open.config.grace = Duration::from_millis(300);
+    let server = ArenaServer::start(ArenaConfig::new(vec![open])).await;
+    let mut gone = Vec::new();
+    for i in 0..16 {
+        let (client, welcome) =
+            crate::util::welcomed(server.addr, hello_template(&format!("Mal{i}"), "open")).await;
+        assert_eq!(welcome.match_info.name, format!("open-{}", i / 4 + 1));
+        gone.push(client);
+    }
+    drop(gone);
+    // The four matches lost every player: each ends a grace period later, and Ann is seated.
+    let (_ann, welcome) = crate::util::welcomed(server.addr, hello_template("Ann", "open")).await;
+    assert_eq!(welcome.match_info.template.as_deref(), Some("open"));
+    server.ended(4).await;
+    let (_, body) = http(server.http, "GET", "/api/matches", None, None).await;
+    let list = json_of(&body);
+    let reasons: Vec<&str> =
+        list["matches"].as_array().expect("a list").iter().filter_map(|m| m["end_reason"].as_str()).collect();
+    assert_eq!(reasons, ["abandoned"; 4], "{body}");
+    server.shutdown().await;
+}

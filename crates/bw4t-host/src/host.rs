@@ -334,6 +334,9 @@ pub struct MatchHost {
     held: bool,
     /// How late the last realtime tick was made, and the ticks skipped, until taken.
     lateness: Option<(Duration, u64)>,
+    /// Since when the started match has had no remote player connected: it ends as
+    /// `abandoned` a grace period later (see [`Self::note_presence`]).
+    deserted_since: Option<Instant>,
 }
 
 /// The figures of a match's set-up the host goes on using.
@@ -343,6 +346,9 @@ struct Played {
     /// Seats, named and open: the players the match waits for and admits at most.
     robots: usize,
     max_ticks: Option<u64>,
+    /// Some seat is for a remote player (not all are built-in or in-process agents): a
+    /// match all its players left can end as `abandoned`.
+    remote_seats: bool,
 }
 
 /// Where a match is, for listings: a copy made on request, so it costs nothing per tick.
@@ -386,7 +392,10 @@ impl MatchHost {
             })
             .map_err(|e| HostError::Seat(e.to_string()))?;
         let MatchSetup { map, seed, game, seats, max_ticks } = setup;
-        let played = Played { seed, tick_hz: game.ticks_per_second, robots: seats.len(), max_ticks };
+        let remote_seats =
+            seats.iter().any(|s| matches!(s.player, bw4t_agents::Player::Remote | bw4t_agents::Player::Open));
+        let played =
+            Played { seed, tick_hz: game.ticks_per_second, robots: seats.len(), max_ticks, remote_seats };
         let game = Match::new(&map, &game, seed)?;
         let names = seats.iter().filter(|s| !matches!(s.player, bw4t_agents::Player::Open));
         let names = names.map(|s| s.name.clone()).collect();
@@ -426,6 +435,7 @@ impl MatchHost {
             lobby_changed: false,
             held: false,
             lateness: None,
+            deserted_since: None,
         };
         for seat in seats.into_iter().filter(|s| !matches!(s.player, bw4t_agents::Player::Open)) {
             let local = seat.player.agent(&seat.name);
@@ -488,6 +498,11 @@ impl MatchHost {
             self.send_frames(false);
         }
         self.expire_dropped();
+        if self.deserted_since.is_some_and(|since| now >= since + self.config.grace) {
+            tracing::info!(target: "bw4t::match", r#match = %self.config.name, "every player left: the match ends");
+            self.end = Some(EndReason::Abandoned);
+            return;
+        }
         match self.phase {
             Phase::Waiting { start_by } => {
                 if start_by.is_some_and(|t| now >= t) {
@@ -567,10 +582,8 @@ impl MatchHost {
             return None;
         }
         let expiry = self.players.values().filter_map(|p| p.dropped_at).min().map(|t| t + self.config.grace);
-        let expiry = match (expiry, self.trailing_frame_at()) {
-            (Some(a), Some(b)) => Some(a.min(b)),
-            (a, b) => a.or(b),
-        };
+        let deserted = self.deserted_since.map(|since| since + self.config.grace);
+        let expiry = [expiry, self.trailing_frame_at(), deserted].into_iter().flatten().min();
         let pacing = match self.phase {
             Phase::Waiting { start_by } => start_by,
             Phase::Playing { .. } if self.held => None,
@@ -781,6 +794,7 @@ impl MatchHost {
         self.observe_locals();
         self.tick_sent_at = now;
         self.phase = Phase::Playing { since: now, next_tick: now + self.tick_period() };
+        self.note_presence();
     }
 
     /// In-process agents see what they were told and decide; their actions wait for the
@@ -964,8 +978,28 @@ impl MatchHost {
                     player.awaiting = false;
                     player.orders.clear();
                     player.pending = vec![Pending::Stop];
+                    // Before the start a seat held for a player who left would keep
+                    // everyone else out for its grace period: it is free again at once
+                    // (a reserved seat stays its named player's).
+                    if matches!(self.phase, Phase::Waiting { .. }) && !player.reserved {
+                        self.remove_player(id);
+                    }
+                    self.note_presence();
                 }
             }
+        }
+    }
+
+    /// Notes whether a started match with seats for remote players has any of them
+    /// connected; one with none since `deserted_since` ends a grace period later. Called
+    /// when a player comes or goes and at the start, never per tick.
+    fn note_presence(&mut self) {
+        let started = matches!(self.phase, Phase::Playing { .. });
+        let present = self.players.values().any(|p| p.local.is_none() && p.conn.is_some());
+        if !started || !self.played.remote_seats || present {
+            self.deserted_since = None;
+        } else {
+            self.deserted_since.get_or_insert(self.now);
         }
     }
 
@@ -1062,6 +1096,7 @@ impl MatchHost {
             self.gone.insert(id, (player.errors, player.connected_ever));
         }
         let _ = self.game.leave_logged(id, &mut self.recorder);
+        self.note_presence();
     }
 
     /// Robots whose players stayed away longer than the grace period leave the match.

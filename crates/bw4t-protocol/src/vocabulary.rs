@@ -230,6 +230,9 @@ words! {
         MaxTicks = "max_ticks",
         /// The server was stopped, or the run interrupted.
         Interrupted = "interrupted",
+        /// Every player left a started match and none came back within the grace period
+        /// (built-in agents do not count): it ends so its seats serve someone else.
+        Abandoned = "abandoned",
         /// The match could not be played, or failed inside the server (a row's or the
         /// index's `error` says why).
         Error = "error",
