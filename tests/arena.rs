@@ -400,6 +400,7 @@ async fn bystander_stream(hostile_in_a: bool) -> Vec<String> {
             for i in 0..300 {
                 c.send_raw(&format!("garbage {i} {{")).await;
                 c.send(json!({"type": "act", "id": i, "action": "goTo", "args": ["RoomA1"]})).await;
+                c.send(json!({"type": "resync"})).await;
             }
             c.send_raw(&"y".repeat(1 << 20)).await;
             c.drain().await;
@@ -420,6 +421,20 @@ async fn bystander_stream(hostile_in_a: bool) -> Vec<String> {
             let mut c = Client::connect(addr).await;
             c.send(json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": "Nob", "match": "nowhere"})).await;
             c.drain().await;
+        }));
+        // One other address takes as many connections as it can and holds them, watching.
+        hostile.push(tokio::spawn(async move {
+            let mut held = Vec::new();
+            loop {
+                let mut c = Client::connect_from(addr, "127.0.0.2").await;
+                c.send(json!({"type": "hello", "protocol": "bw4t", "versions": [1], "role": "spectator", "match": "a", "token": "sesame"})).await;
+                match c.recv().await {
+                    Some(ServerMessage::Welcome(_)) => held.push(c),
+                    _ => break,
+                }
+            }
+            std::future::pending::<()>().await;
+            drop(held);
         }));
     }
     let mut good = Client::connect(addr).await;
@@ -610,4 +625,43 @@ async fn sixteen_players_who_join_a_template_and_leave_do_not_block_it() {
         list["matches"].as_array().expect("a list").iter().filter_map(|m| m["end_reason"].as_str()).collect();
     assert_eq!(reasons, ["abandoned"; 4], "{body}");
     server.shutdown().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn one_address_gets_its_share_of_connections_and_no_more() {
+    let mut config = ArenaConfig::new(vec![single("a", lockstep("fixed", 1, 400), OnEnd::Stay)]);
+    config.server.max_per_source = 3;
+    let server = ArenaServer::start(config).await;
+    let spectate =
+        json!({"type": "hello", "protocol": "bw4t", "versions": [1], "role": "spectator", "match": "a"});
+    let mut held = Vec::new();
+    for _ in 0..3 {
+        let mut c = Client::connect_from(server.addr, "127.0.0.2").await;
+        c.send(spectate.clone()).await;
+        c.until(|m| matches!(m, ServerMessage::Welcome(_)).then_some(())).await;
+        held.push(c);
+    }
+    let mut fourth = Client::connect_from(server.addr, "127.0.0.2").await;
+    let error = fourth.until(|m| if let ServerMessage::Error(e) = m { Some(e.clone()) } else { None }).await;
+    assert_eq!((error.code.as_str(), error.fatal), ("source_full", true), "{}", error.message);
+    assert!(error.message.contains("at most 3"), "{}", error.message);
+    // Another address is let in, and a place given back is free again.
+    let (_ann, welcome) = crate::util::welcomed(server.addr, hello_template_free("Ann", "a")).await;
+    assert_eq!(welcome.match_info.name, "a");
+    drop(held.pop());
+    let mut again = Client::connect_from(server.addr, "127.0.0.2").await;
+    again.send(spectate).await;
+    again
+        .until(|m| match m {
+            ServerMessage::Welcome(_) => Some(()),
+            ServerMessage::Error(e) => panic!("refused after a place was given back: {e:?}"),
+            _ => None,
+        })
+        .await;
+    server.shutdown().await;
+}
+
+/// `hello` joining match `name` as player `player`.
+fn hello_template_free(player: &str, name: &str) -> Value {
+    json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": player, "match": name})
 }

@@ -576,3 +576,28 @@ fn a_match_of_built_in_agents_only_is_never_abandoned() {
     assert!(!sim.host.is_over(), "nobody is missing from a match of built-in agents");
     assert!(sim.host.tick() > 0);
 }
+
+#[test]
+fn resync_is_answered_at_most_once_per_interval_and_refused_with_rate_limited() {
+    let (setup, config) = lockstep_config(1);
+    let mut sim = Sim::new((setup, config));
+    sim.join(1, "Ann");
+    let full = |sim: &Sim| sim.percepts(1).iter().filter(|p| p.full).count();
+    let before = full(&sim);
+    sim.say(1, json!({"type": "resync"}));
+    assert_eq!(full(&sim), before + 1, "the first resync gets a snapshot");
+    // A flood at once: each is refused, and no snapshot is sent for it.
+    for _ in 0..50 {
+        sim.say(1, json!({"type": "resync"}));
+    }
+    assert_eq!(full(&sim), before + 1);
+    let refusals = sim
+        .messages(1)
+        .iter()
+        .filter(|m| matches!(m, ServerMessage::Error(e) if e.code == "rate_limited" && !e.fatal))
+        .count();
+    assert_eq!(refusals, 50);
+    sim.run_until(bw4t_host::RESYNC_INTERVAL);
+    sim.say(1, json!({"type": "resync"}));
+    assert_eq!(full(&sim), before + 2, "a resync an interval later is answered again");
+}

@@ -58,6 +58,21 @@ async fn try_ws(addr: SocketAddr, headers: &[(&'static str, &str)]) -> Result<Ws
     Ok(tokio::time::timeout(WAIT, handshake).await.expect("a handshake in time")?.0)
 }
 
+/// [`try_ws`] from the loopback address `from` (another source address).
+async fn try_ws_from(
+    addr: SocketAddr,
+    from: &str,
+    headers: &[(&'static str, &str)],
+) -> Result<Ws, tungstenite::Error> {
+    let mut request = format!("ws://{addr}/ws").into_client_request().expect("request");
+    for (name, value) in headers {
+        request.headers_mut().insert(*name, value.parse().expect("header value"));
+    }
+    let stream = crate::util::stream_from(addr, from).await;
+    let handshake = tokio_tungstenite::client_async(request, stream);
+    Ok(tokio::time::timeout(WAIT, handshake).await.expect("a handshake in time")?.0)
+}
+
 /// Opens `ws://ADDR/ws`, which must succeed.
 async fn ws(addr: SocketAddr) -> Ws {
     try_ws(addr, &[]).await.expect("handshake")
@@ -651,7 +666,12 @@ async fn a_burst_of_page_requests_is_answered_whatever_the_websocket_limit() {
     for request in requests {
         match request.await.expect("request task") {
             Some(answer) if answer.status == 200 => ok += 1,
-            Some(answer) if answer.status == 503 && answer.head.contains("\r\nRetry-After: 1") => busy += 1,
+            // Beyond the total (503) or this address's share (429): told to come back.
+            Some(answer)
+                if [503, 429].contains(&answer.status) && answer.head.contains("\r\nRetry-After: 1") =>
+            {
+                busy += 1
+            }
             Some(answer) => panic!("unexpected answer {}", answer.head),
             None => silent += 1,
         }
@@ -809,4 +829,56 @@ async fn the_page_locates_points_as_the_map_does() {
             .collect();
         assert!(disagree.is_empty(), "map '{}': the page and the map disagree at {disagree:?}", map.name());
     }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn one_address_holding_its_share_of_request_places_leaves_the_page_to_others() {
+    let (task, addr) = plain_site(bw4t_server::MAX_REQUESTS).await;
+    let share = ServerConfig::default().max_per_source;
+    // Half-sent request heads from one address: each holds a place until its head timeout.
+    let mut idle = Vec::new();
+    for _ in 0..share {
+        let mut stream = crate::util::stream_from(addr, "127.0.0.2").await;
+        stream.write_all(b"GET / HTTP/1.1\r\nHost: x\r\n").await.expect("write");
+        idle.push(stream);
+    }
+    let mut one_more = crate::util::stream_from(addr, "127.0.0.2").await;
+    one_more.write_all(b"GET /info.json HTTP/1.1\r\nHost: x\r\n\r\n").await.expect("write");
+    let mut answer = String::new();
+    let _ = tokio::time::timeout(WAIT, one_more.read_to_string(&mut answer)).await.expect("in time");
+    assert!(answer.starts_with("HTTP/1.1 429 ") && answer.contains("\r\nRetry-After: 1"), "{answer}");
+    assert!(answer.contains(&format!("at most {share} requests at once from one address")), "{answer}");
+    assert_eq!(get(addr, "/info.json").await.status, 200, "another address is served");
+    for stream in idle {
+        leave(stream).await;
+    }
+    task.abort();
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn one_address_gets_its_share_of_websockets_counted_by_a_trusted_proxy_s_forwarded_address() {
+    let limits = ServerConfig {
+        max_per_source: 2,
+        trusted_proxies: vec!["127.0.0.3".parse().expect("an address")],
+        hello_timeout: std::time::Duration::from_secs(600),
+        ..Default::default()
+    };
+    let (server, http) = web_server_limited(web_config(1), 0, limits).await;
+    let _held = [
+        try_ws_from(http, "127.0.0.2", &[]).await.expect("a first WebSocket"),
+        try_ws_from(http, "127.0.0.2", &[]).await.expect("a second WebSocket"),
+    ];
+    // The third from the address is refused, even when it claims to come from elsewhere:
+    // only a trusted proxy's X-Forwarded-For is believed.
+    let third = try_ws_from(http, "127.0.0.2", &[("x-forwarded-for", "10.9.9.9")]).await;
+    assert_eq!(refusal(&third), 429);
+    assert!(ws(http).await.get_ref().peer_addr().is_ok(), "another address is let in");
+    // Behind the proxy each client has its own share, by the address the proxy names.
+    let via = |client: &'static str| async move {
+        try_ws_from(http, "127.0.0.3", &[("x-forwarded-for", client)]).await
+    };
+    let _proxied = [via("10.0.0.1").await.expect("first"), via("10.0.0.1").await.expect("second")];
+    assert_eq!(refusal(&via("10.0.0.1").await), 429);
+    assert!(via("192.0.2.1, 10.0.0.2").await.is_ok(), "the last address the proxy names counts");
+    server.stop().await;
 }

@@ -26,6 +26,11 @@ pub type ConnId = u64;
 /// (and later replaced by a snapshot) when less than this is free.
 const RESERVE: usize = 64;
 
+/// The shortest time between two `resync`s a player is answered: a snapshot is many
+/// times the size of the request, so more often would let a client make the server send
+/// far more than it reads.
+pub const RESYNC_INTERVAL: Duration = Duration::from_secs(1);
+
 /// How many messages a spectator frame carries at most.
 const FRAME_MESSAGES: usize = 100;
 
@@ -263,6 +268,8 @@ struct Player {
     late_in_row: u32,
     /// Bad lines from this player's connections.
     errors: u64,
+    /// When its last `resync` was answered.
+    resynced_at: Option<Instant>,
 }
 
 impl Player {
@@ -285,6 +292,7 @@ impl Player {
             connected_ever: false,
             late_in_row: 0,
             errors: 0,
+            resynced_at: None,
         }
     }
 }
@@ -1046,6 +1054,13 @@ impl MatchHost {
                 }
             }
             ClientMessage::Resync(_) => {
+                let now = self.now;
+                let Some(player) = self.players.get_mut(&robot) else { return };
+                if player.resynced_at.is_some_and(|t| now.saturating_duration_since(t) < RESYNC_INTERVAL) {
+                    let message = format!("at most one resync per {} ms", RESYNC_INTERVAL.as_millis());
+                    return self.error(conn, ErrorCode::RateLimited, &message, false);
+                }
+                player.resynced_at = Some(now);
                 self.send_percepts(robot, Delivery::Snapshot);
             }
             ClientMessage::Bye(_) => {

@@ -14,7 +14,7 @@ mod host;
 mod lines;
 
 pub use config::{DEFAULT_MATCH, HostConfig, REPLAY_DIGEST_EVERY};
-pub use host::{ConnId, HostEvent, HostStatus, MatchHost, Transmit, same_secret};
+pub use host::{ConnId, HostEvent, HostStatus, MatchHost, RESYNC_INTERVAL, Transmit, same_secret};
 pub use lines::{bye_line, error_line, pong_line};
 
 /// Why a match could not be hosted.

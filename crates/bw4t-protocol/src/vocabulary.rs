@@ -94,6 +94,10 @@ words! {
         MatchFull = "match_full",
         /// The server has as many connections as it takes.
         ServerFull = "server_full",
+        /// The connection's source address has as many connections as one address may.
+        SourceFull = "source_full",
+        /// A request came sooner than its rate allows (`resync`).
+        RateLimited = "rate_limited",
         /// No `hello` in time.
         HelloTimeout = "hello_timeout",
         /// Another connection took up the session.

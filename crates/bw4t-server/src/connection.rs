@@ -17,6 +17,7 @@ use tokio::sync::{Notify, mpsc, watch};
 use bw4t_host::{ConnId, bye_line, error_line, pong_line};
 
 use crate::arena::{Arena, QueueNews, Route, Routed, Waiting};
+use crate::budget::SourceBudget;
 use crate::events::{Event, Opened, Outbound};
 
 /// How many connections the kernel may hold for a listener before they are accepted. The
@@ -39,30 +40,39 @@ pub fn listen(addr: std::net::SocketAddr) -> std::io::Result<TcpListener> {
 pub(crate) async fn accept_loop(listener: TcpListener, arena: Arena) {
     let open = Arc::new(AtomicUsize::new(0));
     let max = arena.config().server.max_connections;
+    let sources = SourceBudget::new(arena.config().server.max_per_source);
     loop {
-        let Ok((stream, _)) = listener.accept().await else {
+        let Ok((stream, peer)) = listener.accept().await else {
             // Out of file descriptors or a reset before accept: try again shortly.
             tokio::time::sleep(std::time::Duration::from_millis(10)).await;
             continue;
         };
         let _ = stream.set_nodelay(true);
         if open.load(Ordering::SeqCst) >= max {
-            tokio::spawn(refuse(stream, max));
+            let why = format!("the server takes at most {max} connections");
+            tokio::spawn(refuse(stream, ErrorCode::ServerFull, why));
             continue;
         }
+        let Some(place) = sources.take(peer.ip()) else {
+            let why = format!("at most {} connections from one address", sources.limit());
+            tokio::spawn(refuse(stream, ErrorCode::SourceFull, why));
+            continue;
+        };
         open.fetch_add(1, Ordering::SeqCst);
         let conn = arena.next_conn();
         let (arena, open) = (arena.clone(), open.clone());
         tokio::spawn(async move {
             handle(stream, conn, &arena).await;
+            drop(place);
             open.fetch_sub(1, Ordering::SeqCst);
         });
     }
 }
 
-async fn refuse(mut stream: TcpStream, limit: usize) {
-    let error =
-        error_line(ErrorCode::ServerFull, &format!("the server takes at most {limit} connections"), true);
+/// Says why the connection is not taken (a fatal `error`, no `bye`: it never joined) and
+/// closes it.
+async fn refuse(mut stream: TcpStream, code: ErrorCode, why: String) {
+    let error = error_line(code, &why, true);
     let _ = stream.write_all(error.as_bytes()).await;
     let _ = stream.shutdown().await;
 }

@@ -48,6 +48,12 @@ impl Reply {
             .with("Retry-After", RETRY_AFTER_S.to_string())
     }
 
+    /// `429 Too Many Requests` with `Retry-After`: the client's address holds its share.
+    pub fn too_many(why: &str) -> Reply {
+        Reply::text(StatusCode::TOO_MANY_REQUESTS, format!("{why}; try again shortly"))
+            .with("Retry-After", RETRY_AFTER_S.to_string())
+    }
+
     /// `401 Unauthorized` for a request without the operator's token; `has_token` tells
     /// whether the server has one at all.
     pub fn unauthorized(has_token: bool) -> Reply {
