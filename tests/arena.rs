@@ -255,7 +255,7 @@ async fn the_operator_makes_lists_inspects_and_stops_matches_through_the_api() {
     assert!(refused.error.contains("operator token"), "{body}");
     // A body sent in chunks, without Content-Length, is refused before it is read.
     let chunked = format!(
-        "POST /api/matches HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer op\r\nTransfer-Encoding: chunked\r\n\r\n{:x}\r\n{create}\r\n0\r\n\r\n",
+        "POST /api/matches HTTP/1.1\r\nHost: 127.0.0.1\r\nAuthorization: Bearer op\r\nTransfer-Encoding: chunked\r\n\r\n{:x}\r\n{create}\r\n0\r\n\r\n",
         create.len()
     );
     let mut stream = tokio::net::TcpStream::connect(server.http).await.expect("connect");

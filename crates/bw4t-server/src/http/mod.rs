@@ -42,7 +42,7 @@ use tokio::sync::{OwnedSemaphorePermit, Semaphore};
 use crate::arena::Arena;
 use crate::budget::{SourceBudget, SourcePlace};
 use crate::config::ServerConfig;
-use websocket::Live;
+use websocket::{Live, OriginPolicy};
 
 /// Plain requests read or answered at once, by default; more are answered `503` at once.
 /// They are short, so this is far above what a page load needs.
@@ -202,6 +202,26 @@ async fn answer(
     place: &Mutex<Places>,
     peer: SocketAddr,
 ) -> Response<Full<Bytes>> {
+    let host = request.headers().get(hyper::header::HOST).and_then(|v| v.to_str().ok()).map(str::to_owned);
+    let mut response = respond(request, served, place, peer).await;
+    // A `Host` of a name's characters only names where the page's WebSocket may go.
+    let host = host.filter(|h| h.chars().all(|c| c.is_ascii_alphanumeric() || ".-:[]".contains(c)));
+    if let Some(csp) = host
+        .and_then(|h| hyper::header::HeaderValue::from_str(&reply::content_security_policy(Some(&h))).ok())
+    {
+        response.headers_mut().insert(hyper::header::CONTENT_SECURITY_POLICY, csp);
+    }
+    response
+}
+
+/// [`answer`] but for the headers that depend on the request: plain requests on a `Host`
+/// that is not this server's are refused (`403`), as WebSockets are.
+async fn respond(
+    request: Request<Incoming>,
+    served: &Served,
+    place: &Mutex<Places>,
+    peer: SocketAddr,
+) -> Response<Full<Bytes>> {
     let path = request.uri().path().to_string();
     if let Some(live) = served.live.as_ref().filter(|_| path == "/ws") {
         return match websocket::admit(&request, live, peer.ip()) {
@@ -212,6 +232,12 @@ async fn answer(
             }
             Err(reply) => reply.into_response(),
         };
+    }
+    let site_only = OriginPolicy::default();
+    let origins = served.live.as_ref().map_or(&site_only, |live| &live.origins);
+    let host = request.headers().get(hyper::header::HOST).and_then(|v| v.to_str().ok());
+    if let Some(why) = origins.host_refusal(host) {
+        return Reply::text(StatusCode::FORBIDDEN, why).into_response();
     }
     let arena = served.live.as_ref().map(|live| &live.arena);
     let mounted = served.mounted.iter().find(|r| r.serves(&path));

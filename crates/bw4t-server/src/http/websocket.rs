@@ -220,13 +220,28 @@ impl OriginPolicy {
         let Some(host) = host.map(|h| h.trim().to_ascii_lowercase()) else {
             return Some("a WebSocket from a page needs a Host header".into());
         };
-        let own = ["http://", "https://"].iter().any(|scheme| origin.strip_prefix(scheme) == Some(&host));
+        let own =
+            ["http://", "https://"].iter().any(|scheme| origin.strip_prefix(scheme) == Some(host.as_str()));
         if !own && !self.origins.contains(&origin) {
             return Some(format!(
                 "pages from {origin} may not open WebSockets here (the server can allow them: \
                  bw4t serve --allow-origin {origin})"
             ));
         }
+        self.host_refusal(Some(&host))
+    }
+
+    /// Why a request with this `Host` header is refused, if it is: a name that is not
+    /// this server's (`localhost`, an IP address, or the host of an allowed origin) may
+    /// be one an attacker points at this server (DNS rebinding), making the attacker's
+    /// page same-origin with it.
+    pub(crate) fn host_refusal(&self, host: Option<&str>) -> Option<String> {
+        if self.any {
+            return None;
+        }
+        let Some(host) = host.map(|h| h.trim().to_ascii_lowercase()) else {
+            return Some("a request needs a Host header".into());
+        };
         let name = host_name(&host);
         let literal = name.parse::<Ipv4Addr>().is_ok()
             || name
