@@ -591,7 +591,7 @@ async fn a_player_who_leaves_a_waiting_match_frees_its_seat_for_the_next() {
     let server = ArenaServer::start(ArenaConfig::new(vec![open])).await;
     let (mal, welcome) = crate::util::welcomed(server.addr, hello_template("Mal", "open")).await;
     assert_eq!(welcome.match_info.name, "open-1");
-    drop(mal);
+    mal.leave().await;
     // Mal's seat is free at once, not after the grace period: Ann and Bob both sit in open-1.
     let (_ann, ann) = crate::util::welcomed(server.addr, hello_template("Ann", "open")).await;
     let (_bob, bob) = crate::util::welcomed(server.addr, hello_template("Bob", "open")).await;
@@ -648,7 +648,10 @@ async fn one_address_gets_its_share_of_connections_and_no_more() {
     // Another address is let in, and a place given back is free again.
     let (_ann, welcome) = crate::util::welcomed(server.addr, hello_template_free("Ann", "a")).await;
     assert_eq!(welcome.match_info.name, "a");
-    drop(held.pop());
+    // A spectator that leaves: its place is free once the server has closed it.
+    let mut leaving = held.pop().expect("a held connection");
+    leaving.send(json!({"type": "bye"})).await;
+    leaving.drain().await;
     let mut again = Client::connect_from(server.addr, "127.0.0.2").await;
     again.send(spectate).await;
     again

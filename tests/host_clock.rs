@@ -601,3 +601,18 @@ fn resync_is_answered_at_most_once_per_interval_and_refused_with_rate_limited() 
     sim.say(1, json!({"type": "resync"}));
     assert_eq!(full(&sim), before + 2, "a resync an interval later is answered again");
 }
+
+#[test]
+fn a_match_of_programs_that_will_not_come_back_runs_on_when_they_leave() {
+    let (setup, mut config) = lockstep_config(1);
+    config.grace = Duration::from_secs(1);
+    config.pause_when_empty = false;
+    let mut sim = Sim::new((setup, config));
+    sim.join(1, "Ann");
+    sim.close(1);
+    sim.run_until(Duration::from_secs(5));
+    assert!(sim.host.tick() > 0);
+    if sim.host.is_over() {
+        assert_ne!(sim.finish().end_reason, bw4t_protocol::EndReason::Abandoned);
+    }
+}

@@ -416,6 +416,13 @@ impl Client {
     }
 
     /// Reads to the end of the connection, returning everything received.
+    /// Closes the sending half as a client that goes away does, and reads until the
+    /// server has closed the connection: the server has then seen it go.
+    pub async fn leave(mut self) {
+        self.writer.shutdown().await.expect("shut the sending half");
+        self.drain().await;
+    }
+
     pub async fn drain(&mut self) -> Vec<ServerMessage> {
         let mut all = Vec::new();
         while let Some(m) = self.recv().await {

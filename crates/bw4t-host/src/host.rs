@@ -1004,7 +1004,7 @@ impl MatchHost {
     fn note_presence(&mut self) {
         let started = matches!(self.phase, Phase::Playing { .. });
         let present = self.players.values().any(|p| p.local.is_none() && p.conn.is_some());
-        if !started || !self.played.remote_seats || present {
+        if !started || !self.played.remote_seats || !self.config.pause_when_empty || present {
             self.deserted_since = None;
         } else {
             self.deserted_since.get_or_insert(self.now);

@@ -17,7 +17,7 @@ use tokio::sync::{Notify, mpsc, watch};
 use bw4t_host::{ConnId, bye_line, error_line, pong_line};
 
 use crate::arena::{Arena, QueueNews, Route, Routed, Waiting};
-use crate::budget::SourceBudget;
+use crate::budget::{SourceBudget, SourcePlace};
 use crate::events::{Event, Opened, Outbound};
 
 /// How many connections the kernel may hold for a listener before they are accepted. The
@@ -62,8 +62,7 @@ pub(crate) async fn accept_loop(listener: TcpListener, arena: Arena) {
         let conn = arena.next_conn();
         let (arena, open) = (arena.clone(), open.clone());
         tokio::spawn(async move {
-            handle(stream, conn, &arena).await;
-            drop(place);
+            handle(stream, conn, &arena, place).await;
             open.fetch_sub(1, Ordering::SeqCst);
         });
     }
@@ -223,10 +222,29 @@ impl LineSource for TcpLines {
     }
 }
 
-async fn handle(stream: TcpStream, conn: ConnId, arena: &Arena) {
+async fn handle(stream: TcpStream, conn: ConnId, arena: &Arena, place: SourcePlace) {
     let (reader, writer) = stream.into_split();
     let source = TcpLines { reader, lines: LineBuffer::new(), buf: vec![0u8; 16 * 1024] };
-    run(conn, source, writer, arena).await;
+    run(conn, source, PlacedWriter { place: Some(place), writer }, arena).await;
+}
+
+/// A TCP connection's sending half and its address's place, given back before the
+/// connection is closed, so a client that sees the close can come back at once.
+struct PlacedWriter {
+    /// Declared first: dropped before the socket's half.
+    place: Option<SourcePlace>,
+    writer: OwnedWriteHalf,
+}
+
+impl LineSink for PlacedWriter {
+    async fn send_line(&mut self, line: Arc<str>) -> bool {
+        self.writer.send_line(line).await
+    }
+
+    async fn close(&mut self) {
+        self.place.take();
+        self.writer.close().await;
+    }
 }
 
 /// A `hello` routed to a match, and the lines that came after it in the same read.
