@@ -89,8 +89,9 @@ pub(crate) struct ServeArgs {
     #[arg(long, value_name = "N")]
     max_connections: Option<usize>,
     /// Connections one source address may have open at once (default 32, or the --config
-    /// file's max_per_source): as many on the protocol port, as many WebSockets and as
-    /// many plain requests on --http; more are refused (`source_full`, HTTP `429`).
+    /// file's max_per_source): as many on the protocol port and as many WebSockets on
+    /// --http; more are refused (`source_full`, HTTP `429`). Raise it for players who
+    /// share one address (a classroom behind one NAT).
     #[arg(long, value_name = "N")]
     max_per_source: Option<usize>,
     /// A reverse proxy in front of --http, whose `X-Forwarded-For` names the client a

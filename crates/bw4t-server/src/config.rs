@@ -21,7 +21,8 @@ pub struct ServerConfig {
     /// Connections accepted at once (protocol port; as many WebSockets on the web port).
     pub max_connections: usize,
     /// Connections one source address may have open at once: as many on the protocol
-    /// port, as many WebSockets and as many plain HTTP requests.
+    /// port and as many WebSockets (plain HTTP requests have their own share, a quarter
+    /// of their places).
     pub max_per_source: usize,
     /// Reverse proxies whose `X-Forwarded-For` names a web request's source address.
     pub trusted_proxies: Vec<IpAddr>,

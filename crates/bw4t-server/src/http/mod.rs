@@ -5,8 +5,8 @@
 //! Plain requests are short, so they are admitted on accept up to their own limit
 //! ([`MAX_REQUESTS`]) and never wait behind the long-lived WebSockets, which have theirs
 //! (`max_connections`). Beyond a limit the client gets `503` with `Retry-After`. Each
-//! source address has its share of both (`max_per_source`; beyond it `429`), so one
-//! client cannot hold every place. hyper
+//! source address has its share of both (a quarter of the requests' places,
+//! `max_per_source` WebSockets; beyond it `429`), so one client cannot hold every place. hyper
 //! frames the requests: heads are bounded in size and time, bodies in size and time here.
 //! Every answer but a WebSocket's `101` says `Connection: close`, so hyper closes the
 //! connection after it.
@@ -41,12 +41,14 @@ use tokio::sync::{OwnedSemaphorePermit, Semaphore};
 
 use crate::arena::Arena;
 use crate::budget::{SourceBudget, SourcePlace};
-use crate::config::ServerConfig;
 use websocket::{Live, OriginPolicy};
 
 /// Plain requests read or answered at once, by default; more are answered `503` at once.
 /// They are short, so this is far above what a page load needs.
 pub const MAX_REQUESTS: usize = 1024;
+
+/// One source address may hold at most 1/`REQUEST_SHARE` of the plain-request places.
+const REQUEST_SHARE: usize = 4;
 
 /// The longest request head read, in bytes (hyper's buffer; longer heads get `431`).
 const MAX_HEAD: usize = 16 * 1024;
@@ -88,8 +90,12 @@ enum TurnedAway {
 /// Serves `served` on `listener` until aborted.
 pub(crate) async fn serve(listener: TcpListener, served: Served, max_requests: usize) {
     let requests = Arc::new(Semaphore::new(max_requests));
-    let config = served.live.as_ref().map_or_else(ServerConfig::default, |l| l.arena.config().server.clone());
-    let sources = SourceBudget::new(config.max_per_source);
+    let trusted =
+        served.live.as_ref().map(|l| l.arena.config().server.trusted_proxies.clone()).unwrap_or_default();
+    // A page load is a burst of short requests, and a classroom behind one address loads
+    // many pages at once: an address may hold a quarter of the places, so that a client
+    // with half-sent heads can never hold them all.
+    let sources = SourceBudget::new((max_requests / REQUEST_SHARE).max(1));
     loop {
         let Ok((stream, peer)) = listener.accept().await else {
             // Out of file descriptors or a reset before accept: try again shortly.
@@ -99,7 +105,7 @@ pub(crate) async fn serve(listener: TcpListener, served: Served, max_requests: u
         let _ = stream.set_nodelay(true);
         // A trusted proxy's connections come from many clients: their WebSockets are
         // counted by the forwarded address; its plain requests only against the total.
-        let source = if config.trusted_proxies.contains(&peer.ip()) {
+        let source = if trusted.contains(&peer.ip()) {
             Ok(None)
         } else {
             sources.take(peer.ip()).map(Some).ok_or(TurnedAway::SourceFull(sources.limit()))
