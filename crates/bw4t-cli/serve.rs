@@ -89,6 +89,17 @@ pub(crate) struct ServeArgs {
     /// max_connections); more are refused with `server_full`.
     #[arg(long, value_name = "N")]
     max_connections: Option<usize>,
+    /// Connections one source address may have open at once (default 32, or the --config
+    /// file's max_per_source): as many on the protocol port and as many WebSockets on
+    /// --http; more are refused (`source_full`, HTTP `429`). Raise it for players who
+    /// share one address (a classroom behind one NAT).
+    #[arg(long, value_name = "N")]
+    max_per_source: Option<usize>,
+    /// A reverse proxy in front of --http, whose `X-Forwarded-For` names the client a
+    /// WebSocket's address budget is counted for; repeatable (the --config file's
+    /// trusted_proxies are added).
+    #[arg(long, value_name = "IP")]
+    trust_proxy: Vec<std::net::IpAddr>,
     /// Actions and messages a player may send per tick, 1 to 1000; more are rejected
     /// (`rate_limited`).
     #[arg(long, default_value_t = 16, conflicts_with = "config")]
@@ -132,6 +143,10 @@ pub(crate) fn run(args: &ServeArgs) -> Result<()> {
     settings.server.hello_timeout = Duration::from_secs(args.hello_timeout_s);
     settings.server.allowed_origins = args.allow_origin.clone();
     settings.server.operator_token = args.operator_token.clone();
+    settings.server.trusted_proxies = args.trust_proxy.clone();
+    if let Some(max) = args.max_per_source {
+        settings.server.max_per_source = max;
+    }
     let (templates, default, results_dir) = match &args.config {
         Some(path) => {
             let file = crate::arena_config::load(path, seed)?;
@@ -139,6 +154,10 @@ pub(crate) fn run(args: &ServeArgs) -> Result<()> {
             if let Some(max) = args.max_connections.or(file.max_connections) {
                 settings.server.max_connections = max;
             }
+            if let Some(max) = args.max_per_source.or(file.max_per_source) {
+                settings.server.max_per_source = max;
+            }
+            settings.server.trusted_proxies.extend(file.trusted_proxies);
             if settings.server.operator_token.is_none() {
                 settings.server.operator_token = file.operator_token;
             }

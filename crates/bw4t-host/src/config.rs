@@ -50,8 +50,10 @@ pub struct HostConfig {
     pub start_timeout: Option<Duration>,
     /// Lockstep: disconnect a player that misses this many deadlines in a row.
     pub max_late_in_row: Option<u32>,
-    /// Lockstep: with no player connected, wait for one instead of running on. Off for
-    /// matches whose players are programs that will not come back once gone.
+    /// Lockstep: with no player connected, wait for one instead of running on; and, in
+    /// any mode, end a started match as `abandoned` once it has had no remote player for
+    /// the grace period. Off for matches whose players are programs that will not come
+    /// back once gone: those run on without them, to their end.
     pub pause_when_empty: bool,
     /// Which messages players may send.
     pub language: MessagePolicy,
