@@ -932,13 +932,13 @@ async fn every_answer_says_how_a_browser_may_use_it() {
             "default-src 'self'",
             "script-src 'self'",
             &format!("connect-src 'self' ws://{http} wss://{http}"),
-            "frame-ancestors 'none'",
+            "frame-ancestors 'self'",
             "object-src 'none'",
         ] {
             assert!(csp.contains(directive), "{directive} missing from {csp}");
         }
         for header in
-            ["x-frame-options: deny", "x-content-type-options: nosniff", "referrer-policy: no-referrer"]
+            ["x-frame-options: sameorigin", "x-content-type-options: nosniff", "referrer-policy: no-referrer"]
         {
             assert!(head.contains(header), "{header} missing: {}", answer.head);
         }

@@ -30,6 +30,7 @@ import importlib.util
 import json
 import logging
 import re
+import secrets
 import subprocess
 import sys
 import time
@@ -245,8 +246,10 @@ async def _mcp_session(transport: str, args: List[str]) -> AsyncIterator[Any]:
                 await _bounded(session.initialize())
                 yield session
         return
+    # Over HTTP the robot answers only the holder of its bearer token.
+    token = secrets.token_hex(16)
     proc = await asyncio.create_subprocess_exec(
-        *command, "--http", "127.0.0.1:0",
+        *command, "--http", "127.0.0.1:0", "--http-token", token,
         stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
     )
     try:
@@ -259,7 +262,13 @@ async def _mcp_session(transport: str, args: List[str]) -> AsyncIterator[Any]:
             found = re.search(r"(http://\S+/mcp)", line)
             url = found.group(1) if found else None
         drain = asyncio.ensure_future(proc.stderr.read())
-        async with streamable_http_client(url) as (read, write):
+        try:  # the HTTP client the MCP SDK is built on: httpx2 from SDK 2.x, httpx before
+            import httpx2 as httpx  # type: ignore[import-not-found]
+        except ImportError:
+            import httpx  # type: ignore[no-redef]
+        headers = {"Authorization": f"Bearer {token}"}
+        client = httpx.AsyncClient(headers=headers, timeout=httpx.Timeout(30.0, read=300.0))
+        async with client, streamable_http_client(url, http_client=client) as (read, write):
             async with ClientSession(read, write) as session:
                 await _bounded(session.initialize())
                 yield session

@@ -384,10 +384,6 @@ def test_template_lobby_and_reconnect_into_its_match(arena: Server) -> None:
     assert ann.match.template == "ladder" and name and name.startswith("ladder")
     session = ann.session
 
-    ann.close(bye=False)
-    welcome = ann.reconnect(WAIT)  # names the match: the default one would refuse the session
-    assert (welcome.robot, welcome.session, welcome.match.name) == (0, session, name)
-
     bob = Client.connect(arena.host, arena.port, name="Bob", template="ladder", timeout=WAIT)
     assert (bob.match.name, bob.robot) == (name, 1)  # the match with a free seat
     while ann.beliefs.tick < 1:  # every lobby comes before the percepts of tick 1
@@ -395,6 +391,12 @@ def test_template_lobby_and_reconnect_into_its_match(arena: Server) -> None:
     assert (ann_lobbies[0].match, ann_lobbies[0].template, ann_lobbies[0].players) == (name, "ladder", ("Ann",))
     last = ann_lobbies[-1]
     assert (last.match, last.players, last.awaited, last.started) == (name, ("Ann", "Bob"), 0, True)
+
+    # Once the match has started, a dropped player's robot waits for it (before the start
+    # a seat left is free again at once).
+    ann.close(bye=False)
+    welcome = ann.reconnect(WAIT)  # names the match: the default one would refuse the session
+    assert (welcome.robot, welcome.session, welcome.match.name) == (0, session, name)
     for client in (ann, bob):
         client.close()
         assert client.errors == []

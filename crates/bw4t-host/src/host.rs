@@ -26,11 +26,6 @@ pub type ConnId = u64;
 /// (and later replaced by a snapshot) when less than this is free.
 const RESERVE: usize = 64;
 
-/// The shortest time between two `resync`s a player is answered: a snapshot is many
-/// times the size of the request, so more often would let a client make the server send
-/// far more than it reads.
-pub const RESYNC_INTERVAL: Duration = Duration::from_secs(1);
-
 /// How many messages a spectator frame carries at most.
 const FRAME_MESSAGES: usize = 100;
 
@@ -268,8 +263,9 @@ struct Player {
     late_in_row: u32,
     /// Bad lines from this player's connections.
     errors: u64,
-    /// When its last `resync` was answered.
-    resynced_at: Option<Instant>,
+    /// The tick its last `resync` was answered at: one a tick at most, since a snapshot is
+    /// many times the size of the request (the match's clock paces them, as percepts).
+    resynced_at: Option<u64>,
 }
 
 impl Player {
@@ -1055,13 +1051,13 @@ impl MatchHost {
                 }
             }
             ClientMessage::Resync(_) => {
-                let now = self.now;
+                let tick = self.game.tick();
                 let Some(player) = self.players.get_mut(&robot) else { return };
-                if player.resynced_at.is_some_and(|t| now.saturating_duration_since(t) < RESYNC_INTERVAL) {
-                    let message = format!("at most one resync per {} ms", RESYNC_INTERVAL.as_millis());
+                if player.resynced_at == Some(tick) {
+                    let message = format!("at most one resync a tick; tick {tick} has had its snapshot");
                     return self.error(conn, ErrorCode::RateLimited, &message, false);
                 }
-                player.resynced_at = Some(now);
+                player.resynced_at = Some(tick);
                 self.send_percepts(robot, Delivery::Snapshot);
             }
             ClientMessage::Bye(_) => {

@@ -17,7 +17,7 @@ pub use config::{
     DEFAULT_MATCH, HostConfig, MAX_ACTIONS_PER_TICK, MAX_DEADLINE, MAX_SPECTATOR_HZ, MAX_WAIT,
     REPLAY_DIGEST_EVERY,
 };
-pub use host::{ConnId, HostEvent, HostStatus, MatchHost, RESYNC_INTERVAL, Transmit, same_secret};
+pub use host::{ConnId, HostEvent, HostStatus, MatchHost, Transmit, same_secret};
 pub use lines::{bye_line, error_line, pong_line};
 
 /// Why a match could not be hosted.

@@ -84,11 +84,12 @@ impl Reply {
         headers.insert(header::CACHE_CONTROL, header::HeaderValue::from_static("no-store"));
         headers.insert(header::CONNECTION, header::HeaderValue::from_static("close"));
         // The page loads its scripts, styles and data from this server only, is framed by
-        // no other page, and tells no other site where the visitor came from.
+        // no other site's page (a study frames the game page of its own server), and tells
+        // no other site where the visitor came from.
         if let Ok(csp) = header::HeaderValue::from_str(&content_security_policy(None)) {
             headers.insert(header::CONTENT_SECURITY_POLICY, csp);
         }
-        headers.insert(header::X_FRAME_OPTIONS, header::HeaderValue::from_static("DENY"));
+        headers.insert(header::X_FRAME_OPTIONS, header::HeaderValue::from_static("SAMEORIGIN"));
         headers.insert(header::X_CONTENT_TYPE_OPTIONS, header::HeaderValue::from_static("nosniff"));
         headers.insert(header::REFERRER_POLICY, header::HeaderValue::from_static("no-referrer"));
         for (name, value) in self.headers {
@@ -103,12 +104,13 @@ impl Reply {
 /// The `Content-Security-Policy` of every answer: scripts, styles (the page sets some
 /// inline), images (`data:` for the empty icon) and connections from this server only, the
 /// WebSocket to `host` when the request names it (`'self'` covers `ws:` in newer
-/// browsers only); no plugins, no `<base>`, no framing.
+/// browsers only); no plugins, no `<base>`, framing by this server's own pages only (a
+/// study's trial page frames the game).
 pub(crate) fn content_security_policy(host: Option<&str>) -> String {
     let sockets = host.map(|h| format!(" ws://{h} wss://{h}")).unwrap_or_default();
     format!(
         "default-src 'self'; script-src 'self'; style-src 'self' 'unsafe-inline'; img-src 'self' data:; \
          connect-src 'self'{sockets}; object-src 'none'; base-uri 'none'; form-action 'self'; \
-         frame-ancestors 'none'"
+         frame-ancestors 'self'"
     )
 }

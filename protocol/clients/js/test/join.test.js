@@ -326,17 +326,17 @@ test('a template: lobby messages, and reconnect into its match', { timeout: 2000
     const name = first.match?.name;
     assert.equal(first.match?.template, 'ladder');
     assert.match(String(name), /^ladder/);
-    // Names the match: the default one would refuse the session.
-    const ann = await within(first.reconnect(), 10000, 'reconnect');
-    assert.deepEqual([ann.robot, ann.session, ann.match?.name], [0, first.session, name]);
-    ann.on('lobby', (l) => lobbies.push(l));
-
     const bob = await connect({ host: s.host, port: s.port, name: 'Bob', template: 'ladder' });
     assert.deepEqual([bob.match?.name, bob.robot], [name, 1]); // the match with a free seat
-    for await (const update of ann.updates()) if (update.tick >= 1) break; // lobbies come before tick 1
+    for await (const update of first.updates()) if (update.tick >= 1) break; // lobbies come before tick 1
     assert.deepEqual([lobbies[0].match, lobbies[0].template, lobbies[0].players], [name, 'ladder', ['Ann']]);
     const last = lobbies.at(-1);
     assert.deepEqual([last.match, last.players, last.awaited, last.started], [name, ['Ann', 'Bob'], 0, true]);
+    // Once the match has started, a dropped player's robot waits for it (before the start
+    // a seat left is free again at once). Names the match: the default one would refuse
+    // the session.
+    const ann = await within(first.reconnect(), 10000, 'reconnect');
+    assert.deepEqual([ann.robot, ann.session, ann.match?.name], [0, first.session, name]);
     await within(Promise.all([ann.bye(), bob.bye()]), 10000, 'bye');
   } finally {
     await s.stop();
