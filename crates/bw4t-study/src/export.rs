@@ -2,6 +2,11 @@
 //! and per answer, one per participant), `metadata.json`, and each trial's replay with
 //! the participant, condition and trial in its header's labels. Rows are ordered by
 //! participant id, then by their log's `seq`, so two exports of the same data are equal.
+//!
+//! A cell a participant could have written cannot become a spreadsheet formula: one that
+//! begins with `=`, `+`, `-`, `@`, a tab or a carriage return (and is not a plain number)
+//! gets a `'` in front, as OWASP's CSV-injection guidance says; the raw values stay in the
+//! participants' logs.
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -390,6 +395,7 @@ fn row(csv: &mut String, cells: &[String]) {
         if i > 0 {
             csv.push(',');
         }
+        let c = &neutralised(c);
         if c.contains([',', '"', '\n', '\r']) {
             let _ = write!(csv, "\"{}\"", c.replace('"', "\"\""));
         } else {
@@ -399,11 +405,35 @@ fn row(csv: &mut String, cells: &[String]) {
     csv.push('\n');
 }
 
+/// `cell`, with a `'` in front if a spreadsheet would take it for a formula. Numbers (a
+/// negative one begins with `-`) are left as they are: they are not formulas.
+fn neutralised(cell: &str) -> std::borrow::Cow<'_, str> {
+    let formula = cell.starts_with(['=', '+', '-', '@', '\t', '\r']) && cell.parse::<f64>().is_err();
+    if formula { format!("'{cell}").into() } else { cell.into() }
+}
+
 /// A JSON value as a CSV cell: strings bare, `null` empty, the rest as JSON.
 fn cell(value: &Value) -> String {
     match value {
         Value::Null => String::new(),
         Value::String(s) => s.clone(),
         other => other.to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::row;
+
+    #[test]
+    fn cells_that_a_spreadsheet_would_run_are_neutralised() {
+        let mut csv = String::new();
+        let cells =
+            ["=HYPERLINK(\"http://x\",\"y\")", "+1+1", "-2+3", "@SUM(A1)", "\tx", "\rx", "-12.5", "a=b"];
+        row(&mut csv, &cells.map(String::from));
+        assert_eq!(
+            csv,
+            "\"'=HYPERLINK(\"\"http://x\"\",\"\"y\"\")\",'+1+1,'-2+3,'@SUM(A1),'\tx,\"'\rx\",-12.5,a=b\n"
+        );
     }
 }

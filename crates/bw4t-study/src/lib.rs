@@ -3,14 +3,17 @@
 //! instructions, trials in a counterbalanced order, questionnaires, a final page).
 //!
 //! Each participant's every step and event is a line appended to
-//! `DIR/participants/ID.jsonl`, written with one `write_all` per request, so a killed
+//! `DIR/participants/ID.jsonl`, written with one `write_all` per request (the file is
+//! opened for that write only, so descriptors do not grow with participants), so a killed
 //! server loses nothing already answered; at start the state is rebuilt from those logs
-//! (`flow.rs`). The HTTP side is `api.rs` and the study's pages (`web.rs`), mounted on
+//! (`flow.rs`). A participant's routes need the secret their arrival set as a cookie
+//! (`credential.rs`). The HTTP side is `api.rs` and the study's pages (`web.rs`), mounted on
 //! the server's web port as [`Routes`]; [`export`] makes tidy CSV of a data directory.
 
 mod answers;
 mod api;
 mod config;
+mod credential;
 mod export;
 mod flow;
 mod markdown;
@@ -43,10 +46,10 @@ struct Shared {
     participants: Mutex<BTreeMap<String, Arc<Mutex<Slot>>>>,
 }
 
-/// A participant and their log file.
+/// A participant and where their log is.
 struct Slot {
     state: Participant,
-    file: File,
+    log: PathBuf,
 }
 
 /// The milliseconds since the Unix epoch (the logs' `server_ms`).
@@ -139,8 +142,7 @@ impl StudyServer {
             }
         }
         let Some(state) = state else { return Ok(None) };
-        let file = OpenOptions::new().append(true).open(path)?;
-        let mut slot = Slot { state, file };
+        let mut slot = Slot { state, log: path.to_path_buf() };
         if let Some((_, match_id)) = slot.state.playing.clone() {
             // The server stopped during this trial. Its match either ended (the page had
             // not answered yet) or was interrupted by the stop.
@@ -290,8 +292,9 @@ fn append(slot: &mut Slot, records: &[Record]) -> std::io::Result<()> {
         text.push_str(&Value::Object(line).to_string());
         text.push('\n');
     }
-    slot.file.write_all(text.as_bytes())?;
-    slot.file.flush()?;
+    let mut file = OpenOptions::new().append(true).open(&slot.log)?;
+    file.write_all(text.as_bytes())?;
+    file.flush()?;
     slot.state.seq = seq;
     for record in records {
         slot.state.apply(record, now);
@@ -311,8 +314,11 @@ impl Routes for StudyServer {
             };
             let rest = rest.trim_start_matches('/');
             let rest: Vec<&str> = if rest.is_empty() { Vec::new() } else { rest.split('/').collect() };
-            match api::respond(self, &request.method, &rest, &request.body, request.operator).await {
+            match api::respond(self, &request, &rest).await {
                 api::Answer::Json(status, body) => Reply::json(status, body),
+                api::Answer::Arrived(status, body, cookie) => {
+                    Reply::json(status, body).with("Set-Cookie", cookie)
+                }
                 api::Answer::Unauthorized => {
                     Reply::unauthorized(self.inner.arena.config().server.operator_token.is_some())
                 }
