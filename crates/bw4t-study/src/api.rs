@@ -73,11 +73,6 @@ const EVENT_KINDS: &[&str] = &[
 
 /// The most events one request may carry.
 const MAX_EVENTS: usize = 1000;
-/// The most events one participant may have recorded: far above a long session's (a
-/// 30-minute trial logs some tens of thousands), far below what fills a disk.
-pub(crate) const PARTICIPANT_EVENTS: u64 = 200_000;
-/// The most bytes of events (as JSON) one participant may have recorded.
-pub(crate) const PARTICIPANT_EVENT_BYTES: u64 = 32 * 1024 * 1024;
 /// How long a trial's end waits for its match to be recorded as ended (see `is_running`).
 const END_WAIT: std::time::Duration = std::time::Duration::from_secs(3);
 
@@ -503,23 +498,19 @@ impl StudyServer {
                 None => return error(StatusCode::BAD_REQUEST, format!("events[{i}]: kind: expected a word")),
             }
         }
-        let bytes: u64 = events.iter().map(event_size).sum();
+        let (bytes, study_budget): (u64, _) = (events.iter().map(event_size).sum(), self.inner.budget);
         with_participant(self, id, headers, |slot| {
-            let p = &slot.state;
-            if p.events + events.len() as u64 > PARTICIPANT_EVENTS {
+            let (p, budget) = (&slot.state, study_budget);
+            if p.events + events.len() as u64 > budget.events {
                 return error(
                     StatusCode::TOO_MANY_REQUESTS,
-                    format!(
-                        "events: participant '{id}' has recorded the most events one may ({PARTICIPANT_EVENTS})"
-                    ),
+                    format!("events: participant '{id}' may record at most {} events", budget.events),
                 );
             }
-            if p.event_bytes + bytes > PARTICIPANT_EVENT_BYTES {
+            if p.event_bytes + bytes > budget.bytes {
                 return error(
                     StatusCode::PAYLOAD_TOO_LARGE,
-                    format!(
-                        "events: participant '{id}' has recorded the most bytes of events one may ({PARTICIPANT_EVENT_BYTES})"
-                    ),
+                    format!("events: participant '{id}' may record at most {} bytes of events", budget.bytes),
                 );
             }
             let records: Vec<Record> = events.iter().map(|e| Record::Event { event: e.clone() }).collect();

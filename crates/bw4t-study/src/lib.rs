@@ -41,9 +41,28 @@ pub struct StudyServer {
 
 struct Shared {
     study: Study,
+    budget: EventBudget,
     dir: PathBuf,
     arena: Arena,
     participants: Mutex<BTreeMap<String, Arc<Mutex<Slot>>>>,
+}
+
+/// How much of the page's events one participant may have recorded: past either, more
+/// are refused (`429` for the count, `413` for the bytes), so no client fills the disk.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct EventBudget {
+    /// The most events.
+    pub events: u64,
+    /// The most bytes of events (each as compact JSON).
+    pub bytes: u64,
+}
+
+impl Default for EventBudget {
+    /// Far above a long session's (a 30-minute trial logs some tens of thousands of
+    /// events, a few MB), far below what fills a disk.
+    fn default() -> EventBudget {
+        EventBudget { events: 200_000, bytes: 32 * 1024 * 1024 }
+    }
 }
 
 /// A participant and where their log is.
@@ -70,11 +89,22 @@ impl StudyServer {
     /// incomplete and given again. The study answers on the arena's HTTP API for as
     /// long as it is mounted on the server's web port (its [`Routes`]).
     pub fn open(study: Study, dir: &Path, arena: Arena) -> std::io::Result<StudyServer> {
+        StudyServer::open_with(study, dir, arena, EventBudget::default())
+    }
+
+    /// [`StudyServer::open`] with a budget of events per participant.
+    pub fn open_with(
+        study: Study,
+        dir: &Path,
+        arena: Arena,
+        budget: EventBudget,
+    ) -> std::io::Result<StudyServer> {
         let logs = dir.join("participants");
         std::fs::create_dir_all(&logs)?;
         let server = StudyServer {
             inner: Arc::new(Shared {
                 study,
+                budget,
                 dir: dir.to_path_buf(),
                 arena,
                 participants: Mutex::new(BTreeMap::new()),
