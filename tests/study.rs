@@ -36,6 +36,8 @@ time_limit_s = 1
 name = "alpha"
 teammates = 1
 strategy = "coop"
+# The scripted player only says `ready`: staying to the end is its playing.
+min_active_ticks = 0
 free_text = false
 kinds = ["going_to", "have"]
 briefing = "Your teammate **talks**."
@@ -44,6 +46,7 @@ briefing = "Your teammate **talks**."
 name = "beta"
 teammates = 1
 strategy = "baseline"
+min_active_ticks = 0
 view = "overview"
 
 [[page]]
@@ -800,6 +803,7 @@ name = "together"
 humans = 2
 teammates = 2
 strategy = "coop"
+min_active_ticks = 0
 partner_timeout_s = 1
 
 [[page]]
@@ -1054,5 +1058,70 @@ async fn a_trial_start_takes_only_what_a_match_id_looks_like() {
     // And the export, which names files after match ids, works.
     let summary = study::export(&dir, &dir.join("export")).expect("export");
     assert_eq!((summary.participants, summary.trials), (1, 1), "{summary:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Starts `id`'s trial at `step` with a player that leaves at once (or, with `stay`, only
+/// says `ready`), waits for the match's end, and answers the trial with it.
+async fn trial_without_playing(rig: &StudyRig, id: &str, step: usize, stay: bool) -> ParticipantState {
+    let (_, state) = rig.call("GET", &format!("/api/study/participants/{id}"), None).await;
+    let state: ParticipantState = read(&state);
+    let Some(StudyPage::Trial { hello, .. }) = &state.page else { panic!("a trial: {state:?}") };
+    let ended: u64 = rig.arena.totals().values().map(|t| t.ended).sum();
+    let mut player =
+        AutoPlayer::join_with(rig.addr, json!({"name": hello.name, "template": hello.template})).await;
+    let (name, match_id) = (player.welcome.match_info.name.clone(), player.welcome.match_info.id.clone());
+    let started = json!({"step": step, "match": name, "match_id": match_id});
+    let (status, answer) =
+        rig.call("POST", &format!("/api/study/participants/{id}/trial"), Some(started)).await;
+    assert_eq!(status, 200, "{answer}");
+    if stay {
+        player.wait("the match's end", |s| s.ended.then_some(())).await;
+    } else {
+        player.disconnect().await;
+    }
+    tokio::time::timeout(WAIT, rig.arena.ended(ended + 1)).await.expect("the match is recorded in time");
+    let body = json!({"step": step, "answers": {"match_id": match_id}});
+    let (status, state) = rig.call("POST", &format!("/api/study/participants/{id}/answer"), Some(body)).await;
+    assert_eq!(status, 200, "{state}");
+    read(&state)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_trial_counts_only_if_the_participant_played() {
+    let dir = temp_dir("played");
+    // By default a robot that never moved was not played.
+    let rig = StudyRig::start(&dir, SHORT).await;
+    rig.call("POST", "/api/study/participants", Some(json!({"params": {"pid": "quitter"}}))).await;
+    rig.answer("quitter", 0, json!({"consent": true})).await;
+    // Left at tick 0: in the result, but the trial is given again.
+    let state = trial_without_playing(&rig, "quitter", 1, false).await;
+    assert_eq!((state.step, kind_of(&state)), (1, "trial".into()), "{state:?}");
+    // Stayed, but never moved: again.
+    let state = trial_without_playing(&rig, "quitter", 1, true).await;
+    assert_eq!((state.step, kind_of(&state)), (1, "trial".into()), "{state:?}");
+    rig.shutdown().await;
+    let log = std::fs::read_to_string(dir.join("participants/quitter.jsonl")).expect("log");
+    let reasons: Vec<String> = log
+        .lines()
+        .filter_map(|l| serde_json::from_str::<Value>(l).ok())
+        .filter(|v| v["type"] == "trial_incomplete")
+        .map(|v| v["reason"].as_str().unwrap_or("").to_string())
+        .collect();
+    assert_eq!(reasons.len(), 2, "{log}");
+    assert!(reasons.iter().all(|r| r.contains("did not play") && r.contains("moved in 0 of")), "{reasons:?}");
+    assert!(!log.contains("\"trial_ended\""), "{log}");
+
+    let _ = std::fs::remove_dir_all(&dir);
+
+    // A condition of talking alone asks for no moving: staying to the end is enough.
+    let dir = temp_dir("played-talking");
+    let rig =
+        StudyRig::start(&dir, &SHORT.replace("teammates = 1", "teammates = 1\nmin_active_ticks = 0")).await;
+    rig.call("POST", "/api/study/participants", Some(json!({"params": {"pid": "stayer"}}))).await;
+    rig.answer("stayer", 0, json!({"consent": true})).await;
+    let state = trial_without_playing(&rig, "stayer", 1, true).await;
+    assert_eq!(kind_of(&state), "final", "{state:?}");
+    rig.shutdown().await;
     let _ = std::fs::remove_dir_all(&dir);
 }

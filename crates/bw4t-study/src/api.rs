@@ -379,12 +379,7 @@ impl StudyServer {
                     }
                     Ok(Ended { failed: Some(why), .. }) => {
                         // The trial is given again.
-                        vec![self.incomplete(
-                            &slot.state,
-                            step,
-                            match_id,
-                            &format!("the match failed: {why}"),
-                        )]
+                        vec![self.incomplete(&slot.state, step, match_id, &why)]
                     }
                     Err(TrialRefusal::Unknown) => {
                         return error(

@@ -178,8 +178,13 @@ impl StudyServer {
             // not answered yet) or was interrupted by the stop.
             let step = slot.state.step;
             let records = match self.ended_trial(&slot.state, &match_id) {
-                Ok(Ended { result, .. }) if result.get("end_reason") != Some(&json!("interrupted")) => {
+                Ok(Ended { result, failed: None })
+                    if result.get("end_reason") != Some(&json!("interrupted")) =>
+                {
                     self.trial_end_records(&slot.state, step, &match_id, result)
+                }
+                Ok(Ended { failed: Some(why), .. }) => {
+                    vec![self.incomplete(&slot.state, step, &match_id, &why)]
                 }
                 _ => {
                     vec![self.incomplete(&slot.state, step, &match_id, "the server stopped during the trial")]
@@ -236,21 +241,38 @@ impl StudyServer {
         }
         let Some(result) = results.result(match_id).and_then(|r| serde_json::from_str::<Value>(&r).ok())
         else {
-            return Ok(Ended { result: Value::Null, failed: row.error.clone() });
+            return Ok(Ended {
+                result: Value::Null,
+                failed: row.error.as_ref().map(|e| format!("the match failed: {e}")),
+            });
         };
         let name = p.player_name();
-        let played = result["per_robot"]
+        let robot = result["per_robot"]
             .as_array()
-            .is_some_and(|robots| robots.iter().any(|r| r["name"].as_str() == Some(name.as_str())));
-        if !played {
+            .and_then(|robots| robots.iter().find(|r| r["name"].as_str() == Some(name.as_str())));
+        let Some(robot) = robot else {
             return Err(TrialRefusal::Bad(format!(
                 "match_id: '{name}' (this participant) did not play in match '{match_id}'"
             )));
-        }
+        };
         if p.used_matches.iter().any(|m| m == match_id) {
             return Err(TrialRefusal::Bad(format!("match_id: match '{match_id}' answered an earlier trial")));
         }
-        Ok(Ended { result: trial_result(&result), failed: None })
+        // In the result but not playing (left early, or never moved when asked to): the
+        // trial is given again.
+        let ticks = result["ticks"].as_u64().unwrap_or(0);
+        let active = ticks.saturating_sub(robot["idle_ticks"].as_u64().unwrap_or(ticks));
+        let least = study.conditions[c].min_active_ticks;
+        let failed = if robot["present"] == json!(false) {
+            Some("the participant did not play: they left the match before its end".to_string())
+        } else if active < least {
+            Some(format!(
+                "the participant did not play: their robot moved in {active} of {ticks} ticks (at least {least} needed)"
+            ))
+        } else {
+            None
+        };
+        Ok(Ended { result: trial_result(&result), failed })
     }
 
     fn slot(&self, id: &str) -> Option<Arc<Mutex<Slot>>> {
@@ -262,7 +284,7 @@ impl StudyServer {
 struct Ended {
     /// What the trial keeps of its result (`null` when the match failed).
     result: Value,
-    /// Why the match failed in the server, if it did.
+    /// Why the trial does not count (the match failed, the participant did not play).
     failed: Option<String>,
 }
 
