@@ -7,9 +7,9 @@
 # Set-up first: checks the tools (a Rust toolchain, Python 3.9+, Node.js 20+, npm) and
 # installs what the suites need: a virtualenv under target/ (the system's Python is left
 # alone) with maturin, pytest, NumPy, Gymnasium, PettingZoo, JAX and optax, the browser
-# tests' npm packages, and Debian's Chromium (through apt-get, as root or with sudo that
-# needs no password). What it cannot install it names, in one line, with how to get it,
-# and stops.
+# tests' npm packages, and Debian's Chromium and Caddy (through apt-get, as root or with
+# sudo that needs no password). What it cannot install it names, in one line, with how
+# to get it, and stops.
 # Then: the release binary, the Python package's wheel (built here and installed into the
 # virtualenv), the Rust tests, the Python suite (against the wheel), the JavaScript client
 # suite, the browser tests, and a tournament as a Slurm job array on a one-node cluster
@@ -111,6 +111,13 @@ if [ ! -x "$chromium" ]; then
         missing "Chromium at $chromium: sudo apt-get install chromium (Debian's package; this try's output is in $apt_log)"
 fi
 echo "    Chromium: $("$chromium" --version 2>/dev/null || echo "$chromium")"
+# The deployment test (tests/browser/deploy.test.js) puts Debian's Caddy in front of bw4t.
+if ! command -v caddy >/dev/null; then
+    echo "    installing Debian's caddy (apt-get)"
+    apt_install caddy && command -v caddy >/dev/null ||
+        missing "caddy: sudo apt-get install caddy (Debian's package; this try's output is in $apt_log)"
+fi
+echo "    Caddy: $(caddy version 2>/dev/null | head -n 1)"
 browser=tests/browser
 if [ ! "$browser/node_modules/.package-lock.json" -nt "$browser/package-lock.json" ]; then
     (cd "$browser" && PLAYWRIGHT_SKIP_BROWSER_DOWNLOAD=1 npm ci --no-audit --no-fund --silent) ||

@@ -255,7 +255,7 @@ async fn the_operator_makes_lists_inspects_and_stops_matches_through_the_api() {
     assert!(refused.error.contains("operator token"), "{body}");
     // A body sent in chunks, without Content-Length, is refused before it is read.
     let chunked = format!(
-        "POST /api/matches HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer op\r\nTransfer-Encoding: chunked\r\n\r\n{:x}\r\n{create}\r\n0\r\n\r\n",
+        "POST /api/matches HTTP/1.1\r\nHost: 127.0.0.1\r\nAuthorization: Bearer op\r\nTransfer-Encoding: chunked\r\n\r\n{:x}\r\n{create}\r\n0\r\n\r\n",
         create.len()
     );
     let mut stream = tokio::net::TcpStream::connect(server.http).await.expect("connect");
@@ -400,6 +400,7 @@ async fn bystander_stream(hostile_in_a: bool) -> Vec<String> {
             for i in 0..300 {
                 c.send_raw(&format!("garbage {i} {{")).await;
                 c.send(json!({"type": "act", "id": i, "action": "goTo", "args": ["RoomA1"]})).await;
+                c.send(json!({"type": "resync"})).await;
             }
             c.send_raw(&"y".repeat(1 << 20)).await;
             c.drain().await;
@@ -420,6 +421,20 @@ async fn bystander_stream(hostile_in_a: bool) -> Vec<String> {
             let mut c = Client::connect(addr).await;
             c.send(json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": "Nob", "match": "nowhere"})).await;
             c.drain().await;
+        }));
+        // One other address takes as many connections as it can and holds them, watching.
+        hostile.push(tokio::spawn(async move {
+            let mut held = Vec::new();
+            loop {
+                let mut c = Client::connect_from(addr, "127.0.0.2").await;
+                c.send(json!({"type": "hello", "protocol": "bw4t", "versions": [1], "role": "spectator", "match": "a", "token": "sesame"})).await;
+                match c.recv().await {
+                    Some(ServerMessage::Welcome(_)) => held.push(c),
+                    _ => break,
+                }
+            }
+            std::future::pending::<()>().await;
+            drop(held);
         }));
     }
     let mut good = Client::connect(addr).await;
@@ -561,4 +576,95 @@ fn stops_racing_restarts_never_deadlock() {
     });
     let stopped = finished.recv_timeout(Duration::from_secs(120)).expect("every stop answered: no deadlock");
     assert!(stopped > 0, "some stops found the ladder live");
+}
+
+/// `hello` joining template `template` as `name`.
+fn hello_template(name: &str, template: &str) -> Value {
+    json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": name, "template": template})
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_player_who_leaves_a_waiting_match_frees_its_seat_for_the_next() {
+    let mut open = template("open", lockstep("default", 2, 40));
+    open.max_running = 1;
+    open.config.grace = Duration::from_secs(600);
+    let server = ArenaServer::start(ArenaConfig::new(vec![open])).await;
+    let (mal, welcome) = crate::util::welcomed(server.addr, hello_template("Mal", "open")).await;
+    assert_eq!(welcome.match_info.name, "open-1");
+    mal.leave().await;
+    // Mal's seat is free at once, not after the grace period: Ann and Bob both sit in open-1.
+    let (_ann, ann) = crate::util::welcomed(server.addr, hello_template("Ann", "open")).await;
+    let (_bob, bob) = crate::util::welcomed(server.addr, hello_template("Bob", "open")).await;
+    assert_eq!((ann.match_info.name.as_str(), bob.match_info.name.as_str()), ("open-1", "open-1"));
+    server.shutdown().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn sixteen_players_who_join_a_template_and_leave_do_not_block_it() {
+    // As examples/arena.toml's `open`: four seats, four matches at most, a long tick limit.
+    let mut open = template("open", lockstep("default", 4, 1_000_000));
+    open.config.mode = Mode::Realtime;
+    open.max_running = 4;
+    open.config.grace = Duration::from_millis(300);
+    let server = ArenaServer::start(ArenaConfig::new(vec![open])).await;
+    let mut gone = Vec::new();
+    for i in 0..16 {
+        let (client, welcome) =
+            crate::util::welcomed(server.addr, hello_template(&format!("Mal{i}"), "open")).await;
+        assert_eq!(welcome.match_info.name, format!("open-{}", i / 4 + 1));
+        gone.push(client);
+    }
+    drop(gone);
+    // The four matches lost every player: each ends a grace period later, and Ann is seated.
+    let (_ann, welcome) = crate::util::welcomed(server.addr, hello_template("Ann", "open")).await;
+    assert_eq!(welcome.match_info.template.as_deref(), Some("open"));
+    server.ended(4).await;
+    let (_, body) = http(server.http, "GET", "/api/matches", None, None).await;
+    let list = json_of(&body);
+    let reasons: Vec<&str> =
+        list["matches"].as_array().expect("a list").iter().filter_map(|m| m["end_reason"].as_str()).collect();
+    assert_eq!(reasons, ["abandoned"; 4], "{body}");
+    server.shutdown().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn one_address_gets_its_share_of_connections_and_no_more() {
+    let mut config = ArenaConfig::new(vec![single("a", lockstep("fixed", 1, 400), OnEnd::Stay)]);
+    config.server.max_per_source = 3;
+    let server = ArenaServer::start(config).await;
+    let spectate =
+        json!({"type": "hello", "protocol": "bw4t", "versions": [1], "role": "spectator", "match": "a"});
+    let mut held = Vec::new();
+    for _ in 0..3 {
+        let mut c = Client::connect_from(server.addr, "127.0.0.2").await;
+        c.send(spectate.clone()).await;
+        c.until(|m| matches!(m, ServerMessage::Welcome(_)).then_some(())).await;
+        held.push(c);
+    }
+    let mut fourth = Client::connect_from(server.addr, "127.0.0.2").await;
+    let error = fourth.until(|m| if let ServerMessage::Error(e) = m { Some(e.clone()) } else { None }).await;
+    assert_eq!((error.code.as_str(), error.fatal), ("source_full", true), "{}", error.message);
+    assert!(error.message.contains("at most 3"), "{}", error.message);
+    // Another address is let in, and a place given back is free again.
+    let (_ann, welcome) = crate::util::welcomed(server.addr, hello_template_free("Ann", "a")).await;
+    assert_eq!(welcome.match_info.name, "a");
+    // A spectator that leaves: its place is free once the server has closed it.
+    let mut leaving = held.pop().expect("a held connection");
+    leaving.send(json!({"type": "bye"})).await;
+    leaving.drain().await;
+    let mut again = Client::connect_from(server.addr, "127.0.0.2").await;
+    again.send(spectate).await;
+    again
+        .until(|m| match m {
+            ServerMessage::Welcome(_) => Some(()),
+            ServerMessage::Error(e) => panic!("refused after a place was given back: {e:?}"),
+            _ => None,
+        })
+        .await;
+    server.shutdown().await;
+}
+
+/// `hello` joining match `name` as player `player`.
+fn hello_template_free(player: &str, name: &str) -> Value {
+    json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": player, "match": name})
 }

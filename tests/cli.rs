@@ -211,12 +211,15 @@ fn serve_whose_output_reader_is_gone_still_stops_on_sigterm() {
 
 #[test]
 fn serve_refuses_bad_options() {
-    let cases: [(&[&str], &str); 4] = [
+    let cases: [(&[&str], &str); 6] = [
         (&["serve", "--mode", "warp"], "invalid value 'warp'"),
         (&["serve", "--robots", "50", "--port", "0"], "map 'default' has 12 spawn points"),
         (&["serve", "--tick-hz", "0", "--port", "0"], "bad --tick-hz"),
         // A realtime match this fast would have a tick period of zero.
         (&["serve", "--tick-hz", "2000000000", "--port", "0"], "must be from 1 to 1000, got 2000000000"),
+        // A grace the clock cannot add, an allowance of no actions at all.
+        (&["serve", "--grace-s", "99999999999", "--port", "0"], "the reconnect grace must be from"),
+        (&["serve", "--max-actions", "0", "--port", "0"], "actions per tick must be from 1 to 1000, got 0"),
     ];
     for (args, expected) in cases {
         let out = bw4t(args);

@@ -503,3 +503,116 @@ fn a_player_on_a_recycled_robot_id_does_not_inherit_the_last_players_report() {
     assert_eq!(cat.id, 0, "Cat plays the robot Ann left");
     assert_eq!(cat.usage, None, "Ann's report is not Cat's");
 }
+
+#[test]
+fn a_player_who_leaves_before_the_start_frees_the_seat_at_once() {
+    let (setup, config) = lockstep_config(2);
+    let mut sim = Sim::new((setup, config));
+    sim.join(1, "Ann");
+    sim.close(1);
+    // No time passes: the seat is free for the next two players, and they start the match.
+    sim.join(2, "Bob");
+    sim.join(3, "Cy");
+    assert!(
+        sim.messages(3).iter().any(|m| matches!(m, ServerMessage::Welcome(_))),
+        "Cy is seated: {:?}",
+        sim.messages(3)
+    );
+    assert!(sim.host.has_started(), "two players present start a match of two");
+    let result = sim.finish();
+    let names: Vec<&str> = result.per_robot.iter().map(|r| r.name.as_str()).collect();
+    assert!(names.contains(&"Bob") && names.contains(&"Cy") && !names.contains(&"Ann"), "{names:?}");
+}
+
+#[test]
+fn a_started_match_every_player_left_ends_as_abandoned_after_the_grace_period() {
+    let (setup, mut config) = lockstep_config(2);
+    config.grace = Duration::from_secs(30);
+    let mut sim = Sim::new((setup, config));
+    sim.join(1, "Ann");
+    sim.join(2, "Bob");
+    sim.ready(1);
+    sim.ready(2);
+    sim.run_until(Duration::from_secs(3));
+    sim.close(1);
+    sim.close(2);
+    let left = sim.elapsed();
+    sim.run_until(left + Duration::from_millis(29_999));
+    assert!(!sim.host.is_over(), "the players may still come back");
+    sim.run_until(left + Duration::from_secs(30));
+    assert!(sim.host.is_over(), "nobody came back within the grace period");
+    assert_eq!(sim.finish().end_reason, bw4t_protocol::EndReason::Abandoned);
+}
+
+#[test]
+fn a_player_back_within_the_grace_period_keeps_a_match_going() {
+    let (setup, mut config) = lockstep_config(1);
+    config.grace = Duration::from_secs(30);
+    let mut sim = Sim::new((setup, config));
+    sim.join(1, "Ann");
+    let session = sim
+        .messages(1)
+        .iter()
+        .find_map(|m| if let ServerMessage::Welcome(w) = m { w.session.clone() } else { None })
+        .expect("a session");
+    sim.close(1);
+    sim.run_until(Duration::from_secs(29));
+    sim.open(2);
+    sim.say(2, json!({"type": "hello", "protocol": "bw4t", "versions": [1], "session": session}));
+    sim.run_until(Duration::from_secs(120));
+    assert!(!sim.host.is_over(), "Ann came back: the match goes on");
+}
+
+#[test]
+fn a_match_of_built_in_agents_only_is_never_abandoned() {
+    let (mut setup, mut config) = lockstep_config(1);
+    let player = bw4t_agents::Player::Builtin(bw4t_agents::Strategy::Cooperative);
+    setup.seats = vec![Seat { name: "Bot1".into(), player }];
+    config.mode = Mode::Realtime;
+    config.grace = Duration::from_secs(1);
+    let mut sim = Sim::new((setup, config));
+    assert!(sim.host.has_started());
+    sim.run_until(Duration::from_secs(5));
+    assert!(!sim.host.is_over(), "nobody is missing from a match of built-in agents");
+    assert!(sim.host.tick() > 0);
+}
+
+#[test]
+fn resync_is_answered_at_most_once_per_interval_and_refused_with_rate_limited() {
+    let (setup, config) = lockstep_config(1);
+    let mut sim = Sim::new((setup, config));
+    sim.join(1, "Ann");
+    let full = |sim: &Sim| sim.percepts(1).iter().filter(|p| p.full).count();
+    let before = full(&sim);
+    sim.say(1, json!({"type": "resync"}));
+    assert_eq!(full(&sim), before + 1, "the first resync gets a snapshot");
+    // A flood at once: each is refused, and no snapshot is sent for it.
+    for _ in 0..50 {
+        sim.say(1, json!({"type": "resync"}));
+    }
+    assert_eq!(full(&sim), before + 1);
+    let refusals = sim
+        .messages(1)
+        .iter()
+        .filter(|m| matches!(m, ServerMessage::Error(e) if e.code == "rate_limited" && !e.fatal))
+        .count();
+    assert_eq!(refusals, 50);
+    sim.run_until(bw4t_host::RESYNC_INTERVAL);
+    sim.say(1, json!({"type": "resync"}));
+    assert_eq!(full(&sim), before + 2, "a resync an interval later is answered again");
+}
+
+#[test]
+fn a_match_of_programs_that_will_not_come_back_runs_on_when_they_leave() {
+    let (setup, mut config) = lockstep_config(1);
+    config.grace = Duration::from_secs(1);
+    config.pause_when_empty = false;
+    let mut sim = Sim::new((setup, config));
+    sim.join(1, "Ann");
+    sim.close(1);
+    sim.run_until(Duration::from_secs(5));
+    assert!(sim.host.tick() > 0);
+    if sim.host.is_over() {
+        assert_ne!(sim.finish().end_reason, bw4t_protocol::EndReason::Abandoned);
+    }
+}

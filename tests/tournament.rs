@@ -209,6 +209,49 @@ fn resume_plays_only_what_is_missing_even_after_a_kill() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A merge reads rows anyone could have written: a row's `replay` that points outside its
+/// shard's `replays/` is neither read nor written.
+#[test]
+fn a_merge_copies_no_replay_from_or_to_outside_the_shards() {
+    let dir = temp("stray");
+    let config = write_config(
+        &dir,
+        "maps = [\"fixed\"]\nseeds = 3\n[[team]]\nname = \"solo\"\nagents = \"builtin:baseline\"\nrobots = 2\n",
+    );
+    let (shard, merged) = (dir.join("shard"), dir.join("merged"));
+    run_to(&config, &shard, &["--replays", "all"]);
+    let victim = dir.join("victim.txt");
+    std::fs::write(&victim, "keep me").expect("victim");
+    let index = shard.join("matches.jsonl");
+    let mut lines: Vec<Value> = std::fs::read_to_string(&index)
+        .expect("matches.jsonl")
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("a row"))
+        .collect();
+    assert_eq!(lines.len(), 3);
+    lines[0]["replay"] = Value::from(victim.to_str().expect("utf-8"));
+    lines[1]["replay"] = Value::from("../escaped.jsonl");
+    let text: String = lines.iter().map(|l| format!("{l}\n")).collect();
+    std::fs::write(&index, text).expect("tampered rows");
+    let out = crate::util::bw4t_within(
+        &["tournament", "merge", shard.to_str().expect("utf-8"), "-o", merged.to_str().expect("utf-8")],
+        LIMIT,
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("2 matches name a replay outside their shard's replays/"), "{stderr}");
+    assert_eq!(std::fs::read_to_string(&victim).expect("victim"), "keep me");
+    assert!(!dir.join("escaped.jsonl").exists(), "nothing written outside --out");
+    let kept = rows(&merged);
+    let replays: Vec<bool> = kept.iter().map(|r| r["replay"].is_string()).collect();
+    assert_eq!(
+        replays.iter().filter(|r| **r).count(),
+        1,
+        "only the untouched row keeps its replay: {kept:?}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn shards_merged_equal_the_whole_tournament() {
     let dir = temp("shards");

@@ -343,6 +343,13 @@ pub fn lockstep(map: &str, seed: u64, robots: usize) -> (MatchSetup, HostConfig)
     (setup, config)
 }
 
+/// A TCP connection to `addr` from the loopback address `from`.
+pub async fn stream_from(addr: SocketAddr, from: &str) -> TcpStream {
+    let socket = tokio::net::TcpSocket::new_v4().expect("socket");
+    socket.bind(SocketAddr::new(from.parse().expect("an address"), 0)).expect("bind a loopback address");
+    socket.connect(addr).await.expect("connect")
+}
+
 /// A raw line client.
 pub struct Client {
     lines: tokio::io::Lines<BufReader<OwnedReadHalf>>,
@@ -352,6 +359,12 @@ pub struct Client {
 impl Client {
     pub async fn connect(addr: SocketAddr) -> Client {
         Client::from_stream(TcpStream::connect(addr).await.expect("connect"))
+    }
+
+    /// A client connecting from the loopback address `from` (`127.0.0.2`, ...): another
+    /// source address on this machine.
+    pub async fn connect_from(addr: SocketAddr, from: &str) -> Client {
+        Client::from_stream(stream_from(addr, from).await)
     }
 
     /// A client whose socket takes in little before the server's writes block, so a client
@@ -403,6 +416,13 @@ impl Client {
     }
 
     /// Reads to the end of the connection, returning everything received.
+    /// Closes the sending half as a client that goes away does, and reads until the
+    /// server has closed the connection: the server has then seen it go.
+    pub async fn leave(mut self) {
+        self.writer.shutdown().await.expect("shut the sending half");
+        self.drain().await;
+    }
+
     pub async fn drain(&mut self) -> Vec<ServerMessage> {
         let mut all = Vec::new();
         while let Some(m) = self.recv().await {

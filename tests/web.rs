@@ -21,7 +21,7 @@ struct Answer {
 /// A plain HTTP GET, or `None` when the server closed the connection without answering.
 async fn try_get(addr: SocketAddr, path: &str) -> Option<Answer> {
     let mut stream = tokio::net::TcpStream::connect(addr).await.expect("connect");
-    let _ = stream.write_all(format!("GET {path} HTTP/1.1\r\nHost: test\r\n\r\n").as_bytes()).await;
+    let _ = stream.write_all(format!("GET {path} HTTP/1.1\r\nHost: {addr}\r\n\r\n").as_bytes()).await;
     let mut response = String::new();
     let _ = tokio::time::timeout(WAIT, stream.read_to_string(&mut response)).await.expect("in time");
     let (head, body) = response.split_once("\r\n\r\n")?;
@@ -54,6 +54,21 @@ async fn try_ws(addr: SocketAddr, headers: &[(&'static str, &str)]) -> Result<Ws
         request.headers_mut().insert(*name, value.parse().expect("header value"));
     }
     let stream = tokio::net::TcpStream::connect(addr).await.expect("connect");
+    let handshake = tokio_tungstenite::client_async(request, stream);
+    Ok(tokio::time::timeout(WAIT, handshake).await.expect("a handshake in time")?.0)
+}
+
+/// [`try_ws`] from the loopback address `from` (another source address).
+async fn try_ws_from(
+    addr: SocketAddr,
+    from: &str,
+    headers: &[(&'static str, &str)],
+) -> Result<Ws, tungstenite::Error> {
+    let mut request = format!("ws://{addr}/ws").into_client_request().expect("request");
+    for (name, value) in headers {
+        request.headers_mut().insert(*name, value.parse().expect("header value"));
+    }
+    let stream = crate::util::stream_from(addr, from).await;
     let handshake = tokio_tungstenite::client_async(request, stream);
     Ok(tokio::time::timeout(WAIT, handshake).await.expect("a handshake in time")?.0)
 }
@@ -651,7 +666,12 @@ async fn a_burst_of_page_requests_is_answered_whatever_the_websocket_limit() {
     for request in requests {
         match request.await.expect("request task") {
             Some(answer) if answer.status == 200 => ok += 1,
-            Some(answer) if answer.status == 503 && answer.head.contains("\r\nRetry-After: 1") => busy += 1,
+            // Beyond the total (503) or this address's share (429): told to come back.
+            Some(answer)
+                if [503, 429].contains(&answer.status) && answer.head.contains("\r\nRetry-After: 1") =>
+            {
+                busy += 1
+            }
             Some(answer) => panic!("unexpected answer {}", answer.head),
             None => silent += 1,
         }
@@ -674,10 +694,10 @@ async fn over_the_request_limit_a_client_is_told_to_retry() {
     let (task, addr) = plain_site(2).await;
     // Two connections that never finish their request hold both places: the server takes
     // connections in the order they were made and gives each its place as it takes it, so
-    // the next one is refused at once.
+    // the next one is refused at once. (From two addresses: one may hold only a quarter.)
     let idle = [
-        tokio::net::TcpStream::connect(addr).await.expect("connect"),
-        tokio::net::TcpStream::connect(addr).await.expect("connect"),
+        crate::util::stream_from(addr, "127.0.0.2").await,
+        crate::util::stream_from(addr, "127.0.0.3").await,
     ];
     let busy = get(addr, "/info.json").await;
     assert_eq!(busy.status, 503, "{}", busy.head);
@@ -702,12 +722,12 @@ async fn bad_requests_get_a_status_that_names_the_problem() {
     };
     let garbage = ask(b"HELLO THERE\x01\r\n\r\n".to_vec()).await;
     assert!(garbage.starts_with("HTTP/1.1 400 "), "{garbage}");
-    let post = ask(b"POST / HTTP/1.1\r\nHost: x\r\n\r\n".to_vec()).await;
+    let post = ask(b"POST / HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n".to_vec()).await;
     assert!(post.starts_with("HTTP/1.1 405 ") && post.contains("\r\nAllow: GET"), "{post}");
-    let huge = format!("GET / HTTP/1.1\r\nHost: x\r\nX-Big: {}\r\n\r\n", "y".repeat(20_000));
+    let huge = format!("GET / HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Big: {}\r\n\r\n", "y".repeat(20_000));
     let huge = ask(huge.into_bytes()).await;
     assert!(huge.starts_with("HTTP/1.1 431 "), "{huge}");
-    let plain_ws = ask(b"GET /ws HTTP/1.1\r\nHost: x\r\n\r\n".to_vec()).await;
+    let plain_ws = ask(b"GET /ws HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n".to_vec()).await;
     assert!(plain_ws.starts_with("HTTP/1.1 404 "), "no match, no /ws: {plain_ws}");
     task.abort();
 }
@@ -809,4 +829,137 @@ async fn the_page_locates_points_as_the_map_does() {
             .collect();
         assert!(disagree.is_empty(), "map '{}': the page and the map disagree at {disagree:?}", map.name());
     }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn one_address_holding_its_share_of_request_places_leaves_the_page_to_others() {
+    // An address may hold a quarter of the places.
+    let (task, addr) = plain_site(64).await;
+    let share = 16;
+    // Half-sent request heads from one address: each holds a place until its head timeout.
+    let mut idle = Vec::new();
+    for _ in 0..share {
+        let mut stream = crate::util::stream_from(addr, "127.0.0.2").await;
+        stream.write_all(b"GET / HTTP/1.1\r\nHost: x\r\n").await.expect("write");
+        idle.push(stream);
+    }
+    let mut one_more = crate::util::stream_from(addr, "127.0.0.2").await;
+    one_more.write_all(b"GET /info.json HTTP/1.1\r\nHost: x\r\n\r\n").await.expect("write");
+    let mut answer = String::new();
+    let _ = tokio::time::timeout(WAIT, one_more.read_to_string(&mut answer)).await.expect("in time");
+    assert!(answer.starts_with("HTTP/1.1 429 ") && answer.contains("\r\nRetry-After: 1"), "{answer}");
+    assert!(answer.contains(&format!("at most {share} requests at once from one address")), "{answer}");
+    assert_eq!(get(addr, "/info.json").await.status, 200, "another address is served");
+    for stream in idle {
+        leave(stream).await;
+    }
+    task.abort();
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn one_address_gets_its_share_of_websockets_counted_by_a_trusted_proxy_s_forwarded_address() {
+    let limits = ServerConfig {
+        max_per_source: 2,
+        trusted_proxies: vec!["127.0.0.3".parse().expect("an address")],
+        hello_timeout: std::time::Duration::from_secs(600),
+        ..Default::default()
+    };
+    let (server, http) = web_server_limited(web_config(1), 0, limits).await;
+    let _held = [
+        try_ws_from(http, "127.0.0.2", &[]).await.expect("a first WebSocket"),
+        try_ws_from(http, "127.0.0.2", &[]).await.expect("a second WebSocket"),
+    ];
+    // The third from the address is refused, even when it claims to come from elsewhere:
+    // only a trusted proxy's X-Forwarded-For is believed.
+    let third = try_ws_from(http, "127.0.0.2", &[("x-forwarded-for", "10.9.9.9")]).await;
+    assert_eq!(refusal(&third), 429);
+    assert!(ws(http).await.get_ref().peer_addr().is_ok(), "another address is let in");
+    // Behind the proxy each client has its own share, by the address the proxy names.
+    let via = |client: &'static str| async move {
+        try_ws_from(http, "127.0.0.3", &[("x-forwarded-for", client)]).await
+    };
+    let _proxied = [via("10.0.0.1").await.expect("first"), via("10.0.0.1").await.expect("second")];
+    assert_eq!(refusal(&via("10.0.0.1").await), 429);
+    assert!(via("192.0.2.1, 10.0.0.2").await.is_ok(), "the last address the proxy names counts");
+    server.stop().await;
+}
+
+/// Sends `request` to `addr` as is and reads the whole answer.
+async fn raw(addr: SocketAddr, request: &str) -> String {
+    let mut stream = tokio::net::TcpStream::connect(addr).await.expect("connect");
+    let _ = stream.write_all(request.as_bytes()).await;
+    let mut response = String::new();
+    let _ = tokio::time::timeout(WAIT, stream.read_to_string(&mut response)).await.expect("in time");
+    response
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn plain_requests_are_answered_only_on_the_server_s_own_names() {
+    let limits =
+        ServerConfig { allowed_origins: vec!["http://example.org:8080".into()], ..Default::default() };
+    let (server, http) = web_server_limited(web_config(1), 0, limits).await;
+    let port = http.port();
+    let status = |answer: String| answer.split(' ').nth(1).unwrap_or_default().to_string();
+    let on = |host: String| format!("GET /api/matches HTTP/1.1\r\nHost: {host}\r\n\r\n");
+    // A name pointed at this server by someone else (DNS rebinding) does not read the API.
+    let rebound = raw(http, &on(format!("evil.example:{port}"))).await;
+    assert_eq!(status(rebound.clone()), "403", "{rebound}");
+    assert!(rebound.contains("is not a name of this server"), "{rebound}");
+    assert_eq!(status(raw(http, "GET / HTTP/1.1\r\n\r\n").await), "403", "no Host at all");
+    for host in
+        [format!("localhost:{port}"), format!("127.0.0.1:{port}"), "[::1]".into(), "example.org:8080".into()]
+    {
+        let answer = raw(http, &on(host.clone())).await;
+        assert_eq!(status(answer.clone()), "200", "{host}: {answer}");
+    }
+    server.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn every_answer_says_how_a_browser_may_use_it() {
+    let (server, http) = web_server(0, 1).await;
+    let page = get(http, "/").await;
+    let missing = get(http, "/nowhere").await;
+    assert_eq!((page.status, missing.status), (200, 404));
+    for answer in [page, missing] {
+        let head = answer.head.to_ascii_lowercase();
+        let csp = head
+            .lines()
+            .find_map(|l| l.strip_prefix("content-security-policy: "))
+            .unwrap_or_else(|| panic!("no Content-Security-Policy: {}", answer.head))
+            .to_string();
+        for directive in [
+            "default-src 'self'",
+            "script-src 'self'",
+            &format!("connect-src 'self' ws://{http} wss://{http}"),
+            "frame-ancestors 'none'",
+            "object-src 'none'",
+        ] {
+            assert!(csp.contains(directive), "{directive} missing from {csp}");
+        }
+        for header in
+            ["x-frame-options: deny", "x-content-type-options: nosniff", "referrer-policy: no-referrer"]
+        {
+            assert!(head.contains(header), "{header} missing: {}", answer.head);
+        }
+    }
+    server.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_request_body_has_one_valid_length_or_is_refused() {
+    let (server, http) = web_server(0, 1).await;
+    let post = |lengths: &str| format!("POST /api/matches HTTP/1.1\r\nHost: {http}\r\n{lengths}\r\n{{}}");
+    // Two lengths that differ, or one with a sign, could be read one way here and another
+    // by a proxy in front: hyper refuses them before the request reaches the server.
+    for lengths in
+        ["Content-Length: 2\r\nContent-Length: 3\r\n", "Content-Length: +2\r\n", "Content-Length: 2, 3\r\n"]
+    {
+        let answer = raw(http, &post(lengths)).await;
+        assert!(answer.starts_with("HTTP/1.1 400 "), "{lengths:?}: {answer}");
+    }
+    // One length, even said twice, is read: the API answers (it needs the operator).
+    let answer = raw(http, &post("Content-Length: 2\r\nContent-Length: 2\r\n")).await;
+    assert!(answer.starts_with("HTTP/1.1 401 "), "{answer}");
+    server.stop().await;
 }

@@ -24,6 +24,11 @@ pub(crate) struct ArenaFile {
     pub results_dir: Option<PathBuf>,
     /// Connections accepted at once.
     pub max_connections: Option<usize>,
+    /// Connections one source address may have open at once.
+    pub max_per_source: Option<usize>,
+    /// Reverse proxies whose `X-Forwarded-For` names a web client's address.
+    #[serde(default)]
+    pub trusted_proxies: Vec<std::net::IpAddr>,
     /// The templates.
     #[serde(default, rename = "template")]
     pub templates: Vec<TemplateFile>,
@@ -81,6 +86,8 @@ pub(crate) struct ArenaSettings {
     pub operator_token: Option<String>,
     pub results_dir: Option<PathBuf>,
     pub max_connections: Option<usize>,
+    pub max_per_source: Option<usize>,
+    pub trusted_proxies: Vec<std::net::IpAddr>,
 }
 
 /// Reads and checks `path`; `seed` is the first match's seed of templates that fix none.
@@ -116,6 +123,8 @@ pub(crate) fn load(path: &Path, seed: u64) -> Result<ArenaSettings> {
         operator_token: file.operator_token,
         results_dir: file.results_dir.map(|d| base.join(d)),
         max_connections: file.max_connections,
+        max_per_source: file.max_per_source,
+        trusted_proxies: file.trusted_proxies,
     })
 }
 
@@ -208,6 +217,7 @@ fn template(t: TemplateFile, base: &Path, seed: u64) -> Result<Template> {
         bail!("fill = true needs start_timeout_s: the seats are filled when the timeout passes");
     }
     config.fill = t.fill.then_some(strategy);
+    config.check().map_err(anyhow::Error::msg)?;
     let names = match (t.teams, t.names.is_empty()) {
         (Some(_), false) => bail!("give names or teams, not both"),
         (Some(n), true) => team_names(n),

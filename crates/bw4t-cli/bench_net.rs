@@ -28,7 +28,11 @@ pub(crate) fn lockstep(map: &str, seed: u64, players: usize, ticks: u64) -> Resu
     runtime.block_on(async {
         let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
         let addr = listener.local_addr()?;
-        let server = tokio::spawn(bw4t_server::serve(listener, setup, config, std::future::pending()));
+        // Every player connects from this machine.
+        let server = bw4t_server::ServerConfig { max_per_source: players.max(1), ..Default::default() };
+        let extras = bw4t_server::Extras { server, ..Default::default() };
+        let served = bw4t_server::serve_with(listener, setup, config, extras, std::future::pending());
+        let server = tokio::spawn(served);
         let mut clients = Vec::new();
         for i in 0..players {
             clients.push(tokio::spawn(lockstep_player(addr, i, seed)));
@@ -113,6 +117,8 @@ pub(crate) fn realtime(seed: u64, robots: usize, seconds: f64) -> Result<Value> 
     let mut child = crate::self_command()?
         .args(["serve", "--port", "0", "--mode", "realtime", "--tick-hz", "20"])
         .args(["--robots", &robots.to_string(), "--seed", &seed.to_string()])
+        // Every robot connects from this machine.
+        .args(["--max-per-source", &robots.max(1).to_string()])
         .arg("--map")
         .arg(&map_path)
         .stdout(std::process::Stdio::piped())

@@ -1,6 +1,7 @@
 //! `bw4t mcp`: one robot behind a Model Context Protocol server, over stdio or streamable
 //! HTTP, in a match of its own or in a served one. Standard output belongs to the MCP
-//! client in stdio mode, so everything else goes to standard error.
+//! client in stdio mode, so everything else goes to standard error. Over stdio only the
+//! parent process reaches the robot; over HTTP only the holder of its bearer token.
 
 use std::net::{SocketAddr, ToSocketAddrs};
 use std::path::PathBuf;
@@ -8,7 +9,7 @@ use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
 use bw4t_agents::Strategy;
-use bw4t_mcp::{Docs, Link, LocalMatch, MAX_TOOL_SECONDS, RobotServer};
+use bw4t_mcp::{Docs, HttpOptions, Link, LocalMatch, MAX_TOOL_SECONDS, RobotServer};
 use bw4t_protocol::SessionOptions;
 use bw4t_runner::TickLimit;
 use clap::Args;
@@ -57,12 +58,29 @@ pub(crate) struct McpArgs {
     #[arg(long)]
     out: Option<PathBuf>,
     /// Serve MCP over streamable HTTP at this address (endpoint /mcp) instead of stdio.
+    /// Every request must carry `Authorization: Bearer TOKEN`: the robot is driven by
+    /// whoever holds the token, printed on standard error at start.
     #[arg(long, value_name = "ADDR")]
     http: Option<SocketAddr>,
-    /// With --http: a Host name to accept besides loopback's (repeat for more).
-    #[arg(long = "allow-host", value_name = "HOST")]
+    /// With --http: the bearer token (default: a random one, printed at start).
+    #[arg(long, value_name = "TOKEN", requires = "http")]
+    http_token: Option<String>,
+    /// With --http: a Host name to accept besides loopback's (repeat for more); a browser
+    /// page from that host is accepted too.
+    #[arg(long = "allow-host", value_name = "HOST", requires = "http")]
     allow_hosts: Vec<String>,
-    /// Seconds a tool call may take (wall time) before it returns `timeout`.
+    /// With --http: a browser origin (`https://app.example:8080`, or `null`) to accept
+    /// besides this machine's and the --allow-host names' (repeat for more). Requests with
+    /// any other `Origin` are refused (403); requests without one are not browser pages.
+    #[arg(long = "allow-origin", value_name = "ORIGIN", requires = "http")]
+    allow_origins: Vec<String>,
+    /// With --http: connections held at once; more are answered 503. Each must send a
+    /// request head within 10 s of opening and between requests.
+    #[arg(long, default_value_t = 64, value_name = "N", requires = "http")]
+    http_max_connections: usize,
+    /// Seconds a tool call may take before it returns `timeout`: wall time, and in a
+    /// lockstep match simulated time too (no call runs the match further), as `wait`'s
+    /// `seconds` are there.
     #[arg(long, default_value_t = 120.0)]
     tool_timeout_s: f64,
     /// Seconds to wait for a seat when joining.
@@ -95,6 +113,13 @@ fn served_address(args: &McpArgs) -> Result<Option<SocketAddr>> {
 pub(crate) fn run(args: &McpArgs) -> Result<()> {
     if !(args.tool_timeout_s > 0.0 && args.tool_timeout_s <= MAX_TOOL_SECONDS) {
         bail!("--tool-timeout-s must be above 0 and at most {MAX_TOOL_SECONDS}");
+    }
+    if args.http_max_connections == 0 {
+        bail!("--http-max-connections must be at least 1");
+    }
+    if args.http_token.as_deref().is_some_and(|token| token.len() < 16 || token.contains(char::is_whitespace))
+    {
+        bail!("--http-token must be at least 16 characters, without spaces");
     }
     let served = served_address(args)?;
     let own_match_flags = [
@@ -179,8 +204,14 @@ pub(crate) fn run(args: &McpArgs) -> Result<()> {
             Some(addr) => {
                 let listener = tokio::net::TcpListener::bind(addr).await.with_context(|| format!("cannot listen on {addr}"))?;
                 let bound = listener.local_addr()?;
+                let token = args.http_token.clone().unwrap_or_else(bw4t_server::random_token);
                 eprintln!("bw4t mcp: MCP over streamable HTTP at http://{bound}{}", bw4t_mcp::MCP_PATH);
-                bw4t_mcp::serve_http(server, listener, args.allow_hosts.clone()).await?;
+                eprintln!("bw4t mcp: bearer token {token} (send Authorization: Bearer {token})");
+                let mut options = HttpOptions::new(token);
+                options.hosts.clone_from(&args.allow_hosts);
+                options.origins.clone_from(&args.allow_origins);
+                options.max_connections = args.http_max_connections;
+                bw4t_mcp::serve_http(server, listener, options).await;
             }
             None => bw4t_mcp::serve_stdio(server).await.map_err(anyhow::Error::msg)?,
         }

@@ -60,7 +60,8 @@ pub(crate) struct ServeArgs {
     /// see the README); 0 for no limit.
     #[arg(long, conflicts_with = "config")]
     max_ticks: Option<u64>,
-    /// Lockstep: milliseconds to wait for a player's `ready` before counting it late (0: forever).
+    /// Lockstep: milliseconds to wait for a player's `ready` before counting it late (0: forever;
+    /// at most 3600000).
     #[arg(long, default_value_t = 1000, conflicts_with = "config")]
     deadline_ms: u64,
     /// The player token: a secret players must send in `hello`. With it set, watching
@@ -81,14 +82,26 @@ pub(crate) struct ServeArgs {
     /// Send every player `percepts` every tick, even empty ones (lockstep then waits every tick).
     #[arg(long, conflicts_with = "config")]
     every_tick: bool,
-    /// Seconds a dropped player's robot waits for its session to reconnect.
+    /// Seconds a dropped player's robot waits for its session to reconnect (at most 86400).
     #[arg(long, default_value_t = 30, conflicts_with = "config")]
     grace_s: u64,
     /// Connections accepted at once (default 256, or the --config file's
     /// max_connections); more are refused with `server_full`.
     #[arg(long, value_name = "N")]
     max_connections: Option<usize>,
-    /// Actions and messages a player may send per tick; more are rejected (`rate_limited`).
+    /// Connections one source address may have open at once (default 32, or the --config
+    /// file's max_per_source): as many on the protocol port and as many WebSockets on
+    /// --http; more are refused (`source_full`, HTTP `429`). Raise it for players who
+    /// share one address (a classroom behind one NAT).
+    #[arg(long, value_name = "N")]
+    max_per_source: Option<usize>,
+    /// A reverse proxy in front of --http, whose `X-Forwarded-For` names the client a
+    /// WebSocket's address budget is counted for; repeatable (the --config file's
+    /// trusted_proxies are added).
+    #[arg(long, value_name = "IP")]
+    trust_proxy: Vec<std::net::IpAddr>,
+    /// Actions and messages a player may send per tick, 1 to 1000; more are rejected
+    /// (`rate_limited`).
     #[arg(long, default_value_t = 16, conflicts_with = "config")]
     max_actions: u32,
     /// Seconds a new connection has to say `hello`.
@@ -130,6 +143,10 @@ pub(crate) fn run(args: &ServeArgs) -> Result<()> {
     settings.server.hello_timeout = Duration::from_secs(args.hello_timeout_s);
     settings.server.allowed_origins = args.allow_origin.clone();
     settings.server.operator_token = args.operator_token.clone();
+    settings.server.trusted_proxies = args.trust_proxy.clone();
+    if let Some(max) = args.max_per_source {
+        settings.server.max_per_source = max;
+    }
     let (templates, default, results_dir) = match &args.config {
         Some(path) => {
             let file = crate::arena_config::load(path, seed)?;
@@ -137,6 +154,10 @@ pub(crate) fn run(args: &ServeArgs) -> Result<()> {
             if let Some(max) = args.max_connections.or(file.max_connections) {
                 settings.server.max_connections = max;
             }
+            if let Some(max) = args.max_per_source.or(file.max_per_source) {
+                settings.server.max_per_source = max;
+            }
+            settings.server.trusted_proxies.extend(file.trusted_proxies);
             if settings.server.operator_token.is_none() {
                 settings.server.operator_token = file.operator_token;
             }
@@ -266,6 +287,7 @@ fn single_match(args: &ServeArgs, seed: u64) -> Result<Template> {
     config.every_tick = args.every_tick;
     config.grace = Duration::from_secs(args.grace_s);
     config.max_actions_per_tick = args.max_actions;
+    config.check().map_err(|e| anyhow::anyhow!("bad option: {e}"))?;
     let spawns = setup.map.spawns().len();
     if args.robots > spawns {
         bail!("--robots {} but map '{}' has {spawns} spawn points", args.robots, setup.map.name());

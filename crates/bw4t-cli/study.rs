@@ -47,6 +47,14 @@ pub(crate) struct StudyArgs {
     /// Connections accepted at once.
     #[arg(long, value_name = "N", default_value_t = 256)]
     max_connections: usize,
+    /// Connections (and WebSockets) one source address may have open at once; raise it
+    /// for participants who share one address.
+    #[arg(long, value_name = "N", default_value_t = bw4t_server::ServerConfig::default().max_per_source)]
+    max_per_source: usize,
+    /// A reverse proxy in front of the web port, whose `X-Forwarded-For` names the
+    /// participant a WebSocket is counted for (repeatable).
+    #[arg(long, value_name = "IP")]
+    trust_proxy: Vec<std::net::IpAddr>,
     #[command(flatten)]
     log: crate::serving::LogArgs,
 }
@@ -104,6 +112,8 @@ fn serve(args: &StudyArgs, file: &Path) -> Result<()> {
     settings.server.operator_token = Some(token.clone());
     settings.server.allowed_origins = args.allow_origin.clone();
     settings.server.max_connections = args.max_connections;
+    settings.server.max_per_source = args.max_per_source;
+    settings.server.trusted_proxies = args.trust_proxy.clone();
     settings.server.hello_timeout = Duration::from_secs(10);
     let matches = args.data.join("matches");
     settings.results = ResultsStore::in_dir(&matches)

@@ -320,6 +320,13 @@ fn merge_command(dirs: &[PathBuf], out: Option<&Path>, play_missing: bool) -> Re
             some(&report.conflicting)
         );
     }
+    if !report.stray_replays.is_empty() {
+        eprintln!(
+            "bw4t: warning: {} name a replay outside their shard's replays/ (not copied): {}",
+            plural(report.stray_replays.len(), "match"),
+            some(&report.stray_replays)
+        );
+    }
     if report.missing.is_empty() {
         return Ok(status::SUCCESS);
     }

@@ -233,12 +233,21 @@ async def stdio_session(command: Sequence[str], env: Optional[Dict[str, str]] = 
 
 
 @asynccontextmanager
-async def http_session(url: str) -> AsyncIterator[ClientSession]:
-    """An initialized session of the MCP server at `url` (streamable HTTP)."""
-    async with streamable_http_client(url) as (read, write):
-        async with ClientSession(read, write) as session:
-            await asyncio.wait_for(session.initialize(), CALL_TIMEOUT)
-            yield session
+async def http_session(url: str, token: Optional[str]) -> AsyncIterator[ClientSession]:
+    """An initialized session of the MCP server at `url` (streamable HTTP), whose every
+    request carries the bearer token `bw4t mcp --http` printed (none: `None`)."""
+    try:  # the HTTP client the MCP SDK is built on: httpx2 from SDK 2.x, httpx before
+        import httpx2 as httpx  # type: ignore[import-not-found]
+    except ImportError:
+        import httpx  # type: ignore[no-redef]
+    # The SDK's own timeouts: a response stream may stay open while a tool runs.
+    headers = {"Authorization": f"Bearer {token}"} if token is not None else {}
+    client = httpx.AsyncClient(headers=headers, timeout=httpx.Timeout(30.0, read=300.0))
+    async with client:
+        async with streamable_http_client(url, http_client=client) as (read, write):
+            async with ClientSession(read, write) as session:
+                await asyncio.wait_for(session.initialize(), CALL_TIMEOUT)
+                yield session
 
 
 def default_bw4t() -> List[str]:

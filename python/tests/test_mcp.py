@@ -19,7 +19,7 @@ import subprocess
 import sys
 from contextlib import asynccontextmanager
 from pathlib import Path
-from typing import Any, AsyncIterator, Awaitable, Dict, List, Tuple, TypeVar
+from typing import Any, AsyncIterator, Awaitable, Dict, List, Optional, Tuple, TypeVar
 
 import pytest
 
@@ -52,26 +52,30 @@ def own_match(bw4t_bin: str, *args: str) -> List[str]:
 
 
 @asynccontextmanager
-async def http_server(argv: List[str]) -> AsyncIterator[str]:
-    """Starts `argv` (a `bw4t mcp --http 127.0.0.1:0 ...`), yields the URL it prints on
-    standard error, and kills it at the end."""
+async def http_server(argv: List[str]) -> AsyncIterator[Tuple[str, str]]:
+    """Starts `argv` (a `bw4t mcp --http 127.0.0.1:0 ...`), yields the URL and the bearer
+    token it prints on standard error, and kills it at the end."""
     proc = await asyncio.create_subprocess_exec(
         *argv, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
     )
     assert proc.stderr is not None
     said: List[str] = []
+    url: Optional[str] = None
     try:
         while True:
             line = (await bounded(proc.stderr.readline(), 30)).decode()
             if not line:
-                pytest.fail(f"bw4t mcp --http ended without an address; it said: {''.join(said)!r}")
+                pytest.fail(f"bw4t mcp --http ended without an address and a token; it said: {''.join(said)!r}")
             said.append(line)
             found = re.search(r"MCP over streamable HTTP at (http://\S+/mcp)", line)
             if found:
+                url = found.group(1)
+            token = re.search(r"bearer token (\S+)", line)
+            if token and url:
                 break
         # Keep reading what it says, so that it never blocks on a full pipe.
         drain = asyncio.ensure_future(proc.stderr.read())
-        yield found.group(1)
+        yield url, token.group(1)
         drain.cancel()
     finally:
         if proc.returncode is None:
@@ -118,9 +122,9 @@ def test_a_scripted_client_delivers_a_block_over_stdio(bw4t_bin: str) -> None:
 
 def test_a_scripted_client_delivers_a_block_over_streamable_http(bw4t_bin: str) -> None:
     async def main() -> Play:
-        async with http_server(own_match(bw4t_bin, "--http", "127.0.0.1:0")) as url:
+        async with http_server(own_match(bw4t_bin, "--http", "127.0.0.1:0")) as (url, token):
             assert url.startswith("http://127.0.0.1:")
-            async with http_session(url) as session:
+            async with http_session(url, token) as session:
                 return await play(session, deliveries=1)
 
     check_delivery(run(main()))
@@ -200,17 +204,21 @@ def test_bad_arguments_are_mcp_errors_naming_the_problem(bw4t_bin: str) -> None:
 
 @pytest.mark.parametrize("transport", ["stdio", "http"])
 def test_wait_times_out_and_a_second_call_while_one_runs_is_refused(bw4t_bin: str, transport: str) -> None:
-    argv = own_match(bw4t_bin, "--max-ticks", "100000000")
+    # A call with no end of its own lasts its timeout in simulated time (lockstep): an
+    # hour's timeout is 72000 ticks, long enough to be seen running.
+    argv = own_match(bw4t_bin, "--max-ticks", "100000000", "--tool-timeout-s", "3600")
 
     async def scenario(session: Any) -> None:
         # Alone, nothing changes for the robot: the wait ends by its time, as an outcome.
+        # In lockstep its seconds are simulated: 0.3 s at 20 ticks a second are 6 ticks.
         res = await bounded(session.call_tool("wait", {"seconds": 0.3}))
         assert not res.is_error and res.structured_content["outcome"] == "timeout"
+        assert res.structured_content["ticks"] == 6
         assert res.structured_content["ended"] is False and res.structured_content["changes"] == []
         # A wait runs; the match's tick moves only while a call runs (lockstep), so a
         # later tick in `look` shows it has started. Then go_to is refused.
         start = res.structured_content["tick"]
-        waiting = asyncio.ensure_future(session.call_tool("wait", {"seconds": 2}))
+        waiting = asyncio.ensure_future(session.call_tool("wait", {}))
         while (await bounded(session.call_tool("look", {}))).structured_content["tick"] == start:
             assert not waiting.done(), "the wait ended before the tick moved"
         with pytest.raises(MCPError) as caught:
@@ -218,7 +226,7 @@ def test_wait_times_out_and_a_second_call_while_one_runs_is_refused(bw4t_bin: st
         assert "another action is still in progress (wait)" in caught.value.message
         assert caught.value.message.startswith("go_to:")
         res = await bounded(waiting)
-        assert res.structured_content["outcome"] == "timeout"
+        assert res.structured_content["outcome"] == "timeout" and res.structured_content["ticks"] == 72000
         # And then the robot takes orders again.
         res = await bounded(session.call_tool("go_to", {"place": "RoomA1"}))
         assert res.structured_content["outcome"] == "arrived"
@@ -228,9 +236,28 @@ def test_wait_times_out_and_a_second_call_while_one_runs_is_refused(bw4t_bin: st
             async with stdio_session(argv) as session:
                 await scenario(session)
         else:
-            async with http_server([*argv, "--http", "127.0.0.1:0"]) as url:
-                async with http_session(url) as session:
+            async with http_server([*argv, "--http", "127.0.0.1:0"]) as (url, token):
+                async with http_session(url, token) as session:
                     await scenario(session)
+
+    run(main())
+
+
+def test_http_needs_the_bearer_token(bw4t_bin: str) -> None:
+    """Over HTTP the robot is driven by whoever holds the token `bw4t mcp` printed: a
+    client without it, or with another, gets nowhere. (Over stdio only the parent process
+    can reach the server, so it needs none.)"""
+
+    async def main() -> None:
+        async with http_server(own_match(bw4t_bin, "--http", "127.0.0.1:0")) as (url, token):
+            for wrong in [None, "not-the-token"]:
+                with pytest.raises(BaseException) as caught:
+                    async with http_session(url, wrong):
+                        pass
+                assert "401" in repr(caught.value) or "nauthorized" in repr(caught.value), caught.value
+            async with http_session(url, token) as session:
+                res = await bounded(session.call_tool("look", {}))
+                assert res.structured_content["tick"] == 0, "nobody moved the robot"
 
     run(main())
 

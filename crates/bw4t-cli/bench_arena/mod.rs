@@ -121,7 +121,9 @@ fn room_names(map: &Map) -> Result<Arc<[String]>> {
 /// An arena of `templates` that takes `connections` at once.
 fn arena_config(templates: Vec<Template>, connections: usize) -> ArenaConfig {
     let mut config = ArenaConfig::new(templates);
-    config.server = ServerConfig { max_connections: connections, ..ServerConfig::default() };
+    // Every simulated client comes from this machine: one address may take every place.
+    config.server =
+        ServerConfig { max_connections: connections, max_per_source: connections, ..ServerConfig::default() };
     config
 }
 

@@ -50,14 +50,29 @@ pub struct HostConfig {
     pub start_timeout: Option<Duration>,
     /// Lockstep: disconnect a player that misses this many deadlines in a row.
     pub max_late_in_row: Option<u32>,
-    /// Lockstep: with no player connected, wait for one instead of running on. Off for
-    /// matches whose players are programs that will not come back once gone.
+    /// Lockstep: with no player connected, wait for one instead of running on; and, in
+    /// any mode, end a started match as `abandoned` once it has had no remote player for
+    /// the grace period. Off for matches whose players are programs that will not come
+    /// back once gone: those run on without them, to their end.
     pub pause_when_empty: bool,
     /// Which messages players may send.
     pub language: MessagePolicy,
     /// Free-form labels (e.g. a study's condition), written into the replay and the result.
     pub labels: BTreeMap<String, String>,
 }
+
+/// The longest any of a match's waits may be (grace, start timeout): a day. Longer ones
+/// would overflow the clock's arithmetic, and no player waits that long.
+pub const MAX_WAIT: Duration = Duration::from_secs(24 * 60 * 60);
+
+/// The longest a lockstep deadline or the slow-reader limit may be: an hour.
+pub const MAX_DEADLINE: Duration = Duration::from_secs(60 * 60);
+
+/// The most actions and messages a player may be allowed per tick.
+pub const MAX_ACTIONS_PER_TICK: u32 = 1000;
+
+/// The most spectator frames a second.
+pub const MAX_SPECTATOR_HZ: u32 = 60;
 
 impl Default for HostConfig {
     fn default() -> Self {
@@ -66,6 +81,40 @@ impl Default for HostConfig {
 }
 
 impl HostConfig {
+    /// Checks every figure is in its range (they come from flags, files and the API);
+    /// the error names the setting, its range and the value.
+    pub fn check(&self) -> Result<(), String> {
+        let within = |what: &str, value: Duration, least: Duration, most: Duration| {
+            if (least..=most).contains(&value) {
+                Ok(())
+            } else {
+                Err(format!("{what} must be from {least:?} to {most:?}, got {value:?}"))
+            }
+        };
+        let tiny = Duration::from_millis(1);
+        if let Some(deadline) = self.deadline {
+            within("the lockstep deadline", deadline, tiny, MAX_DEADLINE)?;
+        }
+        within("the slow-reader limit", self.slow_limit, tiny, MAX_DEADLINE)?;
+        within("the reconnect grace", self.grace, Duration::ZERO, MAX_WAIT)?;
+        if let Some(start) = self.start_timeout {
+            within("the start timeout", start, Duration::ZERO, MAX_WAIT)?;
+        }
+        let count = |what: &str, value: u32, most: u32| {
+            if (1..=most).contains(&value) {
+                Ok(())
+            } else {
+                Err(format!("{what} must be from 1 to {most}, got {value}"))
+            }
+        };
+        count("actions per tick", self.max_actions_per_tick, MAX_ACTIONS_PER_TICK)?;
+        count("spectator frames per second", self.spectator_hz, MAX_SPECTATOR_HZ)?;
+        if let Some(late) = self.max_late_in_row {
+            count("deadlines missed in a row", late, u32::MAX)?;
+        }
+        Ok(())
+    }
+
     /// The defaults: a realtime match named `default`, open to anyone.
     pub fn new() -> Self {
         HostConfig {
@@ -89,6 +138,35 @@ impl HostConfig {
             pause_when_empty: true,
             language: MessagePolicy::default(),
             labels: BTreeMap::new(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::time::Duration;
+
+    use super::{HostConfig, MAX_WAIT};
+
+    #[test]
+    fn figures_out_of_range_are_refused_by_name() {
+        assert_eq!(HostConfig::new().check(), Ok(()));
+        type Spoil = fn(&mut HostConfig);
+        let cases: [(Spoil, &str); 5] = [
+            (
+                |c| c.grace = MAX_WAIT + Duration::from_secs(1),
+                "the reconnect grace must be from 0ns to 86400s",
+            ),
+            (|c| c.deadline = Some(Duration::ZERO), "the lockstep deadline must be from 1ms to 3600s"),
+            (|c| c.start_timeout = Some(Duration::from_secs(u64::MAX)), "the start timeout must be"),
+            (|c| c.max_actions_per_tick = 0, "actions per tick must be from 1 to 1000, got 0"),
+            (|c| c.spectator_hz = 1000, "spectator frames per second must be from 1 to 60, got 1000"),
+        ];
+        for (spoil, expected) in cases {
+            let mut config = HostConfig::new();
+            spoil(&mut config);
+            let refused = config.check().expect_err(expected);
+            assert!(refused.starts_with(expected), "{refused}");
         }
     }
 }

@@ -26,6 +26,11 @@ pub type ConnId = u64;
 /// (and later replaced by a snapshot) when less than this is free.
 const RESERVE: usize = 64;
 
+/// The shortest time between two `resync`s a player is answered: a snapshot is many
+/// times the size of the request, so more often would let a client make the server send
+/// far more than it reads.
+pub const RESYNC_INTERVAL: Duration = Duration::from_secs(1);
+
 /// How many messages a spectator frame carries at most.
 const FRAME_MESSAGES: usize = 100;
 
@@ -263,6 +268,8 @@ struct Player {
     late_in_row: u32,
     /// Bad lines from this player's connections.
     errors: u64,
+    /// When its last `resync` was answered.
+    resynced_at: Option<Instant>,
 }
 
 impl Player {
@@ -285,6 +292,7 @@ impl Player {
             connected_ever: false,
             late_in_row: 0,
             errors: 0,
+            resynced_at: None,
         }
     }
 }
@@ -334,6 +342,9 @@ pub struct MatchHost {
     held: bool,
     /// How late the last realtime tick was made, and the ticks skipped, until taken.
     lateness: Option<(Duration, u64)>,
+    /// Since when the started match has had no remote player connected: it ends as
+    /// `abandoned` a grace period later (see [`Self::note_presence`]).
+    deserted_since: Option<Instant>,
 }
 
 /// The figures of a match's set-up the host goes on using.
@@ -343,6 +354,9 @@ struct Played {
     /// Seats, named and open: the players the match waits for and admits at most.
     robots: usize,
     max_ticks: Option<u64>,
+    /// Some seat is for a remote player (not all are built-in or in-process agents): a
+    /// match all its players left can end as `abandoned`.
+    remote_seats: bool,
 }
 
 /// Where a match is, for listings: a copy made on request, so it costs nothing per tick.
@@ -379,6 +393,7 @@ impl MatchHost {
         now: Instant,
     ) -> Result<MatchHost, HostError> {
         admission::check_tokens_differ(&config)?;
+        config.check().map_err(HostError::Config)?;
         setup.check().map_err(|e| HostError::Seat(e.to_string()))?;
         setup
             .only_players("in a served match", |p| {
@@ -386,7 +401,10 @@ impl MatchHost {
             })
             .map_err(|e| HostError::Seat(e.to_string()))?;
         let MatchSetup { map, seed, game, seats, max_ticks } = setup;
-        let played = Played { seed, tick_hz: game.ticks_per_second, robots: seats.len(), max_ticks };
+        let remote_seats =
+            seats.iter().any(|s| matches!(s.player, bw4t_agents::Player::Remote | bw4t_agents::Player::Open));
+        let played =
+            Played { seed, tick_hz: game.ticks_per_second, robots: seats.len(), max_ticks, remote_seats };
         let game = Match::new(&map, &game, seed)?;
         let names = seats.iter().filter(|s| !matches!(s.player, bw4t_agents::Player::Open));
         let names = names.map(|s| s.name.clone()).collect();
@@ -426,6 +444,7 @@ impl MatchHost {
             lobby_changed: false,
             held: false,
             lateness: None,
+            deserted_since: None,
         };
         for seat in seats.into_iter().filter(|s| !matches!(s.player, bw4t_agents::Player::Open)) {
             let local = seat.player.agent(&seat.name);
@@ -488,6 +507,11 @@ impl MatchHost {
             self.send_frames(false);
         }
         self.expire_dropped();
+        if self.deserted_since.is_some_and(|since| now >= since + self.config.grace) {
+            tracing::info!(target: "bw4t::match", r#match = %self.config.name, "every player left: the match ends");
+            self.end = Some(EndReason::Abandoned);
+            return;
+        }
         match self.phase {
             Phase::Waiting { start_by } => {
                 if start_by.is_some_and(|t| now >= t) {
@@ -567,10 +591,8 @@ impl MatchHost {
             return None;
         }
         let expiry = self.players.values().filter_map(|p| p.dropped_at).min().map(|t| t + self.config.grace);
-        let expiry = match (expiry, self.trailing_frame_at()) {
-            (Some(a), Some(b)) => Some(a.min(b)),
-            (a, b) => a.or(b),
-        };
+        let deserted = self.deserted_since.map(|since| since + self.config.grace);
+        let expiry = [expiry, self.trailing_frame_at(), deserted].into_iter().flatten().min();
         let pacing = match self.phase {
             Phase::Waiting { start_by } => start_by,
             Phase::Playing { .. } if self.held => None,
@@ -781,6 +803,7 @@ impl MatchHost {
         self.observe_locals();
         self.tick_sent_at = now;
         self.phase = Phase::Playing { since: now, next_tick: now + self.tick_period() };
+        self.note_presence();
     }
 
     /// In-process agents see what they were told and decide; their actions wait for the
@@ -964,8 +987,28 @@ impl MatchHost {
                     player.awaiting = false;
                     player.orders.clear();
                     player.pending = vec![Pending::Stop];
+                    // Before the start a seat held for a player who left would keep
+                    // everyone else out for its grace period: it is free again at once
+                    // (a reserved seat stays its named player's).
+                    if matches!(self.phase, Phase::Waiting { .. }) && !player.reserved {
+                        self.remove_player(id);
+                    }
+                    self.note_presence();
                 }
             }
+        }
+    }
+
+    /// Notes whether a started match with seats for remote players has any of them
+    /// connected; one with none since `deserted_since` ends a grace period later. Called
+    /// when a player comes or goes and at the start, never per tick.
+    fn note_presence(&mut self) {
+        let started = matches!(self.phase, Phase::Playing { .. });
+        let present = self.players.values().any(|p| p.local.is_none() && p.conn.is_some());
+        if !started || !self.played.remote_seats || !self.config.pause_when_empty || present {
+            self.deserted_since = None;
+        } else {
+            self.deserted_since.get_or_insert(self.now);
         }
     }
 
@@ -1012,6 +1055,13 @@ impl MatchHost {
                 }
             }
             ClientMessage::Resync(_) => {
+                let now = self.now;
+                let Some(player) = self.players.get_mut(&robot) else { return };
+                if player.resynced_at.is_some_and(|t| now.saturating_duration_since(t) < RESYNC_INTERVAL) {
+                    let message = format!("at most one resync per {} ms", RESYNC_INTERVAL.as_millis());
+                    return self.error(conn, ErrorCode::RateLimited, &message, false);
+                }
+                player.resynced_at = Some(now);
                 self.send_percepts(robot, Delivery::Snapshot);
             }
             ClientMessage::Bye(_) => {
@@ -1062,6 +1112,7 @@ impl MatchHost {
             self.gone.insert(id, (player.errors, player.connected_ever));
         }
         let _ = self.game.leave_logged(id, &mut self.recorder);
+        self.note_presence();
     }
 
     /// Robots whose players stayed away longer than the grace period leave the match.

@@ -13,8 +13,11 @@ mod config;
 mod host;
 mod lines;
 
-pub use config::{DEFAULT_MATCH, HostConfig, REPLAY_DIGEST_EVERY};
-pub use host::{ConnId, HostEvent, HostStatus, MatchHost, Transmit, same_secret};
+pub use config::{
+    DEFAULT_MATCH, HostConfig, MAX_ACTIONS_PER_TICK, MAX_DEADLINE, MAX_SPECTATOR_HZ, MAX_WAIT,
+    REPLAY_DIGEST_EVERY,
+};
+pub use host::{ConnId, HostEvent, HostStatus, MatchHost, RESYNC_INTERVAL, Transmit, same_secret};
 pub use lines::{bye_line, error_line, pong_line};
 
 /// Why a match could not be hosted.
@@ -26,6 +29,9 @@ pub enum HostError {
     /// A seat could not be taken (a bad name, more seats than players or spawn points).
     #[error("cannot seat a player: {0}")]
     Seat(String),
+    /// A figure of the host's configuration is out of its range.
+    #[error("{0}")]
+    Config(String),
     /// Two roles were given the same token, so one role's secret would open the other's.
     #[error("the {0} and {1} tokens must differ")]
     SameToken(&'static str, &'static str),

@@ -189,5 +189,7 @@ pub(crate) fn outcome_sentence(report: &Report) -> String {
         Outcome::Timeout if reason.is_empty() => format!("Time is up after {ticks} ticks."),
         Outcome::Timeout => format!("Time is up after {ticks} ticks: {reason}."),
         Outcome::MatchOver => format!("The match is over: {reason}."),
+        Outcome::Cancelled if reason.is_empty() => format!("Cancelled after {ticks} ticks."),
+        Outcome::Cancelled => format!("Cancelled after {ticks} ticks: {reason}."),
     }
 }

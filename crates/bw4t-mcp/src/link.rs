@@ -1,5 +1,6 @@
 //! The connection to the match: one task owns the socket and the [`Robot`], and tool
-//! calls reach it over a channel, so any number of MCP sessions share one robot.
+//! calls reach it over a channel, one at a time; a call cancelled (or dropped) by its
+//! caller ends at once, so the robot never stays busy for a caller that has gone.
 
 use std::io::Write;
 use std::net::SocketAddr;
@@ -11,6 +12,7 @@ use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader};
 use tokio::net::TcpStream;
 use tokio::net::tcp::OwnedWriteHalf;
 use tokio::sync::{mpsc, oneshot};
+use tokio_util::sync::CancellationToken;
 
 use crate::robot::{Busy, Command, Report, Robot, tool_name};
 use crate::view::View;
@@ -36,6 +38,7 @@ enum Request {
         command: Command,
         timeout: Duration,
         tokens: Option<Tokens>,
+        cancel: CancellationToken,
         reply: oneshot::Sender<Result<Reply, Busy>>,
     },
     Look {
@@ -120,16 +123,23 @@ impl Link {
         self.info.as_ref()
     }
 
-    /// Runs a command until it ends or `timeout` passes.
+    /// Runs a command until it ends, `timeout` passes or `cancel` is cancelled (then it
+    /// ends [`Cancelled`](crate::robot::Outcome::Cancelled)); dropping the future cancels
+    /// it too, so the robot is free for the next call at once.
     pub(crate) async fn run(
         &self,
         command: Command,
         timeout: Duration,
         tokens: Option<Tokens>,
+        cancel: &CancellationToken,
     ) -> Result<Reply, LinkError> {
+        let call = cancel.child_token();
+        let dropped = call.clone().drop_guard();
         let (reply, answer) = oneshot::channel();
-        self.send(Request::Run { command, timeout, tokens, reply }).await?;
-        answer.await.map_err(|_| LinkError::Gone)?.map_err(LinkError::Busy)
+        self.send(Request::Run { command, timeout, tokens, cancel: call, reply }).await?;
+        let answer = answer.await.map_err(|_| LinkError::Gone)?.map_err(LinkError::Busy);
+        dropped.disarm();
+        answer
     }
 
     /// The robot's state now; `counted` for the `look` tool (not for a resource read).
@@ -158,6 +168,7 @@ pub(crate) enum LinkError {
 /// The call waiting for the robot's report.
 struct Waiting {
     reply: oneshot::Sender<Result<Reply, Busy>>,
+    cancel: CancellationToken,
     deadline: tokio::time::Instant,
     tool: &'static str,
     args: Value,
@@ -179,6 +190,7 @@ async fn drive(
     let mut connected = true;
     loop {
         let deadline = waiting.as_ref().map(|w| w.deadline);
+        let cancel = waiting.as_ref().map(|w| w.cancel.clone());
         tokio::select! {
             line = lines.next_line(), if connected => match line {
                 Ok(Some(line)) => robot.handle_line(&line),
@@ -187,6 +199,12 @@ async fn drive(
             },
             request = inbox.recv() => {
                 let Some(request) = request else { break };
+                // A call cancelled just before this request (rmcp cancels in order) may not
+                // have ended yet: it ends first, so that its report goes to its own caller.
+                if matches!(request, Request::Run { .. }) && waiting.as_ref().is_some_and(|w| w.cancel.is_cancelled()) {
+                    robot.cancel();
+                    deliver(&mut robot, &mut waiting, &mut log, &mut last_answer);
+                }
                 let now = Instant::now();
                 // Counted and reported before the call's own messages, so that the match
                 // cannot end on this call's `ready` without its report.
@@ -211,21 +229,22 @@ async fn drive(
                         }
                         let _ = reply.send(Reply { report: None, view: View::of(&robot) });
                     }
-                    Request::Run { command, timeout, tokens, reply } => {
+                    Request::Run { command, timeout, tokens, cancel, reply } => {
                         let think_ms = think(&mut robot, tokens);
                         let tool = tool_name(&command);
                         let args = command_args(&command);
-                        match robot.start(command) {
+                        match robot.start(command, timeout) {
                             Err(busy) => { let _ = reply.send(Err(busy)); }
-                            Ok(()) => {
-                                let deadline = tokio::time::Instant::now() + timeout;
-                                waiting = Some(Waiting { reply, deadline, tool, args, called: now, think_ms });
+                            Ok(wall) => {
+                                let deadline = tokio::time::Instant::now() + wall;
+                                waiting = Some(Waiting { reply, cancel, deadline, tool, args, called: now, think_ms });
                             }
                         }
                     }
                 }
             },
             () = sleep_until(deadline) => robot.expire(),
+            () = cancelled(cancel) => robot.cancel(),
         }
         while let Some(line) = robot.poll_transmit() {
             if connected && writer.write_all(line.as_bytes()).await.is_err() {
@@ -233,23 +252,44 @@ async fn drive(
                 robot.disconnected("the connection failed");
             }
         }
-        while let Some(report) = robot.poll_report() {
-            let Some(w) = waiting.take() else { continue };
-            write_log(
-                &mut log,
-                json!({
-                    "tool": w.tool, "args": w.args, "tick": report.started, "ticks": report.tick.saturating_sub(report.started),
-                    "think_ms": w.think_ms, "run_ms": w.called.elapsed().as_millis() as u64, "outcome": report.outcome.word(),
-                }),
-            );
-            last_answer = Instant::now();
-            let _ = w.reply.send(Ok(Reply { report: Some(report), view: View::of(&robot) }));
+        deliver(&mut robot, &mut waiting, &mut log, &mut last_answer);
+        if waiting.as_ref().is_some_and(|w| w.cancel.is_cancelled()) && robot.busy().is_none() {
+            // Nothing left to report to a cancelled call: its caller has gone.
+            waiting = None;
         }
     }
     if connected {
         robot.bye();
         let bye: String = std::iter::from_fn(|| robot.poll_transmit()).collect();
         let _ = writer.write_all(bye.as_bytes()).await;
+    }
+}
+
+/// Hands the robot's finished reports to the call waiting for one.
+fn deliver(
+    robot: &mut Robot,
+    waiting: &mut Option<Waiting>,
+    log: &mut DecisionLog,
+    last_answer: &mut Instant,
+) {
+    while let Some(report) = robot.poll_report() {
+        let Some(w) = waiting.take() else { continue };
+        write_log(
+            log,
+            json!({
+                "tool": w.tool, "args": w.args, "tick": report.started, "ticks": report.tick.saturating_sub(report.started),
+                "think_ms": w.think_ms, "run_ms": w.called.elapsed().as_millis() as u64, "outcome": report.outcome.word(),
+            }),
+        );
+        *last_answer = Instant::now();
+        let _ = w.reply.send(Ok(Reply { report: Some(report), view: View::of(robot) }));
+    }
+}
+
+async fn cancelled(cancel: Option<CancellationToken>) {
+    match cancel {
+        Some(cancel) => cancel.cancelled_owned().await,
+        None => std::future::pending().await,
     }
 }
 
@@ -275,6 +315,6 @@ fn command_args(command: &Command) -> Value {
         Command::PickUp(block) => json!({"block": block}),
         Command::PutDown => json!({}),
         Command::Say { to, said, text } => json!({"to": to, "said": said, "text": text}),
-        Command::Wait { ticks } => json!({"ticks": ticks}),
+        Command::Wait { ticks, seconds } => json!({"ticks": ticks, "seconds": seconds}),
     }
 }

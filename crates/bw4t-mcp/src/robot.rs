@@ -6,8 +6,12 @@
 //! tool's report is out it answers nothing until the next tool call, so in lockstep the
 //! match waits for whoever drives the robot (up to the match's deadline) and a slow
 //! thinker loses no ticks.
+//!
+//! No call runs unbounded: in lockstep each is limited in simulated time too (its wall
+//! timeout as ticks), so nothing a driver asks can fast-forward a match that waits for it.
 
 use std::collections::VecDeque;
+use std::time::Duration;
 
 use bw4t_protocol::{
     AckCode, ClientSession, Knowledge, MatchInfo, PlayerUsage, Said, SessionError, SessionEvent,
@@ -35,10 +39,12 @@ pub(crate) enum Command {
         /// Free text, if it is not.
         text: Option<String>,
     },
-    /// Nothing: until something changes for this robot, or `ticks` pass.
+    /// Nothing: until something changes for this robot, or `ticks` or `seconds` pass.
     Wait {
         /// Ticks to wait at most.
         ticks: Option<u64>,
+        /// Seconds to wait at most: simulated seconds in lockstep, wall time in realtime.
+        seconds: Option<f64>,
     },
 }
 
@@ -79,6 +85,8 @@ pub(crate) enum Outcome {
     Timeout,
     /// The match is over.
     MatchOver,
+    /// The caller cancelled the call (the robot takes orders again at once).
+    Cancelled,
 }
 
 impl Outcome {
@@ -93,6 +101,7 @@ impl Outcome {
             Outcome::Changed => "changed",
             Outcome::Timeout => "timeout",
             Outcome::MatchOver => "match_over",
+            Outcome::Cancelled => "cancelled",
         }
     }
 }
@@ -118,8 +127,11 @@ struct Pending {
     command: Command,
     /// The `act` id, for commands sent as actions.
     act: Option<u64>,
+    /// Whether the match has acknowledged it (read it).
+    acked: bool,
     started: u64,
-    /// `wait`: the tick it gives up at.
+    /// The tick it gives up at (`wait`'s ticks or seconds; in lockstep, every call's
+    /// timeout in simulated time).
     until: Option<u64>,
     /// What the robot knew when it started, to say what changed.
     before: Snapshot,
@@ -145,8 +157,8 @@ pub(crate) struct Robot {
     tick: u64,
     started: bool,
     pending: Option<Pending>,
-    /// A command given before the match started.
-    queued: Option<Command>,
+    /// A command given before the match started, with its timeout.
+    queued: Option<(Command, Duration)>,
     ended: Option<String>,
     finished: VecDeque<Report>,
 }
@@ -204,22 +216,33 @@ impl Robot {
 
     /// The tool in progress, by name.
     pub(crate) fn busy(&self) -> Option<&'static str> {
-        self.pending.as_ref().map(|p| tool_name(&p.command)).or(self.queued.as_ref().map(tool_name))
+        self.pending
+            .as_ref()
+            .map(|p| tool_name(&p.command))
+            .or(self.queued.as_ref().map(|(c, _)| tool_name(c)))
     }
 
-    /// Starts a command. Before the match starts it is held until it does; after the
-    /// match is over it ends at once with [`Outcome::MatchOver`].
-    pub(crate) fn start(&mut self, command: Command) -> Result<(), Busy> {
+    /// Starts a command that may take `timeout`, and says how much wall time the caller
+    /// should give it before [`Robot::expire`]: `timeout`, or a realtime `wait`'s seconds.
+    /// Before the match starts it is held until it does; after the match is over it ends
+    /// at once with [`Outcome::MatchOver`].
+    pub(crate) fn start(&mut self, command: Command, timeout: Duration) -> Result<Duration, Busy> {
         if let Some(busy) = self.busy() {
             return Err(Busy::InProgress(busy));
         }
+        let wall = match &command {
+            Command::Wait { seconds: Some(seconds), .. } if !self.session.lockstep() => {
+                Duration::from_secs_f64(*seconds).min(timeout)
+            }
+            _ => timeout,
+        };
         if let Some(reason) = self.ended.clone() {
             self.report_now(Outcome::MatchOver, reason);
-            return Ok(());
+            return Ok(wall);
         }
         if !self.started {
-            self.queued = Some(command);
-            return Ok(());
+            self.queued = Some((command, timeout));
+            return Ok(wall);
         }
         // Actions and messages get an id, which their `ack` (and `result`) echo.
         let act = match (&command, command.action()) {
@@ -227,34 +250,59 @@ impl Robot {
             (Command::Say { to, said, text }, None) => Some(self.session.say(to, text.clone(), said.clone())),
             _ => None,
         };
-        let until = match command {
-            Command::Wait { ticks } => ticks.map(|t| self.tick.saturating_add(t)),
-            _ => None,
-        };
+        let until = self.limit(&command, timeout).map(|ticks| self.tick.saturating_add(ticks));
         self.pending = Some(Pending {
             command,
             act,
+            acked: false,
             started: self.tick,
             until,
             before: self.knowledge.snapshot(),
             concluded: None,
         });
         self.answer();
-        Ok(())
+        Ok(wall)
+    }
+
+    /// The most ticks `command` may take: a `wait`'s ticks and, in lockstep, its seconds
+    /// and every call's `timeout`, as simulated time.
+    fn limit(&self, command: &Command, timeout: Duration) -> Option<u64> {
+        let ticks = match command {
+            Command::Wait { ticks, .. } => *ticks,
+            _ => None,
+        };
+        let info = self.match_info().filter(|_| self.session.lockstep());
+        let Some(hz) = info.map(|info| f64::from(info.tick_hz)) else { return ticks };
+        let simulated = |seconds: f64| (seconds * hz).ceil().max(1.0) as u64;
+        let mut limit = simulated(timeout.as_secs_f64());
+        if let Command::Wait { seconds: Some(seconds), .. } = command {
+            limit = limit.min(simulated(*seconds));
+        }
+        Some(ticks.map_or(limit, |ticks| ticks.min(limit)))
     }
 
     /// Ends the tool in progress because its time ran out. A journey goes on (the
     /// report says so); the robot stops answering ticks until the next tool call.
     pub(crate) fn expire(&mut self) {
+        self.stop(Outcome::Timeout);
+    }
+
+    /// Ends the tool in progress because its caller gave up on it: the robot takes a new
+    /// order at once (a journey goes on, as after a timeout).
+    pub(crate) fn cancel(&mut self) {
+        self.stop(Outcome::Cancelled);
+    }
+
+    fn stop(&mut self, outcome: Outcome) {
         if let Some(pending) = self.pending.take() {
             let reason = pending
                 .command
                 .durative()
                 .then(|| "the robot is still on its way; call wait, or give a new order".to_string());
-            self.finish(pending, Outcome::Timeout, reason);
-        } else if let Some(command) = self.queued.take() {
+            self.finish(pending, outcome, reason);
+        } else if let Some((command, _)) = self.queued.take() {
             let reason = format!("the match has not started yet ({} not sent)", tool_name(&command));
-            self.report_now(Outcome::Timeout, reason);
+            self.report_now(outcome, reason);
         }
     }
 
@@ -274,6 +322,10 @@ impl Robot {
         match event {
             SessionEvent::Percepts { delta, .. } => self.on_percepts(&delta),
             SessionEvent::Ack { ack, request } => {
+                let acked = request.as_ref().map(|r| r.id);
+                if let Some(pending) = self.pending.as_mut().filter(|p| acked.is_some() && p.act == acked) {
+                    pending.acked = true;
+                }
                 if !ack.ok {
                     let reason = match (ack.code, ack.reason) {
                         (Some(code), Some(words)) => format!("{code}: {words}"),
@@ -300,7 +352,13 @@ impl Robot {
             SessionEvent::Error(error) if error.fatal => {
                 self.end(format!("the server refused this player: {} ({})", error.message, error.code))
             }
-            SessionEvent::Welcome(_) | SessionEvent::Lobby(_) | SessionEvent::Error(_) => {}
+            // A line the server could not read (too long, say) is dropped with an error that
+            // carries no id; the call waiting for it would never get its ack.
+            SessionEvent::Error(error) => {
+                let act = self.pending.as_ref().filter(|p| !p.acked).and_then(|p| p.act);
+                self.conclude(act, Outcome::Rejected, Some(format!("{}: {}", error.code, error.message)));
+            }
+            SessionEvent::Welcome(_) | SessionEvent::Lobby(_) => {}
         }
     }
 
@@ -336,9 +394,9 @@ impl Robot {
         self.knowledge.apply(delta.tick, delta);
         if !self.started {
             self.started = true;
-            if let Some(command) = self.queued.take() {
+            if let Some((command, timeout)) = self.queued.take() {
                 // Cannot be busy: nothing else ran before the start.
-                let _ = self.start(command);
+                let _ = self.start(command, timeout);
                 return;
             }
         }
@@ -348,7 +406,14 @@ impl Robot {
                 if changed {
                     pending.concluded = Some((Outcome::Changed, None));
                 } else if pending.until.is_some_and(|until| delta.tick >= until) {
-                    pending.concluded = Some((Outcome::Timeout, Some("the ticks given ran out".into())));
+                    let reason = match pending.command {
+                        Command::Wait { .. } => "the time given ran out",
+                        _ if pending.command.durative() => {
+                            "the robot is still on its way; call wait, or give a new order"
+                        }
+                        _ => "the match did not answer in time",
+                    };
+                    pending.concluded = Some((Outcome::Timeout, Some(reason.into())));
                 }
             }
             if let Some((outcome, reason)) = pending.concluded.take() {

@@ -1,11 +1,12 @@
 //! The MCP side: the tools, resources and prompt of one robot, answered through its
-//! [`Link`]. Arguments are checked here, so a bad one is an MCP error naming the problem;
-//! what the match refuses is a tool result with outcome `rejected` and the reason.
+//! [`Link`]. Arguments are checked here, each within a documented range and every message
+//! within the protocol's line, so a bad one is an MCP error naming the problem before
+//! anything is sent; what the match refuses is a tool result with outcome `rejected`.
 
 use std::sync::Arc;
 use std::time::Duration;
 
-use bw4t_protocol::Said;
+use bw4t_protocol::{ActId, ClientMessage, MAX_LINE, Said, Say};
 use rmcp::model::{
     CallToolRequestParams, CallToolResponse, CallToolResult, ContentBlock, GetPromptRequestParams,
     GetPromptResponse, GetPromptResult, Implementation, JsonObject, ListPromptsResult, ListResourcesResult,
@@ -26,6 +27,12 @@ use crate::robot::{Command, Outcome};
 
 /// The longest a tool may be given (`wait`'s `seconds`, and `--tool-timeout`).
 pub const MAX_TOOL_SECONDS: f64 = 3600.0;
+/// The most ticks `wait` may be given (an hour at 20 ticks a second).
+pub const MAX_WAIT_TICKS: u64 = 72_000;
+/// The longest name a tool takes (a place, a player, a kind, a room, a colour), in bytes.
+pub const MAX_NAME_BYTES: usize = 256;
+/// The largest `count` or `position` of a message.
+pub const MAX_MESSAGE_NUMBER: u32 = 1000;
 
 /// The MCP server of one robot; every session (stdio, or each HTTP client) shares it.
 #[derive(Clone)]
@@ -110,11 +117,12 @@ struct SayArgs {
 #[derive(Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 struct WaitArgs {
-    /// Give up after this many ticks (20 ticks are one simulated second).
+    /// Give up after this many ticks, 1 to 72000 (20 ticks are one simulated second).
     #[serde(default)]
     #[schemars(with = "u64")]
     ticks: Option<u64>,
-    /// Give up after this many seconds of wall time.
+    /// Give up after this many seconds, above 0 and at most 3600: simulated seconds in a
+    /// lockstep match (the match never runs ahead of them), wall time in a realtime one.
     #[serde(default)]
     #[schemars(with = "f64")]
     seconds: Option<f64>,
@@ -161,7 +169,7 @@ const TOOLS: &[ToolRow] = &[
     },
     ToolRow {
         name: "wait",
-        description: "Wait until something changes for this robot (a message, a delivery, a room occupied or freed), or until the ticks or seconds given pass.",
+        description: "Wait until something changes for this robot (a message, a delivery, a room occupied or freed), or until the ticks or seconds given pass (simulated seconds in a lockstep match).",
         schema: || schemars::schema_for!(WaitArgs),
     },
 ];
@@ -213,11 +221,12 @@ fn reported_tokens(metas: [Option<&RequestMetaObject>; 2]) -> Option<Tokens> {
 }
 
 impl RobotServer {
-    /// The command a tool call asks for, with the wall time it may take.
-    fn command(&self, name: &str, arguments: Option<JsonObject>) -> Result<(Command, Duration), ErrorData> {
+    /// The command a tool call asks for, checked.
+    fn command(&self, name: &str, arguments: Option<JsonObject>) -> Result<Command, ErrorData> {
         let command = match name {
             "go_to" => {
                 let args: GoToArgs = parse(name, arguments)?;
+                check_name(name, "place", &args.place)?;
                 self.docs.check_place(&args.place).map_err(|e| invalid(name, e))?;
                 Command::GoTo(args.place)
             }
@@ -230,19 +239,16 @@ impl RobotServer {
             "say" => say_command(parse(name, arguments)?)?,
             "wait" => {
                 let args: WaitArgs = parse(name, arguments)?;
-                if args.ticks == Some(0) {
-                    return Err(invalid(name, "ticks must be at least 1"));
+                if args.ticks.is_some_and(|ticks| !(1..=MAX_WAIT_TICKS).contains(&ticks)) {
+                    return Err(invalid(name, format!("ticks must be from 1 to {MAX_WAIT_TICKS}")));
                 }
-                if let Some(seconds) = args.seconds {
-                    if !(seconds > 0.0 && seconds <= MAX_TOOL_SECONDS) {
-                        return Err(invalid(
-                            name,
-                            format!("seconds must be above 0 and at most {MAX_TOOL_SECONDS}"),
-                        ));
-                    }
-                    return Ok((Command::Wait { ticks: args.ticks }, Duration::from_secs_f64(seconds)));
+                if args.seconds.is_some_and(|seconds| !(seconds > 0.0 && seconds <= MAX_TOOL_SECONDS)) {
+                    return Err(invalid(
+                        name,
+                        format!("seconds must be above 0 and at most {MAX_TOOL_SECONDS}"),
+                    ));
                 }
-                Command::Wait { ticks: args.ticks }
+                Command::Wait { ticks: args.ticks, seconds: args.seconds }
             }
             other => {
                 let names: Vec<&str> = TOOLS.iter().map(|t| t.name).collect();
@@ -252,12 +258,55 @@ impl RobotServer {
                 ));
             }
         };
-        Ok((command, self.timeout))
+        Ok(command)
     }
+}
+
+/// An error unless `value` (the argument `field` of `tool`) is a name of a sensible length.
+fn check_name(tool: &str, field: &str, value: &str) -> Result<(), ErrorData> {
+    if value.len() > MAX_NAME_BYTES {
+        return Err(invalid(
+            tool,
+            format!("{field} is {} bytes long; the most is {MAX_NAME_BYTES}", value.len()),
+        ));
+    }
+    Ok(())
+}
+
+/// An error unless the `say` message fits in one protocol line (the match drops longer
+/// lines unread).
+fn check_line(to: &str, said: Option<&Said>, text: Option<&str>) -> Result<(), ErrorData> {
+    let say = Say {
+        id: Some(ActId::Number(u64::MAX)),
+        to: to.into(),
+        text: text.map(Into::into),
+        said: said.cloned(),
+    };
+    let bytes = bw4t_protocol::encode(&ClientMessage::Say(say)).len();
+    if bytes > MAX_LINE {
+        return Err(invalid(
+            "say",
+            format!(
+                "the message would be a {bytes}-byte line; a line holds at most {MAX_LINE} bytes: shorten the text"
+            ),
+        ));
+    }
+    Ok(())
 }
 
 fn say_command(args: SayArgs) -> Result<Command, ErrorData> {
     let to = args.to.unwrap_or_else(|| "all".into());
+    check_name("say", "to", &to)?;
+    for (field, value) in
+        [("kind", &args.kind), ("room", &args.room), ("colour", &args.colour), ("player", &args.player)]
+    {
+        check_name("say", field, value.as_deref().unwrap_or_default())?;
+    }
+    for (field, value) in [("count", args.count), ("position", args.position)] {
+        if value.is_some_and(|n| n > MAX_MESSAGE_NUMBER) {
+            return Err(invalid("say", format!("{field} must be at most {MAX_MESSAGE_NUMBER}")));
+        }
+    }
     match (args.kind, args.text) {
         (Some(_), Some(_)) => Err(invalid("say", "give a kind (with its arguments) or text, not both")),
         (None, None) => Err(invalid("say", "give a kind (with its arguments) or text")),
@@ -272,6 +321,7 @@ fn say_command(args: SayArgs) -> Result<Command, ErrorData> {
             if text.trim().is_empty() {
                 return Err(invalid("say", "the text is empty"));
             }
+            check_line(&to, None, Some(&text))?;
             Ok(Command::Say { to, said: None, text: Some(text) })
         }
         (Some(kind), None) => {
@@ -284,6 +334,7 @@ fn say_command(args: SayArgs) -> Result<Command, ErrorData> {
                 position: args.position,
             };
             said.check().map_err(|e| invalid("say", e))?;
+            check_line(&to, Some(&said), None)?;
             Ok(Command::Say { to, said: Some(said), text: None })
         }
     }
@@ -349,8 +400,8 @@ impl ServerHandler for RobotServer {
             parse::<NoArgs>("look", request.arguments)?;
             self.link.look(tokens, true).await
         } else {
-            let (command, timeout) = self.command(&request.name, request.arguments)?;
-            self.link.run(command, timeout, tokens).await
+            let command = self.command(&request.name, request.arguments)?;
+            self.link.run(command, self.timeout, tokens, &context.ct).await
         };
         match reply {
             Ok(reply) => Ok(tool_result(reply).into()),

@@ -34,7 +34,7 @@ pub use language::{Group, KINDS, KindRow, MessagePolicy, Said, SaidError, Slot, 
 pub use messages::*;
 pub use replay::{REPLAY_FORMAT, Recorder, ReplayEvent, ReplayHeader, ReplayLine, ReplayMeta};
 pub use result::{MatchResult, PlayerUsage, RobotExtra, RobotResult};
-pub use row::{CSV_COLUMNS, ResultRow};
+pub use row::{CSV_COLUMNS, ResultRow, spreadsheet_safe};
 pub use schema::schemas;
 pub use session::{ClientSession, Closed, Request, SessionError, SessionEvent, SessionOptions};
 pub use study::{

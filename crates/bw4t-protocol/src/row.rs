@@ -180,29 +180,55 @@ impl ResultRow {
         Ok(rows)
     }
 
-    /// The header line of `matches.csv`.
-    pub fn csv_header() -> String {
-        CSV_COLUMNS.iter().map(|(name, _)| *name).collect::<Vec<_>>().join(",")
+    /// The names of `matches.csv`'s columns, in order.
+    pub fn csv_header() -> impl Iterator<Item = &'static str> {
+        CSV_COLUMNS.iter().map(|(name, _)| *name)
     }
 
-    /// This row as a line of `matches.csv`.
-    pub fn csv_line(&self) -> String {
-        CSV_COLUMNS.iter().map(|(_, field)| field(self)).collect::<Vec<_>>().join(",")
+    /// This row's cells of `matches.csv`, unquoted (a CSV writer quotes them), text made
+    /// spreadsheet-safe.
+    pub fn csv_record(&self) -> Vec<String> {
+        CSV_COLUMNS.iter().map(|(_, field)| field(self)).collect()
     }
 }
 
-/// A CSV field, quoted when it holds a comma, a quote or a line break.
+/// A text cell of `matches.csv`, made spreadsheet-safe.
 fn csv_field(text: &str) -> String {
-    if text.contains([',', '"', '\n', '\r']) {
-        format!("\"{}\"", text.replace('"', "\"\""))
-    } else {
-        text.to_string()
-    }
+    spreadsheet_safe(text).into_owned()
+}
+
+/// A text cell a spreadsheet will not run: one that begins with `=`, `+`, `-`, `@`, a tab
+/// or a carriage return gets a leading `'`, as OWASP's guidance on CSV injection says
+/// (the JSON keeps the raw value). Numbers are not text cells and are never changed.
+pub fn spreadsheet_safe(text: &str) -> std::borrow::Cow<'_, str> {
+    if text.starts_with(['=', '+', '-', '@', '\t', '\r']) { format!("'{text}").into() } else { text.into() }
 }
 
 #[cfg(test)]
 mod tests {
-    use super::ResultRow;
+    use super::{ResultRow, spreadsheet_safe};
+
+    #[test]
+    fn text_a_spreadsheet_would_run_is_neutralised() {
+        for (raw, safe) in [
+            ("=HYPERLINK(\"http://x\")", "'=HYPERLINK(\"http://x\")"),
+            ("+cmd|' /C calc'!A0", "'+cmd|' /C calc'!A0"),
+            ("-2+3", "'-2+3"),
+            ("@SUM(A1)", "'@SUM(A1)"),
+            ("\tx", "'\tx"),
+            ("\rx", "'\rx"),
+            ("coop", "coop"),
+            ("a=b", "a=b"),
+        ] {
+            assert_eq!(spreadsheet_safe(raw), safe, "{raw:?}");
+        }
+        let mut row = ResultRow::unplayed("k".into(), 1, "=1+1".into(), "fixed".into(), 1, 2);
+        row.error = Some("@bad".into());
+        let record = row.csv_record();
+        assert_eq!((record[1].as_str(), record.last().map(String::as_str)), ("'=1+1", Some("")));
+        assert!(record.contains(&"'@bad".to_string()), "{record:?}");
+    }
+
     use crate::{EndReason, MatchResult, PlayerUsage, RobotExtra};
 
     #[test]

@@ -94,6 +94,10 @@ words! {
         MatchFull = "match_full",
         /// The server has as many connections as it takes.
         ServerFull = "server_full",
+        /// The connection's source address has as many connections as one address may.
+        SourceFull = "source_full",
+        /// A request came sooner than its rate allows (`resync`).
+        RateLimited = "rate_limited",
         /// No `hello` in time.
         HelloTimeout = "hello_timeout",
         /// Another connection took up the session.
@@ -230,6 +234,9 @@ words! {
         MaxTicks = "max_ticks",
         /// The server was stopped, or the run interrupted.
         Interrupted = "interrupted",
+        /// Every player left a started match and none came back within the grace period
+        /// (built-in agents do not count): it ends so its seats serve someone else.
+        Abandoned = "abandoned",
         /// The match could not be played, or failed inside the server (a row's or the
         /// index's `error` says why).
         Error = "error",

@@ -132,7 +132,12 @@ pub fn play_served(run: ServedRun<'_>) -> Result<Served, ServedError> {
         }
         let (gone_tx, gone_rx) = tokio::sync::mpsc::channel(seats.len().max(1));
         let extras = Extras {
-            server: ServerConfig { hello_timeout: run.connect_timeout, ..ServerConfig::default() },
+            // Every player is a program started here: one address holds every seat.
+            server: ServerConfig {
+                hello_timeout: run.connect_timeout,
+                max_per_source: ServerConfig::default().max_connections,
+                ..ServerConfig::default()
+            },
             replay: run.replay,
             program: crate::program(),
             gone_seats: Some(gone_rx),

@@ -202,7 +202,7 @@ pub fn run_tournament(
                 };
                 if keep {
                     let rel = format!("replays/{}.jsonl", file_safe(&row.key));
-                    let written = std::fs::create_dir_all(out.join("replays"))
+                    let written = std::fs::create_dir_all(out.join(REPLAYS))
                         .and_then(|()| std::fs::write(out.join(&rel), &bytes));
                     if written.is_ok() {
                         row.replay = Some(rel);
@@ -280,6 +280,25 @@ pub struct MergeReport {
     /// Matches two sources have with different digests (the first source's is kept):
     /// they were not played alike, which a deterministic team never does.
     pub conflicting: Vec<String>,
+    /// Matches whose row names a replay outside its source's `replays/` (an absolute path,
+    /// `..`, a subfolder): the replay is not copied and the row keeps none.
+    pub stray_replays: Vec<String>,
+}
+
+/// The folder of a tournament directory that holds its replays.
+const REPLAYS: &str = "replays";
+
+/// The file name of a row's `replay` (`replays/FILE`), if it names a file directly in
+/// `replays/` and nothing else.
+fn replay_file(rel: &str) -> Option<&std::ffi::OsStr> {
+    use std::path::Component;
+    let mut parts = Path::new(rel).components();
+    match (parts.next(), parts.next(), parts.next()) {
+        (Some(Component::Normal(folder)), Some(Component::Normal(file)), None) if folder == REPLAYS => {
+            Some(file)
+        }
+        _ => None,
+    }
 }
 
 /// The tournament directories `dirs` stand for: each directory with a `manifest.json`,
@@ -356,8 +375,17 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<(Outcome, MergeReport), Tou
                 None => {
                     digests.insert(row.key.clone(), row.digest.clone());
                     if let Some(rel) = row.replay.take() {
-                        let copied = std::fs::create_dir_all(out.join("replays"))
-                            .and_then(|()| std::fs::copy(dir.join(&rel), out.join(&rel)));
+                        // A row is read from a file anyone could have written: only a
+                        // file directly in the shard's `replays/` is read, and it is
+                        // written to the same place under `out`.
+                        let Some(file) = replay_file(&rel) else {
+                            report.stray_replays.push(row.key.clone());
+                            rows.push(row);
+                            continue;
+                        };
+                        let copied = std::fs::create_dir_all(out.join(REPLAYS)).and_then(|()| {
+                            std::fs::copy(dir.join(REPLAYS).join(file), out.join(REPLAYS).join(file))
+                        });
                         row.replay = copied.ok().map(|_| rel);
                     }
                     rows.push(row);
@@ -434,7 +462,7 @@ fn rewrite_rows(out: &Path, rows: &[Row]) -> Result<(), TournamentError> {
 /// `matches.jsonl` and `matches.csv`, appended and flushed row by row.
 struct RowFiles {
     jsonl: std::fs::File,
-    csv: std::fs::File,
+    csv: csv::Writer<std::fs::File>,
 }
 
 impl RowFiles {
@@ -447,9 +475,11 @@ impl RowFiles {
                 .map_err(|e| io(format!("cannot open {name}"), e))
         };
         let csv_new = !out.join("matches.csv").exists();
-        let mut csv = open("matches.csv")?;
+        let mut csv = csv::WriterBuilder::new().has_headers(false).from_writer(open("matches.csv")?);
         if csv_new {
-            writeln!(csv, "{}", Row::csv_header()).map_err(|e| io("matches.csv", e))?;
+            csv.write_record(Row::csv_header())
+                .and_then(|()| Ok(csv.flush()?))
+                .map_err(|e| io("matches.csv", e))?;
         }
         Ok(RowFiles { jsonl: open("matches.jsonl")?, csv })
     }
@@ -459,9 +489,8 @@ impl RowFiles {
         writeln!(self.jsonl, "{line}")
             .and_then(|()| self.jsonl.flush())
             .map_err(|e| io("matches.jsonl", e))?;
-        writeln!(self.csv, "{}", row.csv_line())
-            .and_then(|()| self.csv.flush())
-            .map_err(|e| io("matches.csv", e))
+        self.csv.write_record(row.csv_record()).map_err(|e| io("matches.csv", e))?;
+        self.csv.flush().map_err(|e| io("matches.csv", e))
     }
 }
 

@@ -2,6 +2,7 @@
 //! lines a client's queue holds, which pages may open WebSockets), why a match could not
 //! be served, and the name the server gives itself in what it writes. How each match runs is its [`HostConfig`](bw4t_host::HostConfig).
 
+use std::net::IpAddr;
 use std::time::Duration;
 
 use bw4t_host::HostError;
@@ -19,6 +20,12 @@ pub struct ServerConfig {
     pub operator_token: Option<String>,
     /// Connections accepted at once (protocol port; as many WebSockets on the web port).
     pub max_connections: usize,
+    /// Connections one source address may have open at once: as many on the protocol
+    /// port and as many WebSockets (plain HTTP requests have their own share, a quarter
+    /// of their places).
+    pub max_per_source: usize,
+    /// Reverse proxies whose `X-Forwarded-For` names a web request's source address.
+    pub trusted_proxies: Vec<IpAddr>,
     /// The time a new connection has to say `hello`.
     pub hello_timeout: Duration,
     /// Lines queued per connection before it counts as not reading.
@@ -33,6 +40,8 @@ impl Default for ServerConfig {
         ServerConfig {
             operator_token: None,
             max_connections: 256,
+            max_per_source: 32,
+            trusted_proxies: Vec::new(),
             hello_timeout: Duration::from_secs(10),
             queue: 1024,
             allowed_origins: Vec::new(),

@@ -17,6 +17,7 @@ use tokio::sync::{Notify, mpsc, watch};
 use bw4t_host::{ConnId, bye_line, error_line, pong_line};
 
 use crate::arena::{Arena, QueueNews, Route, Routed, Waiting};
+use crate::budget::{SourceBudget, SourcePlace};
 use crate::events::{Event, Opened, Outbound};
 
 /// How many connections the kernel may hold for a listener before they are accepted. The
@@ -39,30 +40,38 @@ pub fn listen(addr: std::net::SocketAddr) -> std::io::Result<TcpListener> {
 pub(crate) async fn accept_loop(listener: TcpListener, arena: Arena) {
     let open = Arc::new(AtomicUsize::new(0));
     let max = arena.config().server.max_connections;
+    let sources = SourceBudget::new(arena.config().server.max_per_source);
     loop {
-        let Ok((stream, _)) = listener.accept().await else {
+        let Ok((stream, peer)) = listener.accept().await else {
             // Out of file descriptors or a reset before accept: try again shortly.
             tokio::time::sleep(std::time::Duration::from_millis(10)).await;
             continue;
         };
         let _ = stream.set_nodelay(true);
         if open.load(Ordering::SeqCst) >= max {
-            tokio::spawn(refuse(stream, max));
+            let why = format!("the server takes at most {max} connections");
+            tokio::spawn(refuse(stream, ErrorCode::ServerFull, why));
             continue;
         }
+        let Some(place) = sources.take(peer.ip()) else {
+            let why = format!("at most {} connections from one address", sources.limit());
+            tokio::spawn(refuse(stream, ErrorCode::SourceFull, why));
+            continue;
+        };
         open.fetch_add(1, Ordering::SeqCst);
         let conn = arena.next_conn();
         let (arena, open) = (arena.clone(), open.clone());
         tokio::spawn(async move {
-            handle(stream, conn, &arena).await;
+            handle(stream, conn, &arena, place).await;
             open.fetch_sub(1, Ordering::SeqCst);
         });
     }
 }
 
-async fn refuse(mut stream: TcpStream, limit: usize) {
-    let error =
-        error_line(ErrorCode::ServerFull, &format!("the server takes at most {limit} connections"), true);
+/// Says why the connection is not taken (a fatal `error`, no `bye`: it never joined) and
+/// closes it.
+async fn refuse(mut stream: TcpStream, code: ErrorCode, why: String) {
+    let error = error_line(code, &why, true);
     let _ = stream.write_all(error.as_bytes()).await;
     let _ = stream.shutdown().await;
 }
@@ -213,10 +222,29 @@ impl LineSource for TcpLines {
     }
 }
 
-async fn handle(stream: TcpStream, conn: ConnId, arena: &Arena) {
+async fn handle(stream: TcpStream, conn: ConnId, arena: &Arena, place: SourcePlace) {
     let (reader, writer) = stream.into_split();
     let source = TcpLines { reader, lines: LineBuffer::new(), buf: vec![0u8; 16 * 1024] };
-    run(conn, source, writer, arena).await;
+    run(conn, source, PlacedWriter { place: Some(place), writer }, arena).await;
+}
+
+/// A TCP connection's sending half and its address's place, given back before the
+/// connection is closed, so a client that sees the close can come back at once.
+struct PlacedWriter {
+    /// Declared first: dropped before the socket's half.
+    place: Option<SourcePlace>,
+    writer: OwnedWriteHalf,
+}
+
+impl LineSink for PlacedWriter {
+    async fn send_line(&mut self, line: Arc<str>) -> bool {
+        self.writer.send_line(line).await
+    }
+
+    async fn close(&mut self) {
+        self.place.take();
+        self.writer.close().await;
+    }
 }
 
 /// A `hello` routed to a match, and the lines that came after it in the same read.

@@ -2,6 +2,7 @@
 //! actions and receives percept deltas each tick.
 //!
 //! Layers, each using only those below it: the server's policy and errors (`config`),
+//! places per source address (`budget`),
 //! the channel vocabulary (`events`), the driver that runs one sans-IO
 //! [`MatchHost`](bw4t_host::MatchHost) as a task (`driver`), the [`Arena`] of every match
 //! (`arena`), the connections (`connection`), HTTP on hyper (`http`: the page, the API,
@@ -10,6 +11,7 @@
 //! tests bind `127.0.0.1:0`.
 
 mod arena;
+mod budget;
 mod config;
 mod connection;
 mod driver;

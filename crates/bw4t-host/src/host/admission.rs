@@ -117,6 +117,7 @@ impl MatchHost {
         tracing::info!(target: "bw4t::match", r#match = %self.config.name, player = %name, robot = robot.0, conn, "{how}");
         self.welcome(conn, Some(robot), every_tick, None);
         self.send_percepts(robot, Delivery::Snapshot);
+        self.note_presence();
     }
 
     /// Checks the credential of the role `hello` asks for; the error says what is missing.

@@ -4,7 +4,9 @@
 //!
 //! Plain requests are short, so they are admitted on accept up to their own limit
 //! ([`MAX_REQUESTS`]) and never wait behind the long-lived WebSockets, which have theirs
-//! (`max_connections`). Beyond a limit the client gets `503` with `Retry-After`. hyper
+//! (`max_connections`). Beyond a limit the client gets `503` with `Retry-After`. Each
+//! source address has its share of both (a quarter of the requests' places,
+//! `max_per_source` WebSockets; beyond it `429`), so one client cannot hold every place. hyper
 //! frames the requests: heads are bounded in size and time, bodies in size and time here.
 //! Every answer but a WebSocket's `101` says `Connection: close`, so hyper closes the
 //! connection after it.
@@ -20,6 +22,7 @@ pub use reply::Reply;
 pub use routes::{Answering, Routes, WebRequest, query_value};
 
 use std::convert::Infallible;
+use std::net::SocketAddr;
 use std::pin::Pin;
 use std::sync::{Arc, Mutex};
 use std::task::{Context, Poll};
@@ -37,11 +40,15 @@ use tokio::net::{TcpListener, TcpStream};
 use tokio::sync::{OwnedSemaphorePermit, Semaphore};
 
 use crate::arena::Arena;
-use websocket::Live;
+use crate::budget::{SourceBudget, SourcePlace};
+use websocket::{Live, OriginPolicy};
 
 /// Plain requests read or answered at once, by default; more are answered `503` at once.
 /// They are short, so this is far above what a page load needs.
 pub const MAX_REQUESTS: usize = 1024;
+
+/// One source address may hold at most 1/`REQUEST_SHARE` of the plain-request places.
+const REQUEST_SHARE: usize = 4;
 
 /// The longest request head read, in bytes (hyper's buffer; longer heads get `431`).
 const MAX_HEAD: usize = 16 * 1024;
@@ -71,36 +78,64 @@ pub async fn serve_site(listener: TcpListener, site: Arc<Site>, max_requests: us
     serve(listener, Served { site, live: None, mounted: Vec::new() }, max_requests).await;
 }
 
+/// Why a connection's request is answered at once, without being read.
+#[derive(Clone, Copy)]
+enum TurnedAway {
+    /// Every place for plain requests is taken.
+    Busy,
+    /// Its source address holds its share of them.
+    SourceFull(usize),
+}
+
 /// Serves `served` on `listener` until aborted.
 pub(crate) async fn serve(listener: TcpListener, served: Served, max_requests: usize) {
     let requests = Arc::new(Semaphore::new(max_requests));
+    let trusted =
+        served.live.as_ref().map(|l| l.arena.config().server.trusted_proxies.clone()).unwrap_or_default();
+    // A page load is a burst of short requests, and a classroom behind one address loads
+    // many pages at once: an address may hold a quarter of the places, so that a client
+    // with half-sent heads can never hold them all.
+    let sources = SourceBudget::new((max_requests / REQUEST_SHARE).max(1));
     loop {
-        let Ok((stream, _)) = listener.accept().await else {
+        let Ok((stream, peer)) = listener.accept().await else {
             // Out of file descriptors or a reset before accept: try again shortly.
             tokio::time::sleep(Duration::from_millis(10)).await;
             continue;
         };
         let _ = stream.set_nodelay(true);
-        let place = requests.clone().try_acquire_owned().ok();
-        let busy = place.is_none();
-        let place = Arc::new(Mutex::new(place));
+        // A trusted proxy's connections come from many clients: their WebSockets are
+        // counted by the forwarded address; its plain requests only against the total.
+        let source = if trusted.contains(&peer.ip()) {
+            Ok(None)
+        } else {
+            sources.take(peer.ip()).map(Some).ok_or(TurnedAway::SourceFull(sources.limit()))
+        };
+        let request = requests.clone().try_acquire_owned().map_err(|_| TurnedAway::Busy);
+        let (places, turned_away) = match (request, source) {
+            (Ok(request), Ok(source)) => (Places { request: Some(request), source }, None),
+            (Err(why), _) | (_, Err(why)) => (Places { request: None, source: None }, Some(why)),
+        };
+        let place = Arc::new(Mutex::new(places));
         let served = served.clone();
         tokio::spawn(async move {
             let io = TokioIo::new(Placed { place: place.clone(), stream });
             let service = service_fn(move |request| {
                 let (served, place) = (served.clone(), place.clone());
                 async move {
-                    let response = if busy {
-                        Reply::busy("too many requests at once").into_response()
-                    } else {
-                        answer(request, &served, &place).await
+                    let response = match turned_away {
+                        Some(TurnedAway::Busy) => Reply::busy("too many requests at once").into_response(),
+                        Some(TurnedAway::SourceFull(limit)) => {
+                            Reply::too_many(&format!("at most {limit} requests at once from one address"))
+                                .into_response()
+                        }
+                        None => answer(request, &served, &place, peer).await,
                     };
                     Ok::<_, Infallible>(response)
                 }
             });
             let connection = http1::Builder::new()
                 .timer(TokioTimer::new())
-                .header_read_timeout(if busy { BUSY_HEAD_TIMEOUT } else { HEAD_TIMEOUT })
+                .header_read_timeout(if turned_away.is_some() { BUSY_HEAD_TIMEOUT } else { HEAD_TIMEOUT })
                 .max_buf_size(MAX_HEAD)
                 .max_headers(MAX_HEADERS)
                 .title_case_headers(true)
@@ -111,12 +146,18 @@ pub(crate) async fn serve(listener: TcpListener, served: Served, max_requests: u
     }
 }
 
-/// A connection's socket and its place among the plain requests: the place is given
+/// A connection's socket and its places among the plain requests: the places are given
 /// back before the socket closes (so a client that sees the close can come back at
 /// once), or as soon as the connection becomes a WebSocket.
 struct Placed {
-    place: Arc<Mutex<Option<OwnedSemaphorePermit>>>,
+    place: Arc<Mutex<Places>>,
     stream: TcpStream,
+}
+
+/// A plain request's places: among all requests, and among its source address's.
+struct Places {
+    request: Option<OwnedSemaphorePermit>,
+    source: Option<SourcePlace>,
 }
 
 impl Drop for Placed {
@@ -125,8 +166,10 @@ impl Drop for Placed {
     }
 }
 
-fn free_place(place: &Mutex<Option<OwnedSemaphorePermit>>) {
-    place.lock().unwrap_or_else(|p| p.into_inner()).take();
+fn free_place(place: &Mutex<Places>) {
+    let mut places = place.lock().unwrap_or_else(|p| p.into_inner());
+    places.request.take();
+    places.source.take();
 }
 
 impl AsyncRead for Placed {
@@ -162,11 +205,32 @@ impl AsyncWrite for Placed {
 async fn answer(
     request: Request<Incoming>,
     served: &Served,
-    place: &Mutex<Option<OwnedSemaphorePermit>>,
+    place: &Mutex<Places>,
+    peer: SocketAddr,
+) -> Response<Full<Bytes>> {
+    let host = request.headers().get(hyper::header::HOST).and_then(|v| v.to_str().ok()).map(str::to_owned);
+    let mut response = respond(request, served, place, peer).await;
+    // A `Host` of a name's characters only names where the page's WebSocket may go.
+    let host = host.filter(|h| h.chars().all(|c| c.is_ascii_alphanumeric() || ".-:[]".contains(c)));
+    if let Some(csp) = host
+        .and_then(|h| hyper::header::HeaderValue::from_str(&reply::content_security_policy(Some(&h))).ok())
+    {
+        response.headers_mut().insert(hyper::header::CONTENT_SECURITY_POLICY, csp);
+    }
+    response
+}
+
+/// [`answer`] but for the headers that depend on the request: plain requests on a `Host`
+/// that is not this server's are refused (`403`), as WebSockets are.
+async fn respond(
+    request: Request<Incoming>,
+    served: &Served,
+    place: &Mutex<Places>,
+    peer: SocketAddr,
 ) -> Response<Full<Bytes>> {
     let path = request.uri().path().to_string();
     if let Some(live) = served.live.as_ref().filter(|_| path == "/ws") {
-        return match websocket::admit(&request, live) {
+        return match websocket::admit(&request, live, peer.ip()) {
             Ok(admitted) => {
                 // From here on it counts as a WebSocket, not as a request.
                 free_place(place);
@@ -174,6 +238,12 @@ async fn answer(
             }
             Err(reply) => reply.into_response(),
         };
+    }
+    let site_only = OriginPolicy::default();
+    let origins = served.live.as_ref().map_or(&site_only, |live| &live.origins);
+    let host = request.headers().get(hyper::header::HOST).and_then(|v| v.to_str().ok());
+    if let Some(why) = origins.host_refusal(host) {
+        return Reply::text(StatusCode::FORBIDDEN, why).into_response();
     }
     let arena = served.live.as_ref().map(|live| &live.arena);
     let mounted = served.mounted.iter().find(|r| r.serves(&path));

@@ -48,6 +48,12 @@ impl Reply {
             .with("Retry-After", RETRY_AFTER_S.to_string())
     }
 
+    /// `429 Too Many Requests` with `Retry-After`: the client's address holds its share.
+    pub fn too_many(why: &str) -> Reply {
+        Reply::text(StatusCode::TOO_MANY_REQUESTS, format!("{why}; try again shortly"))
+            .with("Retry-After", RETRY_AFTER_S.to_string())
+    }
+
     /// `401 Unauthorized` for a request without the operator's token; `has_token` tells
     /// whether the server has one at all.
     pub fn unauthorized(has_token: bool) -> Reply {
@@ -77,6 +83,14 @@ impl Reply {
         headers.insert(header::CONTENT_TYPE, header::HeaderValue::from_static(self.kind));
         headers.insert(header::CACHE_CONTROL, header::HeaderValue::from_static("no-store"));
         headers.insert(header::CONNECTION, header::HeaderValue::from_static("close"));
+        // The page loads its scripts, styles and data from this server only, is framed by
+        // no other page, and tells no other site where the visitor came from.
+        if let Ok(csp) = header::HeaderValue::from_str(&content_security_policy(None)) {
+            headers.insert(header::CONTENT_SECURITY_POLICY, csp);
+        }
+        headers.insert(header::X_FRAME_OPTIONS, header::HeaderValue::from_static("DENY"));
+        headers.insert(header::X_CONTENT_TYPE_OPTIONS, header::HeaderValue::from_static("nosniff"));
+        headers.insert(header::REFERRER_POLICY, header::HeaderValue::from_static("no-referrer"));
         for (name, value) in self.headers {
             if let Ok(value) = header::HeaderValue::from_str(&value) {
                 headers.append(name, value);
@@ -84,4 +98,17 @@ impl Reply {
         }
         response
     }
+}
+
+/// The `Content-Security-Policy` of every answer: scripts, styles (the page sets some
+/// inline), images (`data:` for the empty icon) and connections from this server only, the
+/// WebSocket to `host` when the request names it (`'self'` covers `ws:` in newer
+/// browsers only); no plugins, no `<base>`, no framing.
+pub(crate) fn content_security_policy(host: Option<&str>) -> String {
+    let sockets = host.map(|h| format!(" ws://{h} wss://{h}")).unwrap_or_default();
+    format!(
+        "default-src 'self'; script-src 'self'; style-src 'self' 'unsafe-inline'; img-src 'self' data:; \
+         connect-src 'self'{sockets}; object-src 'none'; base-uri 'none'; form-action 'self'; \
+         frame-ancestors 'none'"
+    )
 }

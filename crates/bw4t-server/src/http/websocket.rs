@@ -7,7 +7,7 @@
 //! handshake without `Origin` does not come from a page: such a program could as well
 //! use the protocol port, so it is let in.
 
-use std::net::{Ipv4Addr, Ipv6Addr};
+use std::net::{IpAddr, Ipv4Addr, Ipv6Addr};
 use std::sync::Arc;
 
 use bw4t_protocol::{DecodeError, ErrorCode, MAX_LINE};
@@ -26,6 +26,7 @@ use tokio_tungstenite::tungstenite::{Error as WsError, Message};
 
 use super::Reply;
 use crate::arena::Arena;
+use crate::budget::{SourceBudget, SourcePlace, request_source};
 use crate::connection::{Incoming, LineSink, LineSource};
 
 /// A WebSocket over the upgraded HTTP connection.
@@ -48,6 +49,10 @@ pub(crate) struct Live {
     pub sockets: Arc<Semaphore>,
     /// Which pages may connect.
     pub origins: OriginPolicy,
+    /// The WebSockets each source address may have open.
+    pub sources: SourceBudget,
+    /// Proxies whose `X-Forwarded-For` names the source.
+    pub trusted_proxies: Vec<IpAddr>,
 }
 
 impl Live {
@@ -58,19 +63,23 @@ impl Live {
             max_sockets: config.max_connections,
             sockets: Arc::new(Semaphore::new(config.max_connections)),
             origins: OriginPolicy::new(&config.allowed_origins),
+            sources: SourceBudget::new(config.max_per_source),
+            trusted_proxies: config.trusted_proxies.clone(),
             arena,
         }
     }
 }
 
-/// A handshake that may go ahead: its `101` answer and its place among the WebSockets.
+/// A handshake that may go ahead: its `101` answer and its places among the WebSockets
+/// and among its source address's.
 pub(crate) struct Admitted {
     response: Response<()>,
-    permit: OwnedSemaphorePermit,
+    permit: (OwnedSemaphorePermit, SourcePlace),
 }
 
-/// Checks a request on `/ws`: a valid handshake, an allowed origin and host, a free place.
-pub(crate) fn admit<B>(request: &Request<B>, live: &Live) -> Result<Admitted, Reply> {
+/// Checks a request on `/ws` from `peer`: a valid handshake, an allowed origin and host,
+/// a free place, and one free for its source address.
+pub(crate) fn admit<B>(request: &Request<B>, live: &Live, peer: IpAddr) -> Result<Admitted, Reply> {
     let mut head = Request::new(());
     *head.method_mut() = request.method().clone();
     *head.uri_mut() = request.uri().clone();
@@ -87,7 +96,15 @@ pub(crate) fn admit<B>(request: &Request<B>, live: &Live) -> Result<Admitted, Re
         .clone()
         .try_acquire_owned()
         .map_err(|_| Reply::busy(&format!("the server takes at most {} WebSockets", live.max_sockets)))?;
-    Ok(Admitted { response, permit })
+    let source = request_source(
+        peer,
+        header(header::HeaderName::from_static("x-forwarded-for")),
+        &live.trusted_proxies,
+    );
+    let place = live.sources.take(source).ok_or_else(|| {
+        Reply::too_many(&format!("at most {} WebSockets from one address", live.sources.limit()))
+    })?;
+    Ok(Admitted { response, permit: (permit, place) })
 }
 
 /// Answers the handshake with `101` and, once hyper hands the connection over, runs the
@@ -109,7 +126,7 @@ pub(crate) fn upgrade(
 }
 
 /// Runs the WebSocket as a protocol connection: a text frame is a line.
-async fn bridge(ws: Socket, place: OwnedSemaphorePermit, live: &Live) {
+async fn bridge(ws: Socket, place: (OwnedSemaphorePermit, SourcePlace), live: &Live) {
     let (write, read) = ws.split();
     let mut lines = WsLines(read);
     let conn = live.arena.next_conn();
@@ -203,13 +220,28 @@ impl OriginPolicy {
         let Some(host) = host.map(|h| h.trim().to_ascii_lowercase()) else {
             return Some("a WebSocket from a page needs a Host header".into());
         };
-        let own = ["http://", "https://"].iter().any(|scheme| origin.strip_prefix(scheme) == Some(&host));
+        let own =
+            ["http://", "https://"].iter().any(|scheme| origin.strip_prefix(scheme) == Some(host.as_str()));
         if !own && !self.origins.contains(&origin) {
             return Some(format!(
                 "pages from {origin} may not open WebSockets here (the server can allow them: \
                  bw4t serve --allow-origin {origin})"
             ));
         }
+        self.host_refusal(Some(&host))
+    }
+
+    /// Why a request with this `Host` header is refused, if it is: a name that is not
+    /// this server's (`localhost`, an IP address, or the host of an allowed origin) may
+    /// be one an attacker points at this server (DNS rebinding), making the attacker's
+    /// page same-origin with it.
+    pub(crate) fn host_refusal(&self, host: Option<&str>) -> Option<String> {
+        if self.any {
+            return None;
+        }
+        let Some(host) = host.map(|h| h.trim().to_ascii_lowercase()) else {
+            return Some("a request needs a Host header".into());
+        };
         let name = host_name(&host);
         let literal = name.parse::<Ipv4Addr>().is_ok()
             || name

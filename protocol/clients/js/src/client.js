@@ -331,7 +331,7 @@ export class Client extends EventEmitter {
   get result() {
     return this.#core.result;
   }
-  /** `match_end.reason`: `completed`, `max_ticks` or `interrupted`. @type {string|null} */
+  /** `match_end.reason`: `completed`, `max_ticks`, `interrupted` or `abandoned`. @type {string|null} */
   get endReason() {
     return this.#core.endReason;
   }

@@ -1,0 +1,383 @@
+use std::collections::HashMap;
+use std::net::SocketAddr;
+use std::time::Duration;
+
+use bw4t_mcp::{Docs, HttpOptions, Link, LocalMatch, RobotServer};
+use bw4t_protocol::{ServerMessage, SessionOptions};
+use serde_json::{Value, json};
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::net::TcpStream;
+
+use crate::util::{Client, TestServer, WAIT, lockstep, shipped_map};
+
+const TOKEN: &str = "0123456789abcdef0123456789abcdef";
+
+/// An HTTP answer: status, headers (lower-case names) and the JSON-RPC messages in its
+/// body (a JSON body, or the `data` of an event stream).
+#[derive(Debug)]
+struct Answer {
+    status: u16,
+    headers: HashMap<String, String>,
+    body: String,
+    messages: Vec<Value>,
+}
+
+impl Answer {
+    /// The message answering request `id`.
+    fn reply(&self, id: u64) -> &Value {
+        self.messages
+            .iter()
+            .find(|m| m["id"] == json!(id))
+            .unwrap_or_else(|| panic!("no answer to request {id} in {self:?}"))
+    }
+}
+
+/// What a request carries besides its body.
+#[derive(Clone, Default)]
+struct Head<'a> {
+    token: Option<&'a str>,
+    origin: Option<&'a str>,
+    session: Option<&'a str>,
+}
+
+/// One POST of `body` to `/mcp`, read to its end (the connection closes after it).
+async fn post(addr: SocketAddr, head: Head<'_>, body: &Value) -> Answer {
+    let body = body.to_string();
+    let mut request = format!(
+        "POST /mcp HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\nContent-Type: application/json\r\n\
+         Accept: application/json, text/event-stream\r\nContent-Length: {}\r\n",
+        body.len()
+    );
+    for (name, value) in [
+        ("Authorization", head.token.map(|t| format!("Bearer {t}"))),
+        ("Origin", head.origin.map(String::from)),
+    ]
+    .into_iter()
+    .chain([("Mcp-Session-Id", head.session.map(String::from))])
+    {
+        if let Some(value) = value {
+            request += &format!("{name}: {value}\r\n");
+        }
+    }
+    request += "\r\n";
+    request += &body;
+    let mut stream = TcpStream::connect(addr).await.expect("connect");
+    stream.write_all(request.as_bytes()).await.expect("send");
+    let mut raw = Vec::new();
+    tokio::time::timeout(WAIT, stream.read_to_end(&mut raw)).await.expect("an answer in time").expect("read");
+    parse(&String::from_utf8_lossy(&raw))
+}
+
+fn parse(raw: &str) -> Answer {
+    let (head, body) = raw.split_once("\r\n\r\n").unwrap_or_else(|| panic!("an HTTP answer: {raw:?}"));
+    let mut lines = head.lines();
+    let status = lines.next().and_then(|l| l.split(' ').nth(1)).and_then(|s| s.parse().ok()).expect("status");
+    let headers: HashMap<String, String> = lines
+        .filter_map(|l| l.split_once(':'))
+        .map(|(n, v)| (n.trim().to_ascii_lowercase(), v.trim().to_string()))
+        .collect();
+    let body = match headers.get("transfer-encoding") {
+        Some(coding) if coding.eq_ignore_ascii_case("chunked") => unchunk(body),
+        _ => body.to_string(),
+    };
+    let json = headers.get("content-type").is_some_and(|t| t.starts_with("application/json"));
+    let messages = if json {
+        serde_json::from_str(&body).into_iter().collect()
+    } else {
+        body.lines()
+            .filter_map(|l| l.strip_prefix("data:"))
+            .filter_map(|d| serde_json::from_str(d.trim()).ok())
+            .collect()
+    };
+    Answer { status, headers, body, messages }
+}
+
+/// A chunked body's content.
+fn unchunk(mut body: &str) -> String {
+    let mut out = String::new();
+    while let Some((size, rest)) = body.split_once("\r\n") {
+        let Ok(size) = usize::from_str_radix(size.trim(), 16) else { break };
+        if size == 0 || rest.len() < size {
+            break;
+        }
+        out += &rest[..size];
+        body = rest[size..].trim_start_matches("\r\n");
+    }
+    out
+}
+
+fn initialize() -> Value {
+    json!({"jsonrpc": "2.0", "id": 1, "method": "initialize", "params": {
+        "protocolVersion": "2025-06-18", "capabilities": {}, "clientInfo": {"name": "test", "version": "0"}}})
+}
+
+fn call(id: u64, tool: &str, arguments: Value) -> Value {
+    json!({"jsonrpc": "2.0", "id": id, "method": "tools/call", "params": {"name": tool, "arguments": arguments}})
+}
+
+/// An initialized MCP session of the robot served at `addr`.
+struct Session {
+    addr: SocketAddr,
+    id: String,
+}
+
+impl Session {
+    async fn open(addr: SocketAddr) -> Session {
+        let answer = post(addr, Head { token: Some(TOKEN), ..Head::default() }, &initialize()).await;
+        assert_eq!(answer.status, 200, "{answer:?}");
+        let id = answer.headers.get("mcp-session-id").expect("a session id").clone();
+        let session = Session { addr, id };
+        let initialized = json!({"jsonrpc": "2.0", "method": "notifications/initialized"});
+        assert_eq!(session.post(&initialized).await.status, 202);
+        session
+    }
+
+    async fn post(&self, body: &Value) -> Answer {
+        post(self.addr, Head { token: Some(TOKEN), session: Some(&self.id), ..Head::default() }, body).await
+    }
+
+    /// Calls `tool`: its result (`structuredContent`), or the JSON-RPC error.
+    async fn call(&self, id: u64, tool: &str, arguments: Value) -> Result<Value, Value> {
+        let answer = self.post(&call(id, tool, arguments)).await;
+        assert_eq!(answer.status, 200, "{answer:?}");
+        let reply = answer.reply(id);
+        match reply.get("error") {
+            Some(error) => Err(error.clone()),
+            None => Ok(reply["result"]["structuredContent"].clone()),
+        }
+    }
+
+    async fn tick(&self, id: u64) -> u64 {
+        self.call(id, "look", json!({})).await.expect("look")["tick"].as_u64().expect("tick")
+    }
+}
+
+/// A match of its own on the fixed map (seed 1, alone, lockstep, `max_ticks`), its robot
+/// served over HTTP with `options`; tool calls time out after `timeout`.
+async fn own_match(max_ticks: u64, timeout: Duration, options: HttpOptions) -> SocketAddr {
+    let map = shipped_map("fixed");
+    let mut setup = LocalMatch::setup(map.clone(), "Model", &[]);
+    setup.seed = 1;
+    setup.max_ticks = Some(max_ticks);
+    let started = LocalMatch { setup, deadline: None, replay: None }.start().await.expect("a match");
+    let link = Link::join(started.addr, started.hello, WAIT, None).await.expect("joined");
+    serve(link, Docs::new(Some(map)), timeout, options).await
+}
+
+async fn serve(link: Link, docs: Docs, timeout: Duration, options: HttpOptions) -> SocketAddr {
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.expect("bind");
+    let addr = listener.local_addr().expect("addr");
+    tokio::spawn(bw4t_mcp::serve_http(RobotServer::new(link, docs, timeout), listener, options));
+    addr
+}
+
+fn options() -> HttpOptions {
+    HttpOptions::new(TOKEN.into())
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_visitor_without_the_token_is_refused_and_the_robot_stays_put() {
+    let addr = own_match(20_000, WAIT, options()).await;
+    let driver = Session::open(addr).await;
+    assert_eq!(driver.tick(2).await, 0);
+
+    let unknown = post(addr, Head::default(), &initialize()).await;
+    assert_eq!(unknown.status, 401, "{unknown:?}");
+    assert!(unknown.headers.get("www-authenticate").is_some_and(|v| v.starts_with("Bearer")));
+    let message = unknown.messages.first().expect("a JSON-RPC error");
+    assert!(
+        message["error"]["message"].as_str().is_some_and(|m| m.contains("Authorization: Bearer")),
+        "{message}"
+    );
+    let wrong = post(addr, Head { token: Some("not-the-token"), ..Head::default() }, &initialize()).await;
+    assert_eq!(wrong.status, 401);
+    assert!(wrong.body.contains("the bearer token is wrong"), "{wrong:?}");
+    // Even inside the driver's session, a call without the token moves nothing.
+    let intruder = Head { session: Some(&driver.id), ..Head::default() };
+    let moved = post(addr, intruder, &call(3, "go_to", json!({"place": "RoomA1"}))).await;
+    assert_eq!(moved.status, 401);
+
+    let state = driver.call(4, "look", json!({})).await.expect("look");
+    assert_eq!((state["tick"].as_u64(), state["state"]["at"].as_str()), (Some(0), Some("FrontDropZone")));
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn browser_pages_from_other_origins_are_refused() {
+    let addr = own_match(20_000, WAIT, options()).await;
+    let with_origin = |origin| Head { token: Some(TOKEN), origin, session: None };
+    let evil = post(addr, with_origin(Some("http://evil.example")), &initialize()).await;
+    assert_eq!(evil.status, 403, "{evil:?}");
+    assert!(evil.body.contains("http://evil.example"), "{evil:?}");
+    let local = format!("http://127.0.0.1:{}", addr.port());
+    assert_eq!(post(addr, with_origin(Some(&local)), &initialize()).await.status, 200);
+    assert_eq!(post(addr, with_origin(None), &initialize()).await.status, 200, "not a browser page");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_over_long_say_is_an_error_before_anything_is_sent() {
+    // Were it sent, the match would drop it and the call would run until its timeout with
+    // the robot answering every tick: the whole match in a moment.
+    let addr = own_match(20_000, Duration::from_secs(5), options()).await;
+    let driver = Session::open(addr).await;
+    let long = "x".repeat(70_000);
+    let error = driver.call(2, "say", json!({"text": long})).await.expect_err("refused");
+    let message = error["message"].as_str().unwrap_or_default();
+    assert!(message.starts_with("say: ") && message.contains("at most 65536 bytes"), "{error}");
+    let error = driver.call(3, "say", json!({"kind": "contains", "room": long, "colour": "Red"})).await;
+    assert!(error.expect_err("refused")["message"].as_str().is_some_and(|m| m.contains("room is")));
+    let error = driver.call(4, "go_to", json!({"place": long})).await;
+    assert!(error.expect_err("refused")["message"].as_str().is_some_and(|m| m.contains("place is")));
+    let error = driver.call(5, "wait", json!({"ticks": 1_000_000})).await;
+    assert!(error.expect_err("refused")["message"].as_str().is_some_and(|m| m.contains("from 1 to 72000")));
+    assert_eq!(driver.tick(6).await, 0, "the match has not moved");
+    // A say that fits is sent and answered in its tick.
+    let said = driver.call(7, "say", json!({"text": "x".repeat(60_000)})).await.expect("said");
+    assert_eq!((said["outcome"].as_str(), said["tick"].as_u64()), (Some("done"), Some(1)), "{said}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn wait_seconds_in_lockstep_are_simulated_seconds() {
+    let addr = own_match(20_000, WAIT, options()).await;
+    let driver = Session::open(addr).await;
+    let waited = driver.call(2, "wait", json!({"seconds": 5})).await.expect("waited");
+    assert_eq!(waited["outcome"], "timeout", "{waited}");
+    assert_eq!((waited["ticks"].as_u64(), waited["tick"].as_u64()), (Some(100), Some(100)), "5 s at 20 Hz");
+    assert_eq!(waited["ended"], false);
+    // So is a call with no limit of its own: at most its timeout in simulated time.
+    let waited = driver.call(3, "wait", json!({})).await.expect("waited");
+    let ticks = WAIT.as_secs() * 20;
+    assert_eq!(
+        (waited["outcome"].as_str(), waited["ticks"].as_u64()),
+        (Some("timeout"), Some(ticks)),
+        "{waited}"
+    );
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_cancelled_call_frees_the_robot_at_once() {
+    // A lockstep match with a second player, this test, so that the robot's calls last
+    // as long as the test holds its `ready`.
+    let (setup, mut config) = lockstep("fixed", 1, 2);
+    config.deadline = None;
+    let server = TestServer::start(setup, config).await;
+    let link =
+        Link::join(server.addr, SessionOptions::agent("Model", None), WAIT, None).await.expect("joined");
+    let mut tester = Client::connect(server.addr).await;
+    // Told of every tick, the test holds each one until it says `ready`.
+    tester.send(json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": "Tester", "every_tick": true})).await;
+    tester.until(|m| matches!(m, ServerMessage::Percepts(_)).then_some(())).await;
+    tester.send(json!({"type": "ready", "tick": 0})).await;
+
+    let addr = serve(link, Docs::new(Some(shipped_map("fixed"))), WAIT, options()).await;
+    let driver = Session::open(addr).await;
+    let journey = {
+        let (addr, id) = (addr, driver.id.clone());
+        tokio::spawn(async move {
+            let head = Head { token: Some(TOKEN), session: Some(&id), ..Head::default() };
+            post(addr, head, &call(2, "go_to", json!({"place": "RoomA1"}))).await
+        })
+    };
+    // Tick 1 comes only once the robot answered tick 0: the journey is under way.
+    tester.until(|m| matches!(m, ServerMessage::Percepts(p) if p.tick == 1).then_some(())).await;
+    let cancel = json!({"jsonrpc": "2.0", "method": "notifications/cancelled",
+        "params": {"requestId": 2, "reason": "the model changed its mind"}});
+    assert_eq!(driver.post(&cancel).await.status, 202);
+    let put_down = {
+        let (addr, id) = (addr, driver.id.clone());
+        tokio::spawn(async move { Session { addr, id }.call(3, "put_down", json!({})).await })
+    };
+    // From here the test answers every tick, so the order can be carried out.
+    let answering = tokio::spawn(async move {
+        tester.send(json!({"type": "ready", "tick": 1})).await;
+        while let Some(message) = tester.recv().await {
+            if let ServerMessage::Percepts(p) = message {
+                tester.send(json!({"type": "ready", "tick": p.tick})).await;
+            }
+        }
+    });
+    let put_down = tokio::time::timeout(WAIT, put_down).await.expect("in time").expect("task");
+    let put_down = put_down.expect("the robot took the order");
+    assert_eq!(put_down["outcome"], "rejected", "{put_down}");
+    assert!(put_down["reason"].as_str().is_some_and(|r| r.starts_with("not_holding")), "{put_down}");
+    journey.abort();
+    answering.abort();
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn idle_connections_are_capped_and_closed_when_their_head_is_late() {
+    let mut options = options();
+    options.max_connections = 2;
+    options.header_timeout = Duration::from_millis(300);
+    let addr = own_match(20_000, WAIT, options).await;
+    let mut idle = Vec::new();
+    for _ in 0..2 {
+        idle.push(TcpStream::connect(addr).await.expect("connect"));
+    }
+    // Connections are taken in the order they came, so both places are held by the time
+    // a third is: it is refused at once rather than waiting for them.
+    let refused = post(addr, Head { token: Some(TOKEN), ..Head::default() }, &initialize()).await;
+    assert_eq!(refused.status, 503, "{refused:?}");
+    assert!(refused.body.contains("at most 2 connections"), "{refused:?}");
+    for mut stream in idle {
+        let mut byte = [0u8; 1];
+        let read = tokio::time::timeout(WAIT, stream.read(&mut byte)).await.expect("closed in time");
+        assert!(matches!(read, Ok(0) | Err(_)), "the server closed the silent connection");
+    }
+    let answer = post(addr, Head { token: Some(TOKEN), ..Head::default() }, &initialize()).await;
+    assert_eq!(answer.status, 200, "{answer:?}");
+}
+
+#[test]
+fn running_out_of_file_descriptors_does_not_end_the_server() {
+    use std::io::{BufRead, BufReader};
+    use std::process::{Command, Stdio};
+    // `ulimit -n 48`: the server's table fills with a few dozen connections.
+    let bw4t = env!("CARGO_BIN_EXE_bw4t");
+    let script = format!(
+        "ulimit -n 48 && exec {bw4t} mcp --map fixed --seed 1 --http 127.0.0.1:0 --http-token {TOKEN}"
+    );
+    let mut child = Command::new("sh")
+        .args(["-c", &script])
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start bw4t mcp");
+    let (lines_tx, lines) = std::sync::mpsc::channel();
+    let stderr = child.stderr.take().expect("stderr");
+    std::thread::spawn(move || {
+        for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+            let _ = lines_tx.send(line);
+        }
+    });
+    let mut said = Vec::new();
+    let addr: SocketAddr = loop {
+        let line = lines.recv_timeout(WAIT).unwrap_or_else(|_| panic!("no address; it said {said:?}"));
+        if let Some(url) = line.split("http://").nth(1) {
+            break url.trim_end_matches("/mcp").parse().expect("an address");
+        }
+        said.push(line);
+    };
+    let runtime =
+        tokio::runtime::Builder::new_multi_thread().worker_threads(2).enable_all().build().expect("rt");
+    let answer = runtime.block_on(async {
+        let mut open = Vec::new();
+        for _ in 0..100 {
+            open.push(TcpStream::connect(addr).await.expect("the kernel queues what is not accepted"));
+        }
+        // Accepting fails now; the failure is said, and the server waits for room.
+        loop {
+            let line = lines.recv_timeout(WAIT).expect("the server says accepting fails");
+            if line.contains("cannot accept a connection") {
+                break;
+            }
+        }
+        drop(open);
+        post(addr, Head { token: Some(TOKEN), ..Head::default() }, &initialize()).await
+    });
+    let alive = child.try_wait().expect("status").is_none();
+    let _ = child.kill();
+    let _ = child.wait();
+    assert!(alive, "bw4t mcp is still running");
+    assert_eq!(answer.status, 200, "{answer:?}");
+}
