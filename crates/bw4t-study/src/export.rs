@@ -9,7 +9,6 @@
 //! participants' logs.
 
 use std::collections::BTreeMap;
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use serde_json::{Value, json};
@@ -387,29 +386,22 @@ fn copy_replay(dir: &Path, out: &Path, participant: &str, t: &Trial) -> Result<O
 }
 
 fn header(columns: &[&str]) -> String {
-    columns.join(",") + "\n"
+    let mut csv = String::new();
+    let cells: Vec<String> = columns.iter().map(|c| (*c).to_string()).collect();
+    row(&mut csv, &cells);
+    csv
 }
 
+/// Appends one record to `csv`: quoted by the `csv` crate, every cell made spreadsheet-safe.
 fn row(csv: &mut String, cells: &[String]) {
-    for (i, c) in cells.iter().enumerate() {
-        if i > 0 {
-            csv.push(',');
-        }
-        let c = &neutralised(c);
-        if c.contains([',', '"', '\n', '\r']) {
-            let _ = write!(csv, "\"{}\"", c.replace('"', "\"\""));
-        } else {
-            csv.push_str(c);
+    let mut writer = csv::WriterBuilder::new().from_writer(Vec::new());
+    let safe = cells.iter().map(|c| bw4t_protocol::spreadsheet_safe(c));
+    // Writing into memory cannot fail, and the cells are text.
+    if writer.write_record(safe.map(|c| c.into_owned())).is_ok() {
+        if let Ok(bytes) = writer.into_inner() {
+            csv.push_str(&String::from_utf8_lossy(&bytes));
         }
     }
-    csv.push('\n');
-}
-
-/// `cell`, with a `'` in front if a spreadsheet would take it for a formula. Numbers (a
-/// negative one begins with `-`) are left as they are: they are not formulas.
-fn neutralised(cell: &str) -> std::borrow::Cow<'_, str> {
-    let formula = cell.starts_with(['=', '+', '-', '@', '\t', '\r']) && cell.parse::<f64>().is_err();
-    if formula { format!("'{cell}").into() } else { cell.into() }
 }
 
 /// A JSON value as a CSV cell: strings bare, `null` empty, the rest as JSON.
