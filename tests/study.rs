@@ -727,7 +727,7 @@ async fn a_killed_server_leaves_readable_logs_and_the_export_lists_the_unfinishe
 
 #[test]
 fn bad_study_files_are_refused_naming_the_problem() {
-    let cases: [(&str, &str, &str, &[&str]); 7] = [
+    let cases: [(&str, &str, &str, &[&str]); 9] = [
         ("an unknown key", "name = \"alpha\"\n", "name = \"alpha\"\ncolour = \"red\"\n", &["colour"]),
         (
             "an unknown strategy",
@@ -753,6 +753,18 @@ fn bad_study_files_are_refused_naming_the_problem() {
             "kinds = [\"going_to\", \"have\"]",
             "kinds = [\"dance\"]",
             &["condition 1", "kinds", "dance"],
+        ),
+        (
+            "a tick rate out of range",
+            "tick_hz = 20",
+            "tick_hz = 5000",
+            &["condition 1 'alpha'", "ticks per second must be from 1 to 1000, got 5000"],
+        ),
+        (
+            "a partner timeout the clock cannot add",
+            "name = \"alpha\"\n",
+            "name = \"alpha\"\nhumans = 2\npartner_timeout_s = 99999999999\n",
+            &["condition 'alpha'", "the start timeout must be from"],
         ),
         (
             "a final page not last",

@@ -383,7 +383,7 @@ pub fn parse(text: &str, path: &Path, maps: MapLoader<'_>) -> Result<Study, Stri
             plural(conditions.len(), "condition")
         ));
     }
-    Ok(Study {
+    let study = Study {
         name: s.name,
         title: s.title.unwrap_or_else(|| "Study".into()),
         seed: defaults.seed,
@@ -391,7 +391,14 @@ pub fn parse(text: &str, path: &Path, maps: MapLoader<'_>) -> Result<Study, Stri
         conditions,
         pages,
         text: text.to_string(),
-    })
+    };
+    // What the conditions' matches are run with is in range (partner_timeout_s, ...):
+    // said now, not when the first participant's match cannot be made.
+    for t in study.templates() {
+        let in_range = t.setup.game.validate().map_err(|e| e.to_string()).and_then(|()| t.config.check());
+        in_range.map_err(|e| format!("condition '{}': {e}", t.name))?;
+    }
+    Ok(study)
 }
 
 struct Defaults {
