@@ -1,6 +1,8 @@
 //! Studies: a participant's whole way through the HTTP API with a scripted player over
 //! the protocol, counterbalancing, resuming (reload, restart, a killed server), the
-//! export's rows, and refusals of bad study files and bad requests.
+//! export's rows, and refusals of bad study files and bad requests; and what a hostile
+//! visitor tries (acting as a participant whose id they know, cross-site requests, open
+//! files, event floods, match ids that are paths) refused.
 
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
@@ -10,7 +12,7 @@ use bw4t_protocol::{
     StudyInfo, StudyPage, TrialHello, TrialLanguage,
 };
 use bw4t_server::{Arena, ArenaConfig, ResultsStore};
-use bw4t_study::{self as study, StudyServer};
+use bw4t_study::{self as study, EventBudget, StudyServer};
 use serde_json::{Value, json};
 use tokio::sync::oneshot;
 
@@ -34,6 +36,8 @@ time_limit_s = 1
 name = "alpha"
 teammates = 1
 strategy = "coop"
+# The scripted player only says `ready`: staying to the end is its playing.
+min_active_ticks = 0
 free_text = false
 kinds = ["going_to", "have"]
 briefing = "Your teammate **talks**."
@@ -42,6 +46,7 @@ briefing = "Your teammate **talks**."
 name = "beta"
 teammates = 1
 strategy = "baseline"
+min_active_ticks = 0
 view = "overview"
 
 [[page]]
@@ -105,8 +110,88 @@ fn parse(text: &str) -> Result<study::Study, String> {
     study::parse(text, Path::new("study.toml"), &maps)
 }
 
+/// One browser: a cookie jar sent with every request and filled by every `Set-Cookie`.
+#[derive(Clone, Default)]
+struct Browser {
+    jar: std::sync::Arc<std::sync::Mutex<std::collections::BTreeMap<String, String>>>,
+}
+
+/// An answer: its status, its head's lines, its body.
+struct Answered {
+    status: u16,
+    head: Vec<String>,
+    body: String,
+}
+
+impl Answered {
+    /// The `Set-Cookie` values.
+    fn cookies(&self) -> Vec<&str> {
+        self.head
+            .iter()
+            .filter_map(|l| l.split_once(':'))
+            .filter(|(name, _)| name.eq_ignore_ascii_case("set-cookie"))
+            .map(|(_, value)| value.trim())
+            .collect()
+    }
+}
+
+impl Browser {
+    /// `method path` with `headers` (and the jar's cookies), over a new connection.
+    async fn send(
+        &self,
+        addr: SocketAddr,
+        method: &str,
+        path: &str,
+        headers: &[(&str, &str)],
+        body: &str,
+    ) -> Answered {
+        use tokio::io::{AsyncReadExt, AsyncWriteExt};
+        let mut stream = tokio::net::TcpStream::connect(addr).await.expect("connect");
+        let mut request = format!("{method} {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n");
+        let cookies: Vec<String> =
+            self.jar.lock().expect("jar").iter().map(|(k, v)| format!("{k}={v}")).collect();
+        if !cookies.is_empty() {
+            request += &format!("Cookie: {}\r\n", cookies.join("; "));
+        }
+        for (name, value) in headers {
+            request += &format!("{name}: {value}\r\n");
+        }
+        request += &format!("Content-Length: {}\r\n\r\n{body}", body.len());
+        let _ = stream.write_all(request.as_bytes()).await;
+        let mut answer = Vec::new();
+        let _ = tokio::time::timeout(WAIT, stream.read_to_end(&mut answer)).await.expect("an answer in time");
+        let answer = String::from_utf8_lossy(&answer).into_owned();
+        let (head, body) = answer.split_once("\r\n\r\n").unwrap_or((&answer, ""));
+        let head: Vec<String> = head.lines().map(str::to_string).collect();
+        let status = head
+            .first()
+            .and_then(|l| l.split(' ').nth(1))
+            .and_then(|s| s.parse().ok())
+            .unwrap_or_else(|| panic!("a status: {answer}"));
+        let answered = Answered { status, head, body: body.to_string() };
+        for cookie in answered.cookies() {
+            let pair = cookie.split(';').next().unwrap_or("");
+            if let Some((name, value)) = pair.split_once('=') {
+                self.jar.lock().expect("jar").insert(name.trim().into(), value.trim().into());
+            }
+        }
+        answered
+    }
+
+    /// A JSON request (`GET` without a body).
+    async fn json(&self, addr: SocketAddr, method: &str, path: &str, body: Option<&Value>) -> (u16, Value) {
+        let body = body.map(Value::to_string).unwrap_or_default();
+        let got = self.send(addr, method, path, &[("Content-Type", "application/json")], &body).await;
+        let reply =
+            serde_json::from_str(&got.body).unwrap_or_else(|e| panic!("not JSON ({e}): {}", got.body));
+        (got.status, reply)
+    }
+}
+
 /// A study served in-process on loopback ports, its data in `dir`.
 struct StudyRig {
+    /// The one browser the test's participants use.
+    browser: Browser,
     arena: Arena,
     addr: SocketAddr,
     http: SocketAddr,
@@ -117,6 +202,11 @@ struct StudyRig {
 
 impl StudyRig {
     async fn start(dir: &Path, text: &str) -> StudyRig {
+        StudyRig::start_as(dir, text, Browser::default(), EventBudget::default()).await
+    }
+
+    /// A study whose participants use `browser`, each with `budget` of events.
+    async fn start_as(dir: &Path, text: &str, browser: Browser, budget: EventBudget) -> StudyRig {
         std::fs::write(dir.join("study.toml"), text).expect("study copy");
         let study = parse(text).expect("the study file is good");
         let mut config = ArenaConfig::new(study.templates());
@@ -127,7 +217,7 @@ impl StudyRig {
         let http = tokio::net::TcpListener::bind("127.0.0.1:0").await.expect("bind");
         let (addr, http_addr) = (listener.local_addr().expect("addr"), http.local_addr().expect("addr"));
         let arena = Arena::start(config).expect("the arena starts");
-        let served = StudyServer::open(study, dir, arena.clone()).expect("the study opens");
+        let served = StudyServer::open_with(study, dir, arena.clone(), budget).expect("the study opens");
         let (stop, stopped) = oneshot::channel::<()>();
         let running = arena.clone();
         let routes: Vec<std::sync::Arc<dyn bw4t_server::Routes>> = vec![std::sync::Arc::new(served.clone())];
@@ -143,7 +233,7 @@ impl StudyRig {
             )
             .await;
         });
-        StudyRig { arena, addr, http: http_addr, stop: Some(stop), task, _study: served }
+        StudyRig { browser, arena, addr, http: http_addr, stop: Some(stop), task, _study: served }
     }
 
     async fn shutdown(mut self) {
@@ -154,8 +244,10 @@ impl StudyRig {
     }
 
     async fn call(&self, method: &str, path: &str, body: Option<Value>) -> (u16, Value) {
-        let body = body.map(|b| b.to_string());
-        let (status, text) = http(self.http, method, path, None, body.as_deref()).await;
+        let body = body.map(|b| b.to_string()).unwrap_or_default();
+        let json = [("Content-Type", "application/json")];
+        let Answered { status, body: text, .. } =
+            self.browser.send(self.http, method, path, &json, &body).await;
         let reply: Value = serde_json::from_str(&text).unwrap_or_else(|e| panic!("not JSON ({e}): {text}"));
         assert_eq!(
             text,
@@ -282,8 +374,9 @@ async fn a_participant_goes_through_the_whole_study_and_the_export_has_every_row
     let (status, bad) =
         rig.call("POST", "/api/study/participants", Some(json!({"params": {"pid": "a b/c"}}))).await;
     assert!(status == 400 && read::<ErrorReply>(&bad).error.contains("pid"), "{bad}");
+    // No one arrived as 'nobody' in this browser: no credential, whether they exist or not.
     let (status, bad) = rig.call("GET", "/api/study/participants/nobody", None).await;
-    assert_eq!(status, 404, "{bad}");
+    assert_eq!(status, 401, "{bad}");
     let (status, bad) = rig
         .call(
             "POST",
@@ -292,12 +385,13 @@ async fn a_participant_goes_through_the_whole_study_and_the_export_has_every_row
         )
         .await;
     assert!(status == 400 && read::<ErrorReply>(&bad).error.contains("consent"), "{bad}");
-    let (status, _) =
-        http(rig.http, "POST", "/api/study/participants/alice/answer", None, Some("{not json")).await;
-    assert_eq!(status, 400);
+    let json = [("Content-Type", "application/json")];
+    let path = "/api/study/participants/alice/answer";
+    let got = rig.browser.send(rig.http, "POST", path, &json, "{not json").await;
+    assert_eq!(got.status, 400, "{}", got.body);
     let big = format!("{{\"events\": [\"{}\"]}}", "x".repeat(70 * 1024));
-    let (status, _) = http(rig.http, "POST", "/api/study/participants/alice/events", None, Some(&big)).await;
-    assert_eq!(status, 413, "a body over 64 KB is refused");
+    let got = rig.browser.send(rig.http, "POST", "/api/study/participants/alice/events", &json, &big).await;
+    assert_eq!(got.status, 413, "a body over 64 KB is refused");
     let (status, _) = rig.call("GET", "/api/study/participants", None).await;
     assert_eq!(status, 401, "only the operator lists participants");
 
@@ -507,10 +601,11 @@ async fn a_restarted_server_continues_each_participant_and_gives_a_lost_trial_ag
         )
         .await;
     assert_eq!(status, 200);
+    let browser = rig.browser.clone();
     rig.shutdown().await;
     drop(client);
 
-    let rig = StudyRig::start(&dir, STUDY).await;
+    let rig = StudyRig::start_as(&dir, STUDY, browser, EventBudget::default()).await;
     let (status, again) = rig.call("GET", "/api/study/participants/carol", None).await;
     let again: ParticipantState = read(&again);
     assert_eq!((status, &again), (200, &state), "the same trial is given again");
@@ -599,18 +694,18 @@ async fn a_killed_server_leaves_readable_logs_and_the_export_lists_the_unfinishe
     let dashboard =
         (0..4).map(|_| next("")).find(|l| l.starts_with("dashboard: ")).expect("a dashboard line");
     assert!(dashboard.ends_with(&format!("/study/admin?token={TOKEN}")), "{dashboard}");
-    let (status, _) =
-        http(web, "POST", "/api/study/participants", None, Some(r#"{"params": {"participant": "erin"}}"#))
-            .await;
+    let browser = Browser::default();
+    let arrival = json!({"params": {"participant": "erin"}});
+    let (status, _) = browser.json(web, "POST", "/api/study/participants", Some(&arrival)).await;
     assert_eq!(status, 201);
     for (step, answers) in [(0, json!({"consent": true})), (1, json!({}))] {
-        let body = json!({"step": step, "answers": answers}).to_string();
-        let (status, _) = http(web, "POST", "/api/study/participants/erin/answer", None, Some(&body)).await;
+        let body = json!({"step": step, "answers": answers});
+        let (status, _) = browser.json(web, "POST", "/api/study/participants/erin/answer", Some(&body)).await;
         assert_eq!(status, 200);
     }
     let player = AutoPlayer::join_with(addr, json!({"name": "P1", "template": "alpha"})).await;
-    let body = json!({"step": 2, "match": player.welcome.match_info.name}).to_string();
-    let (status, _) = http(web, "POST", "/api/study/participants/erin/trial", None, Some(&body)).await;
+    let body = json!({"step": 2, "match": player.welcome.match_info.name});
+    let (status, _) = browser.json(web, "POST", "/api/study/participants/erin/trial", Some(&body)).await;
     assert_eq!(status, 200);
     child.0.kill().expect("kill");
     child.0.wait().expect("wait");
@@ -632,7 +727,7 @@ async fn a_killed_server_leaves_readable_logs_and_the_export_lists_the_unfinishe
 
 #[test]
 fn bad_study_files_are_refused_naming_the_problem() {
-    let cases: [(&str, &str, &str, &[&str]); 7] = [
+    let cases: [(&str, &str, &str, &[&str]); 9] = [
         ("an unknown key", "name = \"alpha\"\n", "name = \"alpha\"\ncolour = \"red\"\n", &["colour"]),
         (
             "an unknown strategy",
@@ -658,6 +753,18 @@ fn bad_study_files_are_refused_naming_the_problem() {
             "kinds = [\"going_to\", \"have\"]",
             "kinds = [\"dance\"]",
             &["condition 1", "kinds", "dance"],
+        ),
+        (
+            "a tick rate out of range",
+            "tick_hz = 20",
+            "tick_hz = 5000",
+            &["condition 1 'alpha'", "ticks per second must be from 1 to 1000, got 5000"],
+        ),
+        (
+            "a partner timeout the clock cannot add",
+            "name = \"alpha\"\n",
+            "name = \"alpha\"\nhumans = 2\npartner_timeout_s = 99999999999\n",
+            &["condition 'alpha'", "the start timeout must be from"],
         ),
         (
             "a final page not last",
@@ -708,6 +815,7 @@ name = "together"
 humans = 2
 teammates = 2
 strategy = "coop"
+min_active_ticks = 0
 partner_timeout_s = 1
 
 [[page]]
@@ -767,4 +875,265 @@ async fn two_people_meet_in_the_waiting_room_and_a_lone_one_gets_a_built_in_part
     let state = rig.answer("cy", 0, json!({"match_id": cy.welcome.match_info.id})).await;
     assert_eq!(kind_of(&state), "final", "{state:?}");
     rig.shutdown().await;
+}
+
+/// The study of one consent page, one trial and the end: what the attacks below need.
+const SHORT: &str = r##"
+[study]
+name = "short"
+mode = "lockstep"
+time_limit_s = 1
+
+[[condition]]
+name = "alpha"
+teammates = 1
+
+[[page]]
+kind = "consent"
+text = "Agree?"
+
+[[page]]
+kind = "trial"
+
+[[page]]
+kind = "final"
+text = "Thanks."
+"##;
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn knowing_a_participant_id_is_not_enough_to_act_as_them() {
+    let dir = temp_dir("credential");
+    let rig = StudyRig::start(&dir, SHORT).await;
+    let json = [("Content-Type", "application/json")];
+    let arrival = json!({"params": {"PROLIFIC_PID": "p017"}}).to_string();
+    let got = rig.browser.send(rig.http, "POST", "/api/study/participants", &json, &arrival).await;
+    assert_eq!(got.status, 201, "{}", got.body);
+    let cookie = got.cookies().first().map(|c| c.to_string()).expect("the arrival sets a cookie");
+    for part in ["bw4t_study_p017=", "HttpOnly", "SameSite=Strict", "Path=/api/study"] {
+        assert!(cookie.contains(part), "{part} in {cookie}");
+    }
+    assert!(!cookie.contains("Secure"), "plain HTTP: not Secure: {cookie}");
+
+    // A stranger who knows the id: no state, no consent declined, no events, no takeover.
+    let stranger = Browser::default();
+    let base = "/api/study/participants/p017";
+    let decline = json!({"step": 0, "answers": {"consent": false}});
+    let events = json!({"events": [{"kind": "click"}]});
+    for (method, path, body) in [
+        ("GET", base.to_string(), None),
+        ("POST", format!("{base}/answer"), Some(&decline)),
+        ("POST", format!("{base}/events"), Some(&events)),
+        ("POST", format!("{base}/trial"), Some(&json!({"step": 0, "match": "alpha-1"}))),
+    ] {
+        let (status, answer) = stranger.json(rig.http, method, &path, body).await;
+        assert_eq!(status, 401, "{method} {path}: {answer}");
+        assert!(read::<ErrorReply>(&answer).error.contains("credential"), "{answer}");
+    }
+    let forged = Browser::default();
+    forged.jar.lock().expect("jar").insert("bw4t_study_p017".into(), "0".repeat(64));
+    let (status, answer) = forged.json(rig.http, "POST", &format!("{base}/answer"), Some(&decline)).await;
+    assert_eq!(status, 403, "a made-up secret: {answer}");
+    let (status, answer) = stranger
+        .json(
+            rig.http,
+            "POST",
+            "/api/study/participants",
+            Some(&serde_json::from_str(&arrival).expect("json")),
+        )
+        .await;
+    assert_eq!(status, 403, "arriving with their id in another browser: {answer}");
+    assert!(read::<ErrorReply>(&answer).error.contains("another browser"), "{answer}");
+    assert!(stranger.jar.lock().expect("jar").is_empty(), "no credential given to the stranger");
+    // The participant is untouched, and their own browser goes on.
+    let (status, state) = rig.call("GET", base, None).await;
+    assert_eq!(
+        (status, read::<ParticipantState>(&state).step, kind_of(&read(&state))),
+        (200, 0, "consent".into())
+    );
+    let (status, again) = rig
+        .call("POST", "/api/study/participants", Some(serde_json::from_str(&arrival).expect("json")))
+        .await;
+    assert_eq!(status, 200, "their own browser comes back: {again}");
+    rig.answer("p017", 0, json!({"consent": true})).await;
+
+    // Behind a TLS proxy the cookie is Secure.
+    let tls = [("Content-Type", "application/json"), ("X-Forwarded-Proto", "https")];
+    let got = Browser::default().send(rig.http, "POST", "/api/study/participants", &tls, "{}").await;
+    assert_eq!(got.status, 201, "{}", got.body);
+    assert!(got.cookies().iter().any(|c| c.ends_with("; Secure")), "{:?}", got.head);
+    rig.shutdown().await;
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn another_site_cannot_make_participants_with_a_simple_request() {
+    let dir = temp_dir("cross-site");
+    let rig = StudyRig::start(&dir, SHORT).await;
+    // What a cross-site form or fetch without a preflight can send.
+    for kind in ["text/plain", "application/x-www-form-urlencoded", "multipart/form-data; boundary=x"] {
+        let headers = [("Content-Type", kind), ("Origin", "https://evil.example")];
+        let got = Browser::default().send(rig.http, "POST", "/api/study/participants", &headers, "{}").await;
+        assert_eq!(got.status, 415, "{kind}: {}", got.body);
+        assert!(got.body.contains("application/json"), "{}", got.body);
+        assert!(got.cookies().is_empty());
+    }
+    let got = Browser::default().send(rig.http, "POST", "/api/study/participants", &[], "{}").await;
+    assert_eq!(got.status, 415, "no Content-Type: {}", got.body);
+    let (_, list) = rig.operator("GET", "/api/study/participants").await;
+    assert_eq!(read::<ParticipantList>(&list).participants.len(), 0, "no participant was made");
+    rig.shutdown().await;
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The files of this process open under `dir`.
+fn open_files_under(dir: &Path) -> usize {
+    std::fs::read_dir("/proc/self/fd")
+        .map(|fds| {
+            fds.filter_map(|fd| std::fs::read_link(fd.ok()?.path()).ok())
+                .filter(|p| p.starts_with(dir))
+                .count()
+        })
+        .unwrap_or(0)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn participants_do_not_hold_files_open() {
+    if !Path::new("/proc/self/fd").is_dir() {
+        return; // Linux only: elsewhere the descriptors are not listed.
+    }
+    let dir = temp_dir("descriptors");
+    let rig = StudyRig::start(&dir, SHORT).await;
+    for _ in 0..40 {
+        let (status, answer) = rig.call("POST", "/api/study/participants", Some(json!({}))).await;
+        assert_eq!(status, 201, "{answer}");
+    }
+    let (_, list) = rig.operator("GET", "/api/study/participants").await;
+    assert_eq!(read::<ParticipantList>(&list).participants.len(), 40);
+    let participants = dir.canonicalize().expect("dir").join("participants");
+    assert_eq!(open_files_under(&participants), 0, "no participant's log is held open");
+    rig.shutdown().await;
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_participant_cannot_record_more_events_than_the_budget() {
+    let dir = temp_dir("event-budget");
+    let budget = EventBudget { events: 5, bytes: 400 };
+    let rig = StudyRig::start_as(&dir, SHORT, Browser::default(), budget).await;
+    let path = "/api/study/participants/flood/events";
+    rig.call("POST", "/api/study/participants", Some(json!({"params": {"pid": "flood"}}))).await;
+    let click = json!({"kind": "click"});
+    let (status, answer) =
+        rig.call("POST", path, Some(json!({"events": [click, click, click, click]}))).await;
+    assert_eq!((status, read::<EventsRecorded>(&answer).recorded), (200, 4));
+    let (status, answer) = rig.call("POST", path, Some(json!({"events": [click, click]}))).await;
+    assert_eq!(status, 429, "past the count: {answer}");
+    assert!(read::<ErrorReply>(&answer).error.contains("at most 5 events"), "{answer}");
+    let big = json!({"kind": "key", "key": "x".repeat(400)});
+    let (status, answer) = rig.call("POST", path, Some(json!({"events": [big]}))).await;
+    assert_eq!(status, 413, "past the bytes: {answer}");
+    assert!(read::<ErrorReply>(&answer).error.contains("bytes"), "{answer}");
+    let (status, _) = rig.call("POST", path, Some(json!({"events": [click]}))).await;
+    assert_eq!(status, 200, "what fits is still taken");
+    let log = std::fs::read_to_string(dir.join("participants/flood.jsonl")).expect("log");
+    assert_eq!(log.matches("\"type\":\"event\"").count(), 5, "{log}");
+    let browser = rig.browser.clone();
+    rig.shutdown().await;
+
+    // The count goes on across a restart: it is the log's.
+    let rig = StudyRig::start_as(&dir, SHORT, browser, budget).await;
+    let (status, answer) = rig.call("POST", path, Some(json!({"events": [click]}))).await;
+    assert_eq!(status, 429, "the budget spent before the restart stays spent: {answer}");
+    rig.shutdown().await;
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_trial_start_takes_only_what_a_match_id_looks_like() {
+    let dir = temp_dir("match-id");
+    let rig = StudyRig::start(&dir, SHORT).await;
+    rig.call("POST", "/api/study/participants", Some(json!({"params": {"pid": "mallory"}}))).await;
+    rig.answer("mallory", 0, json!({"consent": true})).await;
+    let path = "/api/study/participants/mallory/trial";
+    for (name, id) in
+        [(".", "../matches"), ("alpha-1", "alpha-1./x"), ("alpha-1", "alpha-1."), ("alpha-1", "alpha-1.1e3")]
+    {
+        let (status, answer) =
+            rig.call("POST", path, Some(json!({"step": 1, "match": name, "match_id": id}))).await;
+        assert_eq!(status, 400, "{id}: {answer}");
+        assert!(read::<ErrorReply>(&answer).error.contains("match_id"), "{answer}");
+    }
+    let (status, answer) =
+        rig.call("POST", path, Some(json!({"step": 1, "match": "alpha-1", "match_id": "alpha-1.7"}))).await;
+    assert_eq!(status, 200, "a real-looking id is taken: {answer}");
+    rig.shutdown().await;
+    // And the export, which names files after match ids, works.
+    let summary = study::export(&dir, &dir.join("export")).expect("export");
+    assert_eq!((summary.participants, summary.trials), (1, 1), "{summary:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Starts `id`'s trial at `step` with a player that leaves at once (or, with `stay`, only
+/// says `ready`), waits for the match's end, and answers the trial with it.
+async fn trial_without_playing(rig: &StudyRig, id: &str, step: usize, stay: bool) -> ParticipantState {
+    let (_, state) = rig.call("GET", &format!("/api/study/participants/{id}"), None).await;
+    let state: ParticipantState = read(&state);
+    let Some(StudyPage::Trial { hello, .. }) = &state.page else { panic!("a trial: {state:?}") };
+    let ended: u64 = rig.arena.totals().values().map(|t| t.ended).sum();
+    let mut player =
+        AutoPlayer::join_with(rig.addr, json!({"name": hello.name, "template": hello.template})).await;
+    let (name, match_id) = (player.welcome.match_info.name.clone(), player.welcome.match_info.id.clone());
+    let started = json!({"step": step, "match": name, "match_id": match_id});
+    let (status, answer) =
+        rig.call("POST", &format!("/api/study/participants/{id}/trial"), Some(started)).await;
+    assert_eq!(status, 200, "{answer}");
+    if stay {
+        player.wait("the match's end", |s| s.ended.then_some(())).await;
+    } else {
+        player.disconnect().await;
+    }
+    tokio::time::timeout(WAIT, rig.arena.ended(ended + 1)).await.expect("the match is recorded in time");
+    let body = json!({"step": step, "answers": {"match_id": match_id}});
+    let (status, state) = rig.call("POST", &format!("/api/study/participants/{id}/answer"), Some(body)).await;
+    assert_eq!(status, 200, "{state}");
+    read(&state)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_trial_counts_only_if_the_participant_played() {
+    let dir = temp_dir("played");
+    // By default a robot that never moved was not played.
+    let rig = StudyRig::start(&dir, SHORT).await;
+    rig.call("POST", "/api/study/participants", Some(json!({"params": {"pid": "quitter"}}))).await;
+    rig.answer("quitter", 0, json!({"consent": true})).await;
+    // Left at tick 0: in the result, but the trial is given again.
+    let state = trial_without_playing(&rig, "quitter", 1, false).await;
+    assert_eq!((state.step, kind_of(&state)), (1, "trial".into()), "{state:?}");
+    // Stayed, but never moved: again.
+    let state = trial_without_playing(&rig, "quitter", 1, true).await;
+    assert_eq!((state.step, kind_of(&state)), (1, "trial".into()), "{state:?}");
+    rig.shutdown().await;
+    let log = std::fs::read_to_string(dir.join("participants/quitter.jsonl")).expect("log");
+    let reasons: Vec<String> = log
+        .lines()
+        .filter_map(|l| serde_json::from_str::<Value>(l).ok())
+        .filter(|v| v["type"] == "trial_incomplete")
+        .map(|v| v["reason"].as_str().unwrap_or("").to_string())
+        .collect();
+    assert_eq!(reasons.len(), 2, "{log}");
+    assert!(reasons.iter().all(|r| r.contains("did not play") && r.contains("moved in 0 of")), "{reasons:?}");
+    assert!(!log.contains("\"trial_ended\""), "{log}");
+
+    let _ = std::fs::remove_dir_all(&dir);
+
+    // A condition of talking alone asks for no moving: staying to the end is enough.
+    let dir = temp_dir("played-talking");
+    let rig =
+        StudyRig::start(&dir, &SHORT.replace("teammates = 1", "teammates = 1\nmin_active_ticks = 0")).await;
+    rig.call("POST", "/api/study/participants", Some(json!({"params": {"pid": "stayer"}}))).await;
+    rig.answer("stayer", 0, json!({"consent": true})).await;
+    let state = trial_without_playing(&rig, "stayer", 1, true).await;
+    assert_eq!(kind_of(&state), "final", "{state:?}");
+    rig.shutdown().await;
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -197,11 +197,16 @@ fn csv_field(text: &str) -> String {
     spreadsheet_safe(text).into_owned()
 }
 
-/// A text cell a spreadsheet will not run: one that begins with `=`, `+`, `-`, `@`, a tab
-/// or a carriage return gets a leading `'`, as OWASP's guidance on CSV injection says
-/// (the JSON keeps the raw value). Numbers are not text cells and are never changed.
+/// A cell a spreadsheet will not run: one that begins with `=`, `+`, `-`, `@`, a tab or a
+/// carriage return gets a leading `'`, as OWASP's guidance on CSV injection says (the JSON
+/// keeps the raw value). A number (a negative one begins with `-`) is not a formula and
+/// is left as it is.
 pub fn spreadsheet_safe(text: &str) -> std::borrow::Cow<'_, str> {
-    if text.starts_with(['=', '+', '-', '@', '\t', '\r']) { format!("'{text}").into() } else { text.into() }
+    if text.starts_with(['=', '+', '-', '@', '\t', '\r']) && text.parse::<f64>().is_err() {
+        format!("'{text}").into()
+    } else {
+        text.into()
+    }
 }
 
 #[cfg(test)]
@@ -219,6 +224,7 @@ mod tests {
             ("\rx", "'\rx"),
             ("coop", "coop"),
             ("a=b", "a=b"),
+            ("-12.5", "-12.5"),
         ] {
             assert_eq!(spreadsheet_safe(raw), safe, "{raw:?}");
         }

@@ -1,22 +1,31 @@
 //! The study's HTTP API (`/api/study/...`, JSON): the study's name and conditions; a
 //! participant's arrival, state, answers, trial starts and events; the operator's list
 //! of participants. Every refusal is a 4xx whose `error` names the problem.
+//!
+//! A participant's routes need their credential (`credential.rs`): `401` without it,
+//! `403` with a wrong one. Every `POST` must say `Content-Type: application/json`, which a
+//! cross-site form or `text/plain` request cannot, so another site cannot make participants
+//! or write in their name (the `SameSite=Strict` cookie is not sent cross-site either).
 
 use bw4t_protocol::{
     ErrorReply, EventsRecorded, MatchState, MatchSummary, ParticipantList, ParticipantRow, StepConflict,
     StudyInfo,
 };
-use http::{Method, StatusCode};
+use bw4t_server::WebRequest;
+use http::{HeaderMap, Method, StatusCode};
 use serde::Serialize;
 use serde_json::{Value, json};
 
-use super::flow::{Participant, Record, order_for, valid_id};
+use super::credential::{self, Proof};
+use super::flow::{Participant, Record, event_size, order_for, valid_id};
 use super::{Ended, Slot, StudyServer, TrialRefusal, append, lock, now_ms};
 
 /// What a study request is answered with.
 pub(crate) enum Answer {
     /// A JSON body with a status.
     Json(StatusCode, String),
+    /// A participant's arrival: a JSON body, a status and the credential's `Set-Cookie`.
+    Arrived(StatusCode, String, String),
     /// The operator's token is needed.
     Unauthorized,
 }
@@ -67,14 +76,16 @@ const MAX_EVENTS: usize = 1000;
 /// How long a trial's end waits for its match to be recorded as ended (see `is_running`).
 const END_WAIT: std::time::Duration = std::time::Duration::from_secs(3);
 
-/// Answers `method` on `/api/study/REST...`; `body` is the request's (empty for a GET).
-pub(crate) async fn respond(
-    study: &StudyServer,
-    method: &Method,
-    rest: &[&str],
-    body: &[u8],
-    operator: bool,
-) -> Answer {
+/// Answers `request` on `/api/study/REST...`.
+pub(crate) async fn respond(study: &StudyServer, request: &WebRequest, rest: &[&str]) -> Answer {
+    let (method, body, operator, headers) =
+        (&request.method, &request.body[..], request.operator, &request.headers);
+    if method == Method::POST && !is_json(headers) {
+        return error(
+            StatusCode::UNSUPPORTED_MEDIA_TYPE,
+            "Content-Type: a POST to the study must be application/json",
+        );
+    }
     match (method, rest) {
         (&Method::GET, []) => {
             let s = study.study();
@@ -84,19 +95,19 @@ pub(crate) async fn respond(
         (&Method::GET, ["participants"]) if !operator => Answer::Unauthorized,
         (&Method::GET, ["participants"]) => reply(StatusCode::OK, &study.list().await),
         (&Method::POST, ["participants"]) => match parse(body) {
-            Ok(body) => study.arrive(&body),
+            Ok(body) => study.arrive(&body, headers),
             Err(answer) => answer,
         },
-        (&Method::GET, ["participants", id]) => {
-            with_participant(study, id, |slot| reply(StatusCode::OK, &slot.state.state(study.study())))
-        }
+        (&Method::GET, ["participants", id]) => with_participant(study, id, headers, |slot| {
+            reply(StatusCode::OK, &slot.state.state(study.study()))
+        }),
         (&Method::POST, ["participants", id, what @ ("answer" | "trial" | "events")]) => {
             let body = match parse(body) {
                 Ok(body) => body,
                 Err(answer) => return answer,
             };
             match *what {
-                "answer" => study.answer(id, &body).await,
+                "answer" => study.answer(id, &body, headers).await,
                 "trial" => {
                     let mut body = body;
                     if let (None, Some(name)) =
@@ -106,9 +117,9 @@ pub(crate) async fn respond(
                             body["match_id"] = id.into();
                         }
                     }
-                    study.trial_started(id, &body)
+                    study.trial_started(id, &body, headers)
                 }
-                _ => study.events(id, &body),
+                _ => study.events(id, &body, headers),
             }
         }
         (&Method::GET | &Method::POST, _) => {
@@ -134,13 +145,51 @@ fn bad_id(id: &str) -> Answer {
     )
 }
 
-fn with_participant(study: &StudyServer, id: &str, f: impl FnOnce(&mut Slot) -> Answer) -> Answer {
+/// Whether the request says its body is JSON.
+fn is_json(headers: &HeaderMap) -> bool {
+    headers
+        .get(http::header::CONTENT_TYPE)
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.split(';').next())
+        .is_some_and(|kind| kind.trim().eq_ignore_ascii_case("application/json"))
+}
+
+/// Participant `id`'s slot, if the request proves to be theirs.
+fn authorized(
+    study: &StudyServer,
+    id: &str,
+    headers: &HeaderMap,
+) -> Result<std::sync::Arc<std::sync::Mutex<Slot>>, Answer> {
     if !valid_id(id) {
-        return bad_id(id);
+        return Err(bad_id(id));
     }
-    match study.slot(id) {
-        Some(slot) => f(&mut lock(&slot)),
-        None => error(StatusCode::NOT_FOUND, format!("no participant '{id}'")),
+    if credential::presented(headers, id).is_none() {
+        return Err(error(
+            StatusCode::UNAUTHORIZED,
+            format!("participant '{id}': no credential (this browser did not arrive as them)"),
+        ));
+    }
+    let Some(slot) = study.slot(id) else {
+        return Err(error(StatusCode::NOT_FOUND, format!("no participant '{id}'")));
+    };
+    let proof = credential::check(headers, id, lock(&slot).state.secret_sha256.as_deref());
+    match proof {
+        Proof::Valid => Ok(slot),
+        Proof::Missing | Proof::Wrong => {
+            Err(error(StatusCode::FORBIDDEN, format!("participant '{id}': the credential is not theirs")))
+        }
+    }
+}
+
+fn with_participant(
+    study: &StudyServer,
+    id: &str,
+    headers: &HeaderMap,
+    f: impl FnOnce(&mut Slot) -> Answer,
+) -> Answer {
+    match authorized(study, id, headers) {
+        Ok(slot) => f(&mut lock(&slot)),
+        Err(answer) => answer,
     }
 }
 
@@ -172,7 +221,7 @@ fn conflict(why: String, p: &Participant, study: &StudyServer) -> Answer {
 
 impl StudyServer {
     /// `POST /api/study/participants`: a new participant, or one coming back.
-    fn arrive(&self, body: &Value) -> Answer {
+    fn arrive(&self, body: &Value, headers: &HeaderMap) -> Answer {
         let params = body.get("params").cloned().unwrap_or_else(|| json!({}));
         let Some(map) = params.as_object() else {
             return error(StatusCode::BAD_REQUEST, "params: expected an object (the link's query)");
@@ -197,40 +246,65 @@ impl StudyServer {
                 }
             },
         };
-        if let Some(slot) = all.get(&id).cloned() {
+        if all.contains_key(&id) {
+            // Coming back: only the browser that arrived as them, with its credential.
             drop(all);
+            let slot = match authorized(self, &id, headers) {
+                Ok(slot) => slot,
+                Err(Answer::Json(status, _)) if status == StatusCode::UNAUTHORIZED => {
+                    return error(
+                        StatusCode::FORBIDDEN,
+                        format!(
+                            "participant '{id}' has started the study in another browser; only that \
+                             browser can continue (ask the experimenter)"
+                        ),
+                    );
+                }
+                Err(answer) => return answer,
+            };
             let mut slot = lock(&slot);
             return match append(&mut slot, &[Record::Resumed { params }]) {
                 Ok(()) => reply(StatusCode::OK, &slot.state.state(self.study())),
                 Err(e) => write_failed(&e),
             };
         }
+        let secret = match credential::new_secret() {
+            Ok(secret) => secret,
+            Err(e) => return write_failed(&e),
+        };
         let number = all.values().map(|s| lock(s).state.number + 1).max().unwrap_or(0);
         let order = order_for(self.study(), number, &id);
         let path = self.inner.dir.join("participants").join(format!("{id}.jsonl"));
-        let file = match std::fs::OpenOptions::new().create_new(true).append(true).open(&path) {
-            Ok(file) => file,
-            Err(e) => return write_failed(&e),
-        };
+        if let Err(e) = std::fs::OpenOptions::new().create_new(true).append(true).open(&path) {
+            return write_failed(&e);
+        }
         let names = order.iter().map(|c| self.study().conditions[*c].name.clone()).collect();
-        let mut slot = Slot { state: Participant::new(&id, number, order, now_ms()), file };
-        let created = Record::Created { participant: id.clone(), number, order: names, params };
+        let mut slot = Slot { state: Participant::new(&id, number, order, now_ms()), log: path.clone() };
+        let created = Record::Created {
+            participant: id.clone(),
+            number,
+            order: names,
+            params,
+            secret_sha256: Some(credential::digest(&secret)),
+        };
         if let Err(e) = append(&mut slot, &[created]) {
             let _ = std::fs::remove_file(&path);
             return write_failed(&e);
         }
         let state = slot.state.state(self.study());
+        let cookie = credential::set_cookie(&id, &secret, headers);
         all.insert(id, std::sync::Arc::new(std::sync::Mutex::new(slot)));
-        reply(StatusCode::CREATED, &state)
+        match reply(StatusCode::CREATED, &state) {
+            Answer::Json(status, body) => Answer::Arrived(status, body, cookie),
+            other => other,
+        }
     }
 
     /// `POST .../ID/answer`.
-    async fn answer(&self, id: &str, body: &Value) -> Answer {
-        if !valid_id(id) {
-            return bad_id(id);
-        }
-        let Some(slot) = self.slot(id) else {
-            return error(StatusCode::NOT_FOUND, format!("no participant '{id}'"));
+    async fn answer(&self, id: &str, body: &Value, headers: &HeaderMap) -> Answer {
+        let slot = match authorized(self, id, headers) {
+            Ok(slot) => slot,
+            Err(answer) => return answer,
         };
         let mut answers = body.get("answers").cloned().unwrap_or_else(|| json!({}));
         // A page that knows only the match's name gets the id of its latest run.
@@ -305,12 +379,7 @@ impl StudyServer {
                     }
                     Ok(Ended { failed: Some(why), .. }) => {
                         // The trial is given again.
-                        vec![self.incomplete(
-                            &slot.state,
-                            step,
-                            match_id,
-                            &format!("the match failed: {why}"),
-                        )]
+                        vec![self.incomplete(&slot.state, step, match_id, &why)]
                     }
                     Err(TrialRefusal::Unknown) => {
                         return error(
@@ -358,8 +427,8 @@ impl StudyServer {
     }
 
     /// `POST .../ID/trial`: the page's word that the trial's match started.
-    fn trial_started(&self, id: &str, body: &Value) -> Answer {
-        with_participant(self, id, |slot| {
+    fn trial_started(&self, id: &str, body: &Value, headers: &HeaderMap) -> Answer {
+        with_participant(self, id, headers, |slot| {
             if let Err(answer) = check_step(self, &slot.state, body) {
                 return answer;
             }
@@ -375,9 +444,7 @@ impl StudyServer {
                     "match, match_id: expected the match's name and id (welcome.match)",
                 );
             };
-            if match_id.rsplit_once('.').map(|(n, _)| n) != Some(name)
-                || bw4t_server::check_match_name(name).is_err()
-            {
+            if !is_match_id(name, match_id) || bw4t_server::check_match_name(name).is_err() {
                 return error(
                     StatusCode::BAD_REQUEST,
                     format!("match_id: '{match_id}' is not an id of match '{name}'"),
@@ -403,7 +470,7 @@ impl StudyServer {
     }
 
     /// `POST .../ID/events`: events the page saw, appended with the server's time.
-    fn events(&self, id: &str, body: &Value) -> Answer {
+    fn events(&self, id: &str, body: &Value, headers: &HeaderMap) -> Answer {
         let Some(events) = body.get("events").and_then(Value::as_array) else {
             return error(StatusCode::BAD_REQUEST, "events: expected a list of events");
         };
@@ -426,7 +493,21 @@ impl StudyServer {
                 None => return error(StatusCode::BAD_REQUEST, format!("events[{i}]: kind: expected a word")),
             }
         }
-        with_participant(self, id, |slot| {
+        let (bytes, study_budget): (u64, _) = (events.iter().map(event_size).sum(), self.inner.budget);
+        with_participant(self, id, headers, |slot| {
+            let (p, budget) = (&slot.state, study_budget);
+            if p.events + events.len() as u64 > budget.events {
+                return error(
+                    StatusCode::TOO_MANY_REQUESTS,
+                    format!("events: participant '{id}' may record at most {} events", budget.events),
+                );
+            }
+            if p.event_bytes + bytes > budget.bytes {
+                return error(
+                    StatusCode::PAYLOAD_TOO_LARGE,
+                    format!("events: participant '{id}' may record at most {} bytes of events", budget.bytes),
+                );
+            }
             let records: Vec<Record> = events.iter().map(|e| Record::Event { event: e.clone() }).collect();
             match append(slot, &records) {
                 Ok(()) => reply(StatusCode::OK, &EventsRecorded { recorded: records.len() }),
@@ -476,6 +557,12 @@ impl StudyServer {
 /// Whether `summary` (the operator's) is of the live run `id`.
 fn is_live_run(summary: &MatchSummary, id: &str) -> bool {
     summary.id.as_deref() == Some(id) && summary.state != MatchState::Finished
+}
+
+/// Whether `id` is what a run of match `name` is called: the name, `.`, the run number.
+fn is_match_id(name: &str, id: &str) -> bool {
+    let run = id.strip_prefix(name).and_then(|rest| rest.strip_prefix('.'));
+    run.is_some_and(|run| (1..=20).contains(&run.len()) && run.bytes().all(|b| b.is_ascii_digit()))
 }
 
 /// A participant id for a link that carries none: `anon-` and 12 hex digits.

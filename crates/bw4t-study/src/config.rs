@@ -59,6 +59,7 @@ struct ConditionFile {
     partner_timeout_s: Option<u64>,
     seed: Option<u64>,
     max_running: Option<usize>,
+    min_active_ticks: Option<u64>,
 }
 
 /// One `[[page]]`; `kind` says which keys it takes.
@@ -200,6 +201,10 @@ pub struct Condition {
     pub seed: u64,
     /// At most this many of its matches at once.
     pub max_running: usize,
+    /// A trial counts only if the participant's robot was still in the match at its end
+    /// and moved in at least this many ticks (the match's ticks less the robot's idle
+    /// ticks); otherwise it is given again.
+    pub min_active_ticks: u64,
 }
 
 /// A questionnaire item.
@@ -378,7 +383,7 @@ pub fn parse(text: &str, path: &Path, maps: MapLoader<'_>) -> Result<Study, Stri
             plural(conditions.len(), "condition")
         ));
     }
-    Ok(Study {
+    let study = Study {
         name: s.name,
         title: s.title.unwrap_or_else(|| "Study".into()),
         seed: defaults.seed,
@@ -386,7 +391,14 @@ pub fn parse(text: &str, path: &Path, maps: MapLoader<'_>) -> Result<Study, Stri
         conditions,
         pages,
         text: text.to_string(),
-    })
+    };
+    // What the conditions' matches are run with is in range (partner_timeout_s, ...):
+    // said now, not when the first participant's match cannot be made.
+    for t in study.templates() {
+        let in_range = t.setup.game.validate().map_err(|e| e.to_string()).and_then(|()| t.config.check());
+        in_range.map_err(|e| format!("condition '{}': {e}", t.name))?;
+    }
+    Ok(study)
 }
 
 struct Defaults {
@@ -479,6 +491,9 @@ fn condition(c: ConditionFile, base: &Path, d: &Defaults, maps: MapLoader<'_>) -
         partner_timeout_s: c.partner_timeout_s.unwrap_or(d.partner_timeout_s),
         seed: c.seed.unwrap_or(d.seed),
         max_running,
+        // A robot that never moved was not played (a player who left at once keeps their
+        // seat, idle, to the end); a study of talking alone sets 0.
+        min_active_ticks: c.min_active_ticks.unwrap_or(1),
     })
 }
 

@@ -2,9 +2,13 @@
 //! and per answer, one per participant), `metadata.json`, and each trial's replay with
 //! the participant, condition and trial in its header's labels. Rows are ordered by
 //! participant id, then by their log's `seq`, so two exports of the same data are equal.
+//!
+//! A cell a participant could have written cannot become a spreadsheet formula: one that
+//! begins with `=`, `+`, `-`, `@`, a tab or a carriage return (and is not a plain number)
+//! gets a `'` in front, as OWASP's CSV-injection guidance says; the raw values stay in the
+//! participants' logs.
 
 use std::collections::BTreeMap;
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use serde_json::{Value, json};
@@ -382,21 +386,22 @@ fn copy_replay(dir: &Path, out: &Path, participant: &str, t: &Trial) -> Result<O
 }
 
 fn header(columns: &[&str]) -> String {
-    columns.join(",") + "\n"
+    let mut csv = String::new();
+    let cells: Vec<String> = columns.iter().map(|c| (*c).to_string()).collect();
+    row(&mut csv, &cells);
+    csv
 }
 
+/// Appends one record to `csv`: quoted by the `csv` crate, every cell made spreadsheet-safe.
 fn row(csv: &mut String, cells: &[String]) {
-    for (i, c) in cells.iter().enumerate() {
-        if i > 0 {
-            csv.push(',');
-        }
-        if c.contains([',', '"', '\n', '\r']) {
-            let _ = write!(csv, "\"{}\"", c.replace('"', "\"\""));
-        } else {
-            csv.push_str(c);
+    let mut writer = csv::WriterBuilder::new().from_writer(Vec::new());
+    let safe = cells.iter().map(|c| bw4t_protocol::spreadsheet_safe(c));
+    // Writing into memory cannot fail, and the cells are text.
+    if writer.write_record(safe.map(|c| c.into_owned())).is_ok() {
+        if let Ok(bytes) = writer.into_inner() {
+            csv.push_str(&String::from_utf8_lossy(&bytes));
         }
     }
-    csv.push('\n');
 }
 
 /// A JSON value as a CSV cell: strings bare, `null` empty, the rest as JSON.
@@ -405,5 +410,22 @@ fn cell(value: &Value) -> String {
         Value::Null => String::new(),
         Value::String(s) => s.clone(),
         other => other.to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::row;
+
+    #[test]
+    fn cells_that_a_spreadsheet_would_run_are_neutralised() {
+        let mut csv = String::new();
+        let cells =
+            ["=HYPERLINK(\"http://x\",\"y\")", "+1+1", "-2+3", "@SUM(A1)", "\tx", "\rx", "-12.5", "a=b"];
+        row(&mut csv, &cells.map(String::from));
+        assert_eq!(
+            csv,
+            "\"'=HYPERLINK(\"\"http://x\"\",\"\"y\"\")\",'+1+1,'-2+3,'@SUM(A1),'\tx,\"'\rx\",-12.5,a=b\n"
+        );
     }
 }

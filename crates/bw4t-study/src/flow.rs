@@ -13,8 +13,15 @@ use super::config::{Order, Page, Study};
 #[serde(tag = "type", rename_all = "snake_case")]
 pub(crate) enum Record {
     /// The participant arrived: their number in arrival order (from 0), their order of
-    /// the conditions and the link's parameters.
-    Created { participant: String, number: u64, order: Vec<String>, params: Value },
+    /// the conditions, the link's parameters and the SHA-256 of their credential's secret.
+    Created {
+        participant: String,
+        number: u64,
+        order: Vec<String>,
+        params: Value,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        secret_sha256: Option<String>,
+    },
     /// They came back with the link (a reload or a new browser).
     Resumed { params: Value },
     /// A step answered: the step's page kind (and questionnaire id) and the answers.
@@ -52,6 +59,11 @@ pub(crate) struct Participant {
     pub last_ms: u64,
     /// The last `seq` written.
     pub seq: u64,
+    /// The SHA-256 of their credential's secret (none in a log of an older version).
+    pub secret_sha256: Option<String>,
+    /// Events recorded, and their bytes as JSON (the budget's count).
+    pub events: u64,
+    pub event_bytes: u64,
 }
 
 impl Participant {
@@ -68,6 +80,9 @@ impl Participant {
             started_ms: now,
             last_ms: now,
             seq: 0,
+            secret_sha256: None,
+            events: 0,
+            event_bytes: 0,
         }
     }
 
@@ -75,7 +90,12 @@ impl Participant {
     pub(crate) fn apply(&mut self, record: &Record, server_ms: u64) {
         self.last_ms = self.last_ms.max(server_ms);
         match record {
-            Record::Created { .. } | Record::Resumed { .. } | Record::Event { .. } => {}
+            Record::Created { secret_sha256, .. } => self.secret_sha256.clone_from(secret_sha256),
+            Record::Event { event } => {
+                self.events += 1;
+                self.event_bytes += event_size(event);
+            }
+            Record::Resumed { .. } => {}
             Record::Answer { step, page, answers, .. } if *step == self.step => {
                 if page == "consent" && answers.get("consent") == Some(&Value::Bool(false)) {
                     self.declined = true;
@@ -189,6 +209,11 @@ impl Participant {
         };
         Some(page)
     }
+}
+
+/// An event's size in the budget: its bytes as compact JSON.
+pub(crate) fn event_size(event: &Value) -> u64 {
+    serde_json::to_string(event).map_or(0, |text| text.len() as u64)
 }
 
 /// Percent-encodes what is not unreserved in a URL.

@@ -3,14 +3,17 @@
 //! instructions, trials in a counterbalanced order, questionnaires, a final page).
 //!
 //! Each participant's every step and event is a line appended to
-//! `DIR/participants/ID.jsonl`, written with one `write_all` per request, so a killed
+//! `DIR/participants/ID.jsonl`, written with one `write_all` per request (the file is
+//! opened for that write only, so descriptors do not grow with participants), so a killed
 //! server loses nothing already answered; at start the state is rebuilt from those logs
-//! (`flow.rs`). The HTTP side is `api.rs` and the study's pages (`web.rs`), mounted on
+//! (`flow.rs`). A participant's routes need the secret their arrival set as a cookie
+//! (`credential.rs`). The HTTP side is `api.rs` and the study's pages (`web.rs`), mounted on
 //! the server's web port as [`Routes`]; [`export`] makes tidy CSV of a data directory.
 
 mod answers;
 mod api;
 mod config;
+mod credential;
 mod export;
 mod flow;
 mod markdown;
@@ -38,15 +41,34 @@ pub struct StudyServer {
 
 struct Shared {
     study: Study,
+    budget: EventBudget,
     dir: PathBuf,
     arena: Arena,
     participants: Mutex<BTreeMap<String, Arc<Mutex<Slot>>>>,
 }
 
-/// A participant and their log file.
+/// How much of the page's events one participant may have recorded: past either, more
+/// are refused (`429` for the count, `413` for the bytes), so no client fills the disk.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct EventBudget {
+    /// The most events.
+    pub events: u64,
+    /// The most bytes of events (each as compact JSON).
+    pub bytes: u64,
+}
+
+impl Default for EventBudget {
+    /// Far above a long session's (a 30-minute trial logs some tens of thousands of
+    /// events, a few MB), far below what fills a disk.
+    fn default() -> EventBudget {
+        EventBudget { events: 200_000, bytes: 32 * 1024 * 1024 }
+    }
+}
+
+/// A participant and where their log is.
 struct Slot {
     state: Participant,
-    file: File,
+    log: PathBuf,
 }
 
 /// The milliseconds since the Unix epoch (the logs' `server_ms`).
@@ -67,11 +89,22 @@ impl StudyServer {
     /// incomplete and given again. The study answers on the arena's HTTP API for as
     /// long as it is mounted on the server's web port (its [`Routes`]).
     pub fn open(study: Study, dir: &Path, arena: Arena) -> std::io::Result<StudyServer> {
+        StudyServer::open_with(study, dir, arena, EventBudget::default())
+    }
+
+    /// [`StudyServer::open`] with a budget of events per participant.
+    pub fn open_with(
+        study: Study,
+        dir: &Path,
+        arena: Arena,
+        budget: EventBudget,
+    ) -> std::io::Result<StudyServer> {
         let logs = dir.join("participants");
         std::fs::create_dir_all(&logs)?;
         let server = StudyServer {
             inner: Arc::new(Shared {
                 study,
+                budget,
                 dir: dir.to_path_buf(),
                 arena,
                 participants: Mutex::new(BTreeMap::new()),
@@ -139,15 +172,19 @@ impl StudyServer {
             }
         }
         let Some(state) = state else { return Ok(None) };
-        let file = OpenOptions::new().append(true).open(path)?;
-        let mut slot = Slot { state, file };
+        let mut slot = Slot { state, log: path.to_path_buf() };
         if let Some((_, match_id)) = slot.state.playing.clone() {
             // The server stopped during this trial. Its match either ended (the page had
             // not answered yet) or was interrupted by the stop.
             let step = slot.state.step;
             let records = match self.ended_trial(&slot.state, &match_id) {
-                Ok(Ended { result, .. }) if result.get("end_reason") != Some(&json!("interrupted")) => {
+                Ok(Ended { result, failed: None })
+                    if result.get("end_reason") != Some(&json!("interrupted")) =>
+                {
                     self.trial_end_records(&slot.state, step, &match_id, result)
+                }
+                Ok(Ended { failed: Some(why), .. }) => {
+                    vec![self.incomplete(&slot.state, step, &match_id, &why)]
                 }
                 _ => {
                     vec![self.incomplete(&slot.state, step, &match_id, "the server stopped during the trial")]
@@ -204,21 +241,38 @@ impl StudyServer {
         }
         let Some(result) = results.result(match_id).and_then(|r| serde_json::from_str::<Value>(&r).ok())
         else {
-            return Ok(Ended { result: Value::Null, failed: row.error.clone() });
+            return Ok(Ended {
+                result: Value::Null,
+                failed: row.error.as_ref().map(|e| format!("the match failed: {e}")),
+            });
         };
         let name = p.player_name();
-        let played = result["per_robot"]
+        let robot = result["per_robot"]
             .as_array()
-            .is_some_and(|robots| robots.iter().any(|r| r["name"].as_str() == Some(name.as_str())));
-        if !played {
+            .and_then(|robots| robots.iter().find(|r| r["name"].as_str() == Some(name.as_str())));
+        let Some(robot) = robot else {
             return Err(TrialRefusal::Bad(format!(
                 "match_id: '{name}' (this participant) did not play in match '{match_id}'"
             )));
-        }
+        };
         if p.used_matches.iter().any(|m| m == match_id) {
             return Err(TrialRefusal::Bad(format!("match_id: match '{match_id}' answered an earlier trial")));
         }
-        Ok(Ended { result: trial_result(&result), failed: None })
+        // In the result but not playing (left early, or never moved when asked to): the
+        // trial is given again.
+        let ticks = result["ticks"].as_u64().unwrap_or(0);
+        let active = ticks.saturating_sub(robot["idle_ticks"].as_u64().unwrap_or(ticks));
+        let least = study.conditions[c].min_active_ticks;
+        let failed = if robot["present"] == json!(false) {
+            Some("the participant did not play: they left the match before its end".to_string())
+        } else if active < least {
+            Some(format!(
+                "the participant did not play: their robot moved in {active} of {ticks} ticks (at least {least} needed)"
+            ))
+        } else {
+            None
+        };
+        Ok(Ended { result: trial_result(&result), failed })
     }
 
     fn slot(&self, id: &str) -> Option<Arc<Mutex<Slot>>> {
@@ -230,7 +284,7 @@ impl StudyServer {
 struct Ended {
     /// What the trial keeps of its result (`null` when the match failed).
     result: Value,
-    /// Why the match failed in the server, if it did.
+    /// Why the trial does not count (the match failed, the participant did not play).
     failed: Option<String>,
 }
 
@@ -290,8 +344,9 @@ fn append(slot: &mut Slot, records: &[Record]) -> std::io::Result<()> {
         text.push_str(&Value::Object(line).to_string());
         text.push('\n');
     }
-    slot.file.write_all(text.as_bytes())?;
-    slot.file.flush()?;
+    let mut file = OpenOptions::new().append(true).open(&slot.log)?;
+    file.write_all(text.as_bytes())?;
+    file.flush()?;
     slot.state.seq = seq;
     for record in records {
         slot.state.apply(record, now);
@@ -311,8 +366,11 @@ impl Routes for StudyServer {
             };
             let rest = rest.trim_start_matches('/');
             let rest: Vec<&str> = if rest.is_empty() { Vec::new() } else { rest.split('/').collect() };
-            match api::respond(self, &request.method, &rest, &request.body, request.operator).await {
+            match api::respond(self, &request, &rest).await {
                 api::Answer::Json(status, body) => Reply::json(status, body),
+                api::Answer::Arrived(status, body, cookie) => {
+                    Reply::json(status, body).with("Set-Cookie", cookie)
+                }
                 api::Answer::Unauthorized => {
                     Reply::unauthorized(self.inner.arena.config().server.operator_token.is_some())
                 }

@@ -5,10 +5,12 @@
 // The participant's id comes from the address (PROLIFIC_PID, participant, pid, workerId or
 // PARTICIPANT_ID, the first present; the server makes one up without), is kept in the
 // address as `?participant=ID` and in localStorage, so a reload continues where it was.
+// The arrival sets the participant's credential, an HttpOnly cookie that every same-origin
+// request here carries; the id alone is not enough to act as them.
 // A trial embeds the player view (`/?embed=study&hello=JSON`, embed.js), which reports its
 // events here; at the match's end the trial is answered with the match's id (again while
 // the server says the match is still running). Events are sent in batches every second,
-// and with sendBeacon when the page goes away. The API: the study contract, served by
+// and with a keepalive fetch when the page goes away (every POST is JSON). The API: the study contract, served by
 // `bw4t study`.
 
 import { $, el, setText } from './dom.js';
@@ -48,6 +50,7 @@ async function api(method, path, body) {
   const response = await fetch(path, {
     method,
     cache: 'no-store',
+    credentials: 'same-origin',
     keepalive: method === 'POST',
     headers: body === undefined ? {} : { 'Content-Type': 'application/json' },
     body: body === undefined ? undefined : JSON.stringify(body),
@@ -122,10 +125,11 @@ async function flush() {
   }
 }
 
-/** The page goes away: what is left goes with sendBeacon (text/plain; the server takes it). */
+/** The page goes away: what is left goes with keepalive requests (JSON, with the
+ * credential's cookie; a beacon could only be text/plain, which the server refuses). */
 function flushOnLeave() {
   if (!study.id) return;
-  for (const events of takeBatches()) navigator.sendBeacon(participantPath('/events'), JSON.stringify({ events }));
+  for (const events of takeBatches()) api('POST', participantPath('/events'), { events }).catch(() => {});
 }
 
 /** Logs focus and blur of the participant's window (this page or the trial's frame). */
