@@ -92,8 +92,9 @@
 //! drop zone, and `step_cost` (0.001) taken every step. With [`RewardMode::Team`] (the
 //! default) every learner is rewarded for every drop in the match, built-in teammates'
 //! included; with [`RewardMode::Individual`] for its own. The episode *terminates* when
-//! the whole sequence is delivered and is *truncated* at [`EnvConfig::max_ticks`]
-//! (default 20,000 ticks, `bw4t run`'s limit on small maps; pass a larger map's own).
+//! the whole sequence is delivered and is *truncated* at the setup's tick limit
+//! (`EnvConfig::setup.max_ticks`, default 20,000 ticks, `bw4t run`'s limit on small maps;
+//! pass a larger map's own).
 //!
 //! # A step
 //!
