@@ -222,13 +222,18 @@ test('a participant goes through the example study over https and wss behind Cad
   t.after(() => fs.rmSync(dir, { recursive: true, force: true }));
   const { cert, key } = certificate(dir);
 
-  // The example study, with trials of 4 s instead of 5 minutes so that the test ends soon.
+  // The example study, with trials of 4 s instead of 5 minutes so that the test ends soon,
+  // and counted although this scripted participant never moves its robot
+  // (min_active_ticks = 0; a real participant's trial counts only if they played).
   const study = path.join(dir, 'study');
   fs.cpSync(EXAMPLE, study, { recursive: true });
   const studyFile = path.join(study, 'study.toml');
   const original = fs.readFileSync(studyFile, 'utf8');
-  const shortened = original.replace(/^time_limit_s = \d+/m, 'time_limit_s = 4');
+  const shortened = original
+    .replace(/^time_limit_s = \d+/m, 'time_limit_s = 4')
+    .replace(/^\[\[condition\]\]$/gm, '[[condition]]\nmin_active_ticks = 0');
   assert.notEqual(shortened, original, 'the example study sets time_limit_s');
+  assert.equal(shortened.match(/^min_active_ticks = 0$/gm)?.length, 2, 'both conditions counted without moving');
   fs.writeFileSync(studyFile, shortened);
   const code = original.match(/^completion_code = "([^"]+)"/m)?.[1];
   assert.ok(code, 'the example study has a completion code');
