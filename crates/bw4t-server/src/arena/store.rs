@@ -54,10 +54,11 @@ impl ResultsStore {
         self.inner.lock().unwrap_or_else(|p| p.into_inner())
     }
 
-    /// A writer for match `id`'s replay, when results go to a directory.
+    /// A writer for match `id`'s replay, when results go to a directory. A replay already
+    /// there (of a run a killed server left unfinished) is never overwritten.
     pub(crate) fn replay_writer(&self, id: &str) -> Option<(Box<dyn Write + Send>, String)> {
         let path = self.dir.as_ref()?.join("replays").join(format!("{id}.jsonl"));
-        match File::create(&path) {
+        match OpenOptions::new().write(true).create_new(true).open(&path) {
             Ok(file) => Some((Box::new(BufWriter::new(file)), crate::program())),
             Err(e) => {
                 tracing::error!(target: "bw4t::arena", path = %path.display(), error = %e, "cannot write a replay");
@@ -111,14 +112,21 @@ impl ResultsStore {
         self.kept().rows.iter().cloned().collect()
     }
 
-    /// The last run of each match name in the index, and how many rows it has: a server
-    /// restarted on the same directory goes on numbering from there.
+    /// The last run of each match name in the index and among the replays, and how many
+    /// rows the index has: a server restarted on the same directory goes on numbering
+    /// from there, past the runs a killed server left without a row, so no id is reused.
     pub(crate) fn history(&self) -> (std::collections::BTreeMap<String, u64>, u64) {
         let rows = if self.dir.is_some() { self.rows() } else { Vec::new() };
+        let replays = self.dir.as_ref().and_then(|d| std::fs::read_dir(d.join("replays")).ok());
+        let replay_ids: Vec<String> = replays
+            .into_iter()
+            .flatten()
+            .filter_map(|entry| entry.ok()?.file_name().to_str()?.strip_suffix(".jsonl").map(str::to_string))
+            .collect();
         let mut runs = std::collections::BTreeMap::new();
-        for row in &rows {
+        for id in rows.iter().map(|r| r.key.as_str()).chain(replay_ids.iter().map(String::as_str)) {
             if let Some((name, run)) =
-                row.key.rsplit_once('.').and_then(|(n, r)| Some((n, r.parse::<u64>().ok()?)))
+                id.rsplit_once('.').and_then(|(n, r)| Some((n, r.parse::<u64>().ok()?)))
             {
                 let last = runs.entry(name.to_string()).or_insert(0);
                 *last = (*last).max(run);
@@ -154,4 +162,26 @@ fn valid_id(id: &str) -> bool {
         && !id.starts_with('.')
         && id.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_' || c == '.')
         && !id.contains("..")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::ResultsStore;
+
+    #[test]
+    fn a_run_a_killed_server_left_is_neither_renumbered_nor_overwritten() {
+        let dir = std::env::temp_dir().join(format!("bw4t-store-killed-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(dir.join("replays")).expect("replays dir");
+        // Run 3 of `ladder` was being recorded when its server was killed: no row, a replay.
+        let left = dir.join("replays").join("ladder.3.jsonl");
+        std::fs::write(&left, "interrupted\n").expect("a replay");
+        let store = ResultsStore::in_dir(&dir).expect("store");
+        let (runs, ended) = store.history();
+        assert_eq!((runs.get("ladder").copied(), ended), (Some(3), 0), "the next run is 4");
+        assert!(store.replay_writer("ladder.3").is_none(), "the replay there is kept");
+        assert_eq!(std::fs::read_to_string(&left).expect("kept"), "interrupted\n");
+        assert!(store.replay_writer("ladder.4").is_some());
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }
