@@ -15,9 +15,7 @@ import net from 'node:net';
 import path from 'node:path';
 import { test } from 'node:test';
 
-import { chromium } from 'playwright-core';
-
-import { ROOT, runBw4t, screenshot, startBw4t, stop, tempDir } from './helpers.js';
+import { ROOT, openBrowser, runBw4t, screenshot, startBw4t, stop, tempDir } from './helpers.js';
 
 const EXAMPLE = path.join(ROOT, 'examples', 'study');
 const CADDYFILE = path.join(ROOT, 'deploy', 'Caddyfile');
@@ -154,37 +152,6 @@ function viaProxy(port, urlPath, headers = {}) {
   });
 }
 
-/** Chromium from Debian that takes the self-signed certificate and resolves SITE to
- * 127.0.0.1 (helpers.js's openBrowser has neither; its other settings are the same). */
-async function openProxiedBrowser(profile) {
-  const context = await chromium.launchPersistentContext(profile, {
-    executablePath: '/usr/bin/chromium',
-    headless: true,
-    ignoreHTTPSErrors: true,
-    viewport: { width: 1280, height: 800 },
-    args: [
-      '--headless',
-      '--no-sandbox',
-      '--disable-gpu',
-      '--disable-quic',
-      '--no-first-run',
-      '--disable-background-networking',
-      '--disable-component-update',
-      '--disable-sync',
-      `--host-resolver-rules=MAP ${SITE} 127.0.0.1`,
-    ],
-    timeout: 30_000,
-  });
-  context.setDefaultTimeout(15_000);
-  const page = context.pages()[0] || (await context.newPage());
-  const errors = [];
-  page.on('pageerror', (err) => errors.push(err.message));
-  page.on('console', (message) => {
-    if (message.type() === 'error') errors.push(message.text());
-  });
-  return { context, page, errors };
-}
-
 /** Waits for the study page to show a page of `kind` at `step` (as study.test.js does). */
 async function onPage(page, kind, step) {
   await page.waitForSelector(`body[data-kind="${kind}"][data-step="${step}"]`, { timeout: 20_000 });
@@ -261,12 +228,9 @@ test('a participant goes through the example study over https and wss behind Cad
   const foreign = await viaProxy(port, '/ws', { ...wsHeaders, Origin: 'https://evil.example' });
   assert.equal(foreign.status, 403, `bw4t refuses another origin's WebSocket behind the proxy: ${foreign.body}`);
 
-  const profile = tempDir('deploy-profile');
-  const browser = await openProxiedBrowser(profile);
-  t.after(async () => {
-    await browser.context.close().catch(() => {});
-    fs.rmSync(profile, { recursive: true, force: true });
-  });
+  // Takes the self-signed certificate and resolves SITE to 127.0.0.1.
+  const browser = await openBrowser({ ignoreHTTPSErrors: true, args: [`--host-resolver-rules=MAP ${SITE} 127.0.0.1`] });
+  t.after(() => browser.close());
   const { page } = browser;
   const sockets = [];
   page.on('websocket', (socket) => sockets.push(socket.url()));

@@ -109,12 +109,16 @@ export async function stop(proc) {
   }
 }
 
-/** Chromium from Debian, headless, with a fresh profile. Resolves {context, page, close}. */
-export async function openBrowser({ width = 1280, height = 800 } = {}) {
+/**
+ * Chromium from Debian, headless, with a fresh profile. Resolves {context, page, close}.
+ * `ignoreHTTPSErrors` takes a self-signed certificate; `args` are more Chromium flags.
+ */
+export async function openBrowser({ width = 1280, height = 800, ignoreHTTPSErrors = false, args = [] } = {}) {
   const profile = tempDir('profile');
   const context = await chromium.launchPersistentContext(profile, {
     executablePath: '/usr/bin/chromium',
     headless: true,
+    ignoreHTTPSErrors,
     viewport: { width, height },
     args: [
       '--headless',
@@ -125,6 +129,7 @@ export async function openBrowser({ width = 1280, height = 800 } = {}) {
       '--disable-background-networking',
       '--disable-component-update',
       '--disable-sync',
+      ...args,
     ],
     timeout: 30_000,
   });

@@ -4,16 +4,16 @@
 use bw4t_protocol::{QuestionItem, QuestionKind};
 use serde_json::{Map, Value};
 
-use super::config::{Item, ItemKind};
+use super::config::Item;
 
 /// An item as the API shows it.
 pub(crate) fn item_reply(item: &Item) -> QuestionItem {
-    let kind = match &item.kind {
-        ItemKind::Likert { scale, labels } => QuestionKind::Likert { scale: *scale, labels: labels.clone() },
-        ItemKind::Choice { options } => QuestionKind::Choice { options: options.clone() },
-        ItemKind::Text { multiline } => QuestionKind::Text { multiline: *multiline },
-    };
-    QuestionItem { id: item.id.clone(), text: item.text.clone(), required: item.required, kind }
+    QuestionItem {
+        id: item.id.clone(),
+        text: item.text.clone(),
+        required: item.required,
+        kind: item.kind.clone(),
+    }
 }
 
 /// The longest text answer kept, in characters.
@@ -34,7 +34,7 @@ pub(crate) fn check(items: &[Item], answers: &Value) -> Result<Value, String> {
         let value = given.get(&item.id).filter(|v| !v.is_null());
         let value = match (value, &item.kind) {
             (None, _) => None,
-            (Some(v), ItemKind::Likert { scale, .. }) => match v.as_u64() {
+            (Some(v), QuestionKind::Likert { scale, .. }) => match v.as_u64() {
                 Some(n) if (1..=u64::from(*scale)).contains(&n) => Some(Value::from(n)),
                 _ => {
                     return Err(format!(
@@ -43,7 +43,7 @@ pub(crate) fn check(items: &[Item], answers: &Value) -> Result<Value, String> {
                     ));
                 }
             },
-            (Some(v), ItemKind::Choice { options }) => match v.as_str() {
+            (Some(v), QuestionKind::Choice { options }) => match v.as_str() {
                 Some(s) if options.iter().any(|o| o == s) => Some(Value::from(s)),
                 _ => {
                     return Err(format!(
@@ -53,7 +53,7 @@ pub(crate) fn check(items: &[Item], answers: &Value) -> Result<Value, String> {
                     ));
                 }
             },
-            (Some(v), ItemKind::Text { .. }) => match v.as_str() {
+            (Some(v), QuestionKind::Text { .. }) => match v.as_str() {
                 Some(s) if s.chars().count() > MAX_TEXT => {
                     return Err(format!("item '{}': at most {MAX_TEXT} characters", item.id));
                 }

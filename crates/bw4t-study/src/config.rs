@@ -8,7 +8,7 @@ use std::time::Duration;
 
 use bw4t_agents::Strategy;
 use bw4t_map::Map;
-use bw4t_protocol::{MessagePolicy, Mode};
+use bw4t_protocol::{MessagePolicy, Mode, QuestionKind};
 use serde::Deserialize;
 
 use super::markdown::to_html;
@@ -216,30 +216,8 @@ pub struct Item {
     pub text: String,
     /// Whether it must be answered.
     pub required: bool,
-    /// What it asks for.
-    pub kind: ItemKind,
-}
-
-/// What an item asks for.
-#[derive(Clone, Debug)]
-pub enum ItemKind {
-    /// An integer 1..=scale, the ends labelled.
-    Likert {
-        /// Points on the scale.
-        scale: u32,
-        /// The left and right ends' labels.
-        labels: [String; 2],
-    },
-    /// One of the options.
-    Choice {
-        /// The options.
-        options: Vec<String>,
-    },
-    /// A text.
-    Text {
-        /// Several lines.
-        multiline: bool,
-    },
+    /// What it asks for (the API shows it as it is).
+    pub kind: QuestionKind,
 }
 
 /// One page of the flow.
@@ -589,16 +567,16 @@ fn item(item: ItemFile) -> Result<Item, String> {
                 Some(labels) => <[String; 2]>::try_from(labels)
                     .map_err(|l| format!("item '{id}': labels: give 2 (left and right), not {}", l.len()))?,
             };
-            (id, text, required, ItemKind::Likert { scale, labels })
+            (id, text, required, QuestionKind::Likert { scale, labels })
         }
         ItemFile::Choice { id, text, options, required } => {
             if options.len() < 2 {
                 return Err(format!("item '{id}': options: give at least 2"));
             }
-            (id, text, required, ItemKind::Choice { options })
+            (id, text, required, QuestionKind::Choice { options })
         }
         ItemFile::Text { id, text, multiline, required } => {
-            (id, text, required, ItemKind::Text { multiline: multiline.unwrap_or(false) })
+            (id, text, required, QuestionKind::Text { multiline: multiline.unwrap_or(false) })
         }
     };
     check_word("item id", &id)?;

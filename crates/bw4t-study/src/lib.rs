@@ -27,7 +27,7 @@ use std::sync::{Arc, Mutex, MutexGuard};
 
 use serde_json::{Value, json};
 
-pub use config::{Condition, Item, ItemKind, MapLoader, Order, Page, Study, load, parse};
+pub use config::{Condition, Item, MapLoader, Order, Page, Study, load, parse};
 pub use export::{ExportSummary, export};
 
 use bw4t_server::{Answering, Arena, Reply, Routes, WebRequest};
