@@ -16,7 +16,7 @@ use bw4t_study::{self as study, EventBudget, StudyServer};
 use serde_json::{Value, json};
 use tokio::sync::oneshot;
 
-use crate::util::{AutoPlayer, WAIT, http, shipped_map, welcomed};
+use crate::util::{AutoPlayer, Client, WAIT, http, shipped_map, welcomed};
 
 const TOKEN: &str = "op-secret";
 
@@ -282,7 +282,7 @@ impl StudyRig {
     async fn play_trial(&self, id: &str, state: &ParticipantState) -> ParticipantState {
         let Some(StudyPage::Trial { hello, .. }) = &state.page else { panic!("not a trial: {state:?}") };
         let ended: u64 = self.arena.totals().values().map(|t| t.ended).sum();
-        let hello = json!({"name": hello.name, "template": hello.template});
+        let hello = serde_json::to_value(hello).expect("json");
         let mut player = AutoPlayer::join_with(self.addr, hello).await;
         let name = player.welcome.match_info.name.clone();
         let step = state.step;
@@ -402,8 +402,10 @@ async fn a_participant_goes_through_the_whole_study_and_the_export_has_every_row
         panic!("a trial: {state:?}")
     };
     assert_eq!((*trial, *trials), (1, 2));
-    let first = TrialHello { template: "alpha".into(), name: "P1".into() };
+    let alice_seat = hello.seat.clone().expect("a trial's hello carries a seat token");
+    let first = TrialHello { template: "alpha".into(), name: "P1".into(), seat: Some(alice_seat.clone()) };
     assert_eq!(hello, &first, "the first to arrive starts with alpha");
+    assert!(alice_seat.len() == 32 && alice_seat.bytes().all(|b| b.is_ascii_hexdigit()), "{alice_seat}");
     assert_eq!(language, &TrialLanguage { kinds: vec!["going_to".into(), "have".into()], free_text: false });
     assert_eq!((view.as_str(), *time_limit_s), ("own", 1));
     assert!(html.as_deref().is_some_and(|h| h.contains("<strong>talks</strong>")), "{state:?}");
@@ -414,7 +416,8 @@ async fn a_participant_goes_through_the_whole_study_and_the_export_has_every_row
     rig.answer("bob", 0, json!({"consent": true})).await;
     let bob = rig.answer("bob", 1, json!({})).await;
     let Some(StudyPage::Trial { hello, view, .. }) = &bob.page else { panic!("a trial: {bob:?}") };
-    assert_eq!(hello, &TrialHello { template: "beta".into(), name: "P2".into() });
+    assert_eq!((hello.template.as_str(), hello.name.as_str()), ("beta", "P2"));
+    assert!(hello.seat.as_ref().is_some_and(|seat| seat != &alice_seat), "each participant's own seat");
     assert_eq!(view, "overview");
 
     // Events: any content type, appended with the server's time; unknown kinds refused.
@@ -431,10 +434,24 @@ async fn a_participant_goes_through_the_whole_study_and_the_export_has_every_row
     assert!(status == 400 && read::<ErrorReply>(&bad).error.contains("dance"), "{bad}");
 
     // The trial: an answer while its match runs is refused; a finished one is taken.
-    let hello =
-        json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": "P1", "template": "alpha"});
+    let hello = json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": "P1", "template": "alpha",
+                       "seat": alice_seat});
     let (client, welcome) = welcomed(rig.addr, hello).await;
     let name = welcome.match_info.name.clone();
+    // Nobody else sits in a participant's match or takes their name: not without a seat
+    // token, not with someone else's or a made-up one, not by naming the match.
+    for (fields, code) in [
+        (json!({"name": "P1", "template": "alpha"}), "not_invited"),
+        (json!({"name": "P9", "template": "alpha", "seat": alice_seat}), "bad_token"),
+        (json!({"name": "P1", "template": "alpha", "seat": "0".repeat(32)}), "bad_token"),
+        (json!({"name": "P1", "match": name}), "not_invited"),
+    ] {
+        let mut outsider = Client::connect(rig.addr).await;
+        let mut hello = json!({"type": "hello", "protocol": "bw4t", "versions": [1]});
+        hello.as_object_mut().expect("object").extend(fields.as_object().expect("object").clone());
+        outsider.send(hello.clone()).await;
+        assert_eq!(outsider.error_code().await, code, "{hello}");
+    }
     let (status, _) = rig
         .call("POST", "/api/study/participants/alice/trial", Some(json!({"step": 2, "match": name})))
         .await;
@@ -589,9 +606,10 @@ async fn a_restarted_server_continues_each_participant_and_gives_a_lost_trial_ag
     arrive(&rig, "carol").await;
     rig.answer("carol", 0, json!({"consent": true})).await;
     let state = rig.answer("carol", 1, json!({})).await;
+    let Some(StudyPage::Trial { hello, .. }) = &state.page else { panic!("a trial: {state:?}") };
     // Carol's trial starts, and the server stops under it.
-    let hello =
-        json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": "P1", "template": "alpha"});
+    let hello = json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": "P1", "template": "alpha",
+                       "seat": hello.seat});
     let (client, welcome) = welcomed(rig.addr, hello).await;
     let (status, _) = rig
         .call(
@@ -608,7 +626,17 @@ async fn a_restarted_server_continues_each_participant_and_gives_a_lost_trial_ag
     let rig = StudyRig::start_as(&dir, STUDY, browser, EventBudget::default()).await;
     let (status, again) = rig.call("GET", "/api/study/participants/carol", None).await;
     let again: ParticipantState = read(&again);
-    assert_eq!((status, &again), (200, &state), "the same trial is given again");
+    // With a new seat token: the one granted before the restart died with that server.
+    let seat_of = |state: &ParticipantState| match &state.page {
+        Some(StudyPage::Trial { hello, .. }) => hello.seat.clone(),
+        _ => None,
+    };
+    assert_ne!(seat_of(&again), seat_of(&state), "a new server grants new seats");
+    let mut same = again.clone();
+    if let Some(StudyPage::Trial { hello, .. }) = &mut same.page {
+        hello.seat = seat_of(&state);
+    }
+    assert_eq!((status, &same), (200, &state), "the same trial is given again");
     let log = std::fs::read_to_string(dir.join("participants/carol.jsonl")).expect("log");
     assert!(log.contains("\"trial_incomplete\""), "{log}");
     let seqs: Vec<u64> = log
@@ -698,12 +726,15 @@ async fn a_killed_server_leaves_readable_logs_and_the_export_lists_the_unfinishe
     let arrival = json!({"params": {"participant": "erin"}});
     let (status, _) = browser.json(web, "POST", "/api/study/participants", Some(&arrival)).await;
     assert_eq!(status, 201);
+    let mut state = Value::Null;
     for (step, answers) in [(0, json!({"consent": true})), (1, json!({}))] {
         let body = json!({"step": step, "answers": answers});
-        let (status, _) = browser.json(web, "POST", "/api/study/participants/erin/answer", Some(&body)).await;
+        let (status, answered) =
+            browser.json(web, "POST", "/api/study/participants/erin/answer", Some(&body)).await;
         assert_eq!(status, 200);
+        state = answered;
     }
-    let player = AutoPlayer::join_with(addr, json!({"name": "P1", "template": "alpha"})).await;
+    let player = AutoPlayer::join_with(addr, state["page"]["hello"].clone()).await;
     let body = json!({"step": 2, "match": player.welcome.match_info.name});
     let (status, _) = browser.json(web, "POST", "/api/study/participants/erin/trial", Some(&body)).await;
     assert_eq!(status, 200);
@@ -835,7 +866,7 @@ async fn trial_hello(rig: &StudyRig, id: &str) -> Value {
         panic!("a trial first: {state:?}")
     };
     assert_eq!(*humans, 2, "{state:?}");
-    json!({"name": hello.name, "template": hello.template})
+    serde_json::to_value(hello).expect("json")
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -1080,8 +1111,7 @@ async fn trial_without_playing(rig: &StudyRig, id: &str, step: usize, stay: bool
     let state: ParticipantState = read(&state);
     let Some(StudyPage::Trial { hello, .. }) = &state.page else { panic!("a trial: {state:?}") };
     let ended: u64 = rig.arena.totals().values().map(|t| t.ended).sum();
-    let mut player =
-        AutoPlayer::join_with(rig.addr, json!({"name": hello.name, "template": hello.template})).await;
+    let mut player = AutoPlayer::join_with(rig.addr, serde_json::to_value(hello).expect("json")).await;
     let (name, match_id) = (player.welcome.match_info.name.clone(), player.welcome.match_info.id.clone());
     let started = json!({"step": step, "match": name, "match_id": match_id});
     let (status, answer) =

@@ -246,6 +246,7 @@ fn template(t: TemplateFile, base: &Path, seed: u64) -> Result<Template> {
         on_end,
         replays: t.replays,
         lateness: None,
+        invited_only: false,
     })
 }
 

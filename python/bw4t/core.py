@@ -82,6 +82,9 @@ class JoinOptions:
     match: Optional[str] = None
     #: The name of a template: queued into its next match with a free seat.
     template: Optional[str] = None
+    #: The seat token a study's trial page gives: a template that seats only invited
+    #: players (a study's condition) refuses a player without it (``not_invited``).
+    seat: Optional[str] = None
     #: Called with each :class:`~bw4t.data.Lobby` as it is received.
     on_lobby: Optional[Callable[[Lobby], None]] = None
 
@@ -116,7 +119,7 @@ class JoinOptions:
     def hello(self) -> Dict[str, Any]:
         """The ``hello`` message (a player's); fields left at their defaults are left out."""
         msg: Dict[str, Any] = {"type": "hello", "protocol": PROTOCOL, "versions": list(VERSIONS)}
-        for key in ("name", "token", "session", "every_tick", "words", "match", "template"):
+        for key in ("name", "token", "session", "every_tick", "words", "match", "template", "seat"):
             value = getattr(self, key)
             if value:
                 msg[key] = value

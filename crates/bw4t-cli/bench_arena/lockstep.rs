@@ -74,6 +74,7 @@ fn lockstep_run(args: &ArenaArgs, map: &Map, seed: u64, workers: usize) -> Resul
         on_end: OnEnd::Restart,
         replays: false,
         lateness: None,
+        invited_only: false,
     };
     let arena_config = ArenaConfig::new(vec![template]);
     let rt = runtime(workers, LOCKSTEP_THREADS)?;

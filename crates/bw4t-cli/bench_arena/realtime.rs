@@ -68,6 +68,7 @@ pub(super) fn realtime(args: &ArenaArgs, map: &Map, seed: u64, shape: Shape) -> 
         on_end: OnEnd::Stay,
         replays: false,
         lateness: Some(lateness.clone()),
+        invited_only: false,
     };
     let server = Served::start(&server_rt, arena_config(vec![template], connections + 16))?;
     let (rss_matches, fds_matches) = (rss_kb()?, open_fds()?);

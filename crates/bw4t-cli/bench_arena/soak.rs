@@ -60,6 +60,7 @@ pub(super) fn soak(args: &ArenaArgs, map: &Map, seed: u64) -> Result<Value> {
         on_end: OnEnd::Restart,
         replays: false,
         lateness: Some(lateness.clone()),
+        invited_only: false,
     };
     let templates = vec![
         template(STEADY, (&steady_setup, &steady), &steady_lateness, args.soak_players / ROBOTS),

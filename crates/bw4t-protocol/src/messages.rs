@@ -89,6 +89,11 @@ pub struct Hello {
     /// Agents: the template whose next match with a free seat to join (queued until one has).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub template: Option<String>,
+    /// Agents: a seat token the server granted for this `name` in this template's matches
+    /// (a study's trial page gives one); a template that seats only invited players
+    /// refuses a player without it (`not_invited`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seat: Option<String>,
 }
 
 impl Hello {
@@ -105,6 +110,7 @@ impl Hello {
             words: false,
             match_name: None,
             template: None,
+            seat: None,
         }
     }
 }

@@ -45,6 +45,9 @@ pub struct SessionOptions {
     /// The robot's situation in words with every `percepts`.
     #[serde(default)]
     pub words: bool,
+    /// The seat token a study's trial page gives (`hello.seat`).
+    #[serde(default)]
+    pub seat: Option<String>,
 }
 
 impl SessionOptions {
@@ -203,6 +206,7 @@ impl ClientSession {
             None => {
                 hello.match_name = o.match_name.clone();
                 hello.template = o.template.clone();
+                hello.seat = o.seat.clone();
             }
         }
         hello

@@ -116,6 +116,9 @@ pub struct TrialHello {
     pub template: String,
     /// The name to play under.
     pub name: String,
+    /// The seat token that binds the seat to the participant (`hello.seat`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seat: Option<String>,
 }
 
 /// The messages a trial's player may send.

@@ -96,6 +96,9 @@ words! {
         ServerFull = "server_full",
         /// The connection's source address has as many connections as one address may.
         SourceFull = "source_full",
+        /// The template seats only invited players (a study's participants), and the
+        /// `hello` has no seat token for it.
+        NotInvited = "not_invited",
         /// A request came sooner than its rate allows (`resync`).
         RateLimited = "rate_limited",
         /// No `hello` in time.

@@ -8,8 +8,8 @@
 //! or write in their name (the `SameSite=Strict` cookie is not sent cross-site either).
 
 use bw4t_protocol::{
-    ErrorReply, EventsRecorded, MatchState, MatchSummary, ParticipantList, ParticipantRow, StepConflict,
-    StudyInfo,
+    ErrorReply, EventsRecorded, MatchState, MatchSummary, ParticipantList, ParticipantRow, ParticipantState,
+    StepConflict, StudyInfo, StudyPage,
 };
 use bw4t_server::WebRequest;
 use http::{HeaderMap, Method, StatusCode};
@@ -98,9 +98,9 @@ pub(crate) async fn respond(study: &StudyServer, request: &WebRequest, rest: &[&
             Ok(body) => study.arrive(&body, headers),
             Err(answer) => answer,
         },
-        (&Method::GET, ["participants", id]) => with_participant(study, id, headers, |slot| {
-            reply(StatusCode::OK, &slot.state.state(study.study()))
-        }),
+        (&Method::GET, ["participants", id]) => {
+            with_participant(study, id, headers, |slot| reply(StatusCode::OK, &study.state_of(&slot.state)))
+        }
         (&Method::POST, ["participants", id, what @ ("answer" | "trial" | "events")]) => {
             let body = match parse(body) {
                 Ok(body) => body,
@@ -216,10 +216,20 @@ fn check_step(study: &StudyServer, p: &Participant, body: &Value) -> Result<(), 
 
 /// `409`: why, and the participant's state.
 fn conflict(why: String, p: &Participant, study: &StudyServer) -> Answer {
-    reply(StatusCode::CONFLICT, &StepConflict { error: why, state: p.state(study.study()) })
+    reply(StatusCode::CONFLICT, &StepConflict { error: why, state: study.state_of(p) })
 }
 
 impl StudyServer {
+    /// The participant's state as the API answers it: on a trial, with the seat token that
+    /// binds their seat in the condition's matches to them.
+    fn state_of(&self, p: &Participant) -> ParticipantState {
+        let mut state = p.state(self.study());
+        if let Some(StudyPage::Trial { hello, .. }) = &mut state.page {
+            hello.seat = self.inner.arena.invite(&hello.template, &hello.name).ok();
+        }
+        state
+    }
+
     /// `POST /api/study/participants`: a new participant, or one coming back.
     fn arrive(&self, body: &Value, headers: &HeaderMap) -> Answer {
         let params = body.get("params").cloned().unwrap_or_else(|| json!({}));
@@ -264,7 +274,7 @@ impl StudyServer {
             };
             let mut slot = lock(&slot);
             return match append(&mut slot, &[Record::Resumed { params }]) {
-                Ok(()) => reply(StatusCode::OK, &slot.state.state(self.study())),
+                Ok(()) => reply(StatusCode::OK, &self.state_of(&slot.state)),
                 Err(e) => write_failed(&e),
             };
         }
@@ -291,7 +301,7 @@ impl StudyServer {
             let _ = std::fs::remove_file(&path);
             return write_failed(&e);
         }
-        let state = slot.state.state(self.study());
+        let state = self.state_of(&slot.state);
         let cookie = credential::set_cookie(&id, &secret, headers);
         all.insert(id, std::sync::Arc::new(std::sync::Mutex::new(slot)));
         match reply(StatusCode::CREATED, &state) {
@@ -395,7 +405,7 @@ impl StudyServer {
             }
         };
         match append(&mut slot, &records) {
-            Ok(()) => reply(StatusCode::OK, &slot.state.state(self.study())),
+            Ok(()) => reply(StatusCode::OK, &self.state_of(&slot.state)),
             Err(e) => write_failed(&e),
         }
     }
@@ -452,7 +462,7 @@ impl StudyServer {
             }
             if slot.state.playing.as_ref().is_some_and(|(_, playing)| playing == match_id) {
                 // Said again (a page that retried): it is recorded already.
-                return reply(StatusCode::OK, &slot.state.state(self.study()));
+                return reply(StatusCode::OK, &self.state_of(&slot.state));
             }
             let condition = self.study().conditions[c].name.clone();
             let record = Record::TrialStarted {
@@ -463,7 +473,7 @@ impl StudyServer {
                 match_id: match_id.to_string(),
             };
             match append(slot, &[record]) {
-                Ok(()) => reply(StatusCode::OK, &slot.state.state(self.study())),
+                Ok(()) => reply(StatusCode::OK, &self.state_of(&slot.state)),
                 Err(e) => write_failed(&e),
             }
         })

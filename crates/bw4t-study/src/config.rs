@@ -618,6 +618,7 @@ impl Study {
             on_end: OnEnd::Stay,
             replays: true,
             lateness: None,
+            invited_only: true,
         }
     }
 

@@ -183,7 +183,11 @@ impl Participant {
                     condition: condition.name.clone(),
                     title,
                     html: (!html.is_empty()).then(|| html.concat()),
-                    hello: TrialHello { template: condition.name.clone(), name: self.player_name() },
+                    hello: TrialHello {
+                        template: condition.name.clone(),
+                        name: self.player_name(),
+                        seat: None,
+                    },
                     view: condition.view.clone(),
                     language: TrialLanguage {
                         kinds: condition.language.allowed_kinds(),

@@ -35,13 +35,14 @@ fn the_handshake_says_hello_from_the_options_and_reports_the_welcome_and_snapsho
     let options = SessionOptions {
         template: Some("ladder".into()),
         every_tick: true,
+        seat: Some("s1".into()),
         ..SessionOptions::agent("Ann", Some("pw".into()))
     };
     let mut session = ClientSession::new(options);
     assert_eq!(
         sent(&mut session),
         [
-            r#"{"type":"hello","protocol":"bw4t","versions":[1],"role":"agent","name":"Ann","token":"pw","every_tick":true,"template":"ladder"}"#
+            r#"{"type":"hello","protocol":"bw4t","versions":[1],"role":"agent","name":"Ann","token":"pw","every_tick":true,"template":"ladder","seat":"s1"}"#
         ]
     );
     feed(&mut session, r#"{"type":"lobby","template":"ladder","queued":2}"#);

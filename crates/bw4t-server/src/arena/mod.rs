@@ -10,6 +10,7 @@
 //! matches go to the results store ([`store`]).
 
 mod core;
+mod invitations;
 mod lobby;
 mod route;
 mod shell;
@@ -21,7 +22,7 @@ use std::sync::{Arc, Mutex};
 
 use bw4t_agents::{MatchSetup, Player, Seat};
 use bw4t_map::Map;
-use bw4t_protocol::{ErrorCode, Hello, MatchResult, MatchSummary, Mode, ServerInfo, TemplateInfo};
+use bw4t_protocol::{ErrorCode, Hello, MatchResult, MatchSummary, Mode, Role, ServerInfo, TemplateInfo};
 use tokio::sync::{mpsc, oneshot, watch};
 
 use bw4t_host::HostConfig;
@@ -31,6 +32,7 @@ use crate::events::{Control, Event};
 use crate::lateness::TickLateness;
 
 use self::core::{Core, Make, MakeFrom, Refusal, Rules, Seek};
+use self::invitations::Invitations;
 use self::lobby::StatusAsked;
 use self::shell::{Command, Published, Shell};
 
@@ -81,6 +83,8 @@ pub struct Template {
     pub replays: bool,
     /// Where its realtime matches' tick lateness is counted, if anywhere.
     pub lateness: Option<Arc<TickLateness>>,
+    /// Seat only players invited by a seat token ([`Arena::invite`]): a study's condition.
+    pub invited_only: bool,
 }
 
 impl Template {
@@ -96,6 +100,7 @@ impl Template {
             on_end,
             replays: false,
             lateness: None,
+            invited_only: false,
         }
     }
 }
@@ -204,6 +209,8 @@ struct Inner {
     ids: AtomicU64,
     /// Counts, totals and outcomes, as of the last command the task took.
     published: watch::Receiver<Published>,
+    /// The seat tokens granted.
+    invitations: Invitations,
 }
 
 impl Arena {
@@ -223,7 +230,10 @@ impl Arena {
             shell.make_now(Make { name: Some(name), template: Some(template), from: MakeFrom::Template })?;
         }
         tokio::spawn(shell.run(commands_rx));
-        Ok(Arena { inner: Arc::new(Inner { config, commands, ids: AtomicU64::new(1), published }) })
+        let invitations = Invitations::default();
+        Ok(Arena {
+            inner: Arc::new(Inner { config, commands, ids: AtomicU64::new(1), published, invitations }),
+        })
     }
 
     /// Runs a match made from `spec` (not from a template): it stays finished when it ends.
@@ -253,11 +263,44 @@ impl Arena {
         self.inner.ids.fetch_add(1, Ordering::SeqCst)
     }
 
+    /// The seat token of player `name` in the matches of template `template` (the same
+    /// each time asked, new after a restart): the `hello.seat` that seats them in a
+    /// template that seats only invited players.
+    pub fn invite(&self, template: &str, name: &str) -> Result<String, ArenaError> {
+        if !self.inner.config.templates.iter().any(|t| t.name == template) {
+            return Err(ArenaError::UnknownTemplate(template.to_string()));
+        }
+        Ok(self.inner.invitations.grant(template, name))
+    }
+
     /// Where `hello` goes.
     pub(crate) async fn route(&self, hello: &Hello) -> Result<Routed, Refusal> {
+        let invited = match &hello.seat {
+            None => None,
+            Some(token) => Some(self.invited(hello, token)?),
+        };
         let (reply, routed) = oneshot::channel();
-        let _ = self.inner.commands.send(Command::Hello { seek: Seek::of(hello), reply });
+        let _ = self.inner.commands.send(Command::Hello { seek: Seek::of(hello, invited), reply });
         routed.await.unwrap_or_else(|_| Err((ErrorCode::ServerStopping, "the server is stopping".into())))
+    }
+
+    /// The template `hello`'s seat token invites its player to, checked against its name.
+    fn invited(&self, hello: &Hello, token: &str) -> Result<String, Refusal> {
+        let refuse = |why: String| Err((ErrorCode::BadToken, why));
+        let Some(invitation) = self.inner.invitations.of(token) else {
+            return refuse(
+                "hello.seat: this seat token was not granted by this server (after a restart, \
+                 reload the page that gave it)"
+                    .into(),
+            );
+        };
+        if hello.role != Role::Agent {
+            return refuse("hello.seat: a seat token is for a player, not a watcher".into());
+        }
+        if hello.name.as_deref() != Some(invitation.name.as_str()) {
+            return refuse(format!("hello.seat: this seat token is for player '{}'", invitation.name));
+        }
+        Ok(invitation.template)
     }
 
     /// Runs `look` on the arena's task; `None` if the task is gone.
@@ -510,6 +553,7 @@ fn rules_of(template: &Template) -> Rules {
         on_end: template.on_end,
         maps: template.maps.len(),
         open_seats: open_seats(&template.setup),
+        invited_only: template.invited_only,
     }
 }
 

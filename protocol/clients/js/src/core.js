@@ -25,6 +25,8 @@ export const MAX_LINE_BYTES = 65536;
  * @property {string} [match] the name of a live match to join
  * @property {string} [template] the name of a template: queued into its next match with a
  *   free seat. Not together with `match`
+ * @property {string} [seat] the seat token a study's trial page gives: a template that seats
+ *   only invited players refuses a player without it (`not_invited`)
  * @property {object} [fields] more fields of the `hello`, sent as they are
  */
 
@@ -109,6 +111,7 @@ export function helloOf(options) {
   if (options.words) hello.words = true;
   if (options.match) hello.match = options.match;
   if (options.template) hello.template = options.template;
+  if (options.seat) hello.seat = options.seat;
   return hello;
 }
 

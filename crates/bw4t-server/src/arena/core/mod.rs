@@ -50,6 +50,8 @@ pub(crate) struct Rules {
     pub maps: usize,
     /// The seats its matches wait for players in (robots less built-in seats).
     pub open_seats: usize,
+    /// It seats only players with a seat token granted for it (a study's condition).
+    pub invited_only: bool,
 }
 
 /// What the lobby and the index say of a match, told by the shell once it is made.

@@ -27,17 +27,36 @@ pub(crate) struct Seek {
     pub role: Role,
     /// It takes back a session.
     pub session: bool,
+    /// The template its seat token was granted for (checked by the arena's handle).
+    pub invited: Option<String>,
 }
 
 impl Seek {
-    /// What `hello` asks for.
-    pub(crate) fn of(hello: &Hello) -> Seek {
+    /// What `hello` asks for, its seat token being one granted for `invited`.
+    pub(crate) fn of(hello: &Hello, invited: Option<String>) -> Seek {
         Seek {
             match_name: hello.match_name.clone(),
             template: hello.template.clone(),
             role: hello.role,
             session: hello.session.is_some(),
+            invited,
         }
+    }
+
+    /// Whether it may take a seat in a match of `template` (`None`: made without one).
+    fn admitted_to<M>(&self, core: &Core<M>, template: Option<&str>) -> Result<(), Refusal> {
+        let Some(template) = template else { return Ok(()) };
+        let invited_only = core.templates.get(template).is_some_and(|t| t.rules.invited_only);
+        if !invited_only || self.invited.as_deref() == Some(template) {
+            return Ok(());
+        }
+        Err((
+            ErrorCode::NotInvited,
+            format!(
+                "the matches of '{template}' seat only invited players (a study's participants): join \
+                 through the page that invited you, whose hello carries your seat token"
+            ),
+        ))
     }
 }
 
@@ -93,25 +112,33 @@ impl<M: Clone> Core<M> {
             (None, Some(_)) if seek.session => {
                 refuse("a session belongs to a match: reconnect with hello.match (welcome.match.name)")
             }
-            (Some(name), None) => Some(self.route_to_match(name, seated)),
-            (None, Some(template)) => self.route_to_template(now, ticket, template, out),
+            (Some(name), None) => Some(self.route_to_match(name, seek)),
+            (None, Some(template)) => self.route_to_template(now, ticket, template, seek, out),
             (None, None) => {
                 let Some(default) = self.default.clone() else {
                     return Some(Routing::Refused((ErrorCode::UnknownMatch, self.no_match_named(None))));
                 };
                 let is_template = !self.live.contains_key(&default) && self.templates.contains_key(&default);
                 if is_template && seated {
-                    self.route_to_template(now, ticket, &default, out)
+                    self.route_to_template(now, ticket, &default, seek, out)
                 } else {
                     let name = self.default_match().unwrap_or(default);
-                    Some(self.route_to_match(&name, seated))
+                    Some(self.route_to_match(&name, seek))
                 }
             }
         }
     }
 
-    fn route_to_match(&mut self, name: &str, seated: bool) -> Routing<M> {
-        let Some(live) = self.live.get_mut(name).filter(|l| l.handle.is_some()) else {
+    fn route_to_match(&mut self, name: &str, seek: &Seek) -> Routing<M> {
+        let seated = seek.role == Role::Agent && !seek.session;
+        let Some(template) = self.live.get(name).filter(|l| l.handle.is_some()).map(|l| l.template.clone())
+        else {
+            return Routing::Refused((ErrorCode::UnknownMatch, self.no_match_named(Some(name))));
+        };
+        if seated && let Err(refusal) = seek.admitted_to(self, template.as_deref()) {
+            return Routing::Refused(refusal);
+        }
+        let Some(live) = self.live.get_mut(name) else {
             return Routing::Refused((ErrorCode::UnknownMatch, self.no_match_named(Some(name))));
         };
         let claim = seated && live.takes_claims();
@@ -133,6 +160,7 @@ impl<M: Clone> Core<M> {
         now: Instant,
         ticket: Ticket,
         template: &str,
+        seek: &Seek,
         out: &mut Vec<Action<M>>,
     ) -> Option<Routing<M>> {
         if !self.templates.contains_key(template) {
@@ -141,6 +169,9 @@ impl<M: Clone> Core<M> {
                 ErrorCode::UnknownTemplate,
                 format!("no template named '{template}' (this server has: {})", known.join(", ")),
             )));
+        }
+        if let Err(refusal) = seek.admitted_to(self, Some(template)) {
+            return Some(Routing::Refused(refusal));
         }
         if let Some(routing) = self.free_seat(template).and_then(|name| self.claim(&name)) {
             return Some(routing);

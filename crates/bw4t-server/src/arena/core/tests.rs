@@ -27,6 +27,7 @@ fn rules(
         on_end,
         maps,
         open_seats,
+        invited_only: false,
     }
 }
 
@@ -66,19 +67,31 @@ fn played(ticks: u64) -> Outcome {
 }
 
 fn player_by_template(template: &str) -> Seek {
-    Seek { match_name: None, template: Some(template.into()), role: Role::Agent, session: false }
+    Seek {
+        match_name: None,
+        template: Some(template.into()),
+        role: Role::Agent,
+        session: false,
+        invited: None,
+    }
 }
 
 fn player_in(name: &str) -> Seek {
-    Seek { match_name: Some(name.into()), template: None, role: Role::Agent, session: false }
+    Seek { match_name: Some(name.into()), template: None, role: Role::Agent, session: false, invited: None }
 }
 
 fn spectator_of(name: &str) -> Seek {
-    Seek { match_name: Some(name.into()), template: None, role: Role::Spectator, session: false }
+    Seek {
+        match_name: Some(name.into()),
+        template: None,
+        role: Role::Spectator,
+        session: false,
+        invited: None,
+    }
 }
 
 fn no_name() -> Seek {
-    Seek { match_name: None, template: None, role: Role::Agent, session: false }
+    Seek { match_name: None, template: None, role: Role::Agent, session: false, invited: None }
 }
 
 /// One line per action, so a test compares what the core did with what it should.
@@ -477,4 +490,27 @@ fn templates_without_a_map_or_with_two_matches_of_one_name_are_refused() {
     let twice = vec![rules("a", &["x"], 1, OnEnd::Stay, 1, 1), rules("b", &["x"], 1, OnEnd::Stay, 1, 1)];
     let twice = Core::<String>::new(twice, (BTreeMap::new(), 0), None, false);
     assert!(twice.is_err_and(|e| e.to_string().contains("two matches are named 'x'")));
+}
+
+#[test]
+fn an_invited_only_template_seats_only_players_invited_to_it() {
+    let condition = Rules { invited_only: true, ..on_demand("talking", 2, 1) };
+    let mut sim = Sim::new(vec![condition, on_demand("open", 1, 1)]);
+    let invited = |template: &str| Seek { invited: Some(template.into()), ..player_by_template("talking") };
+    assert_eq!(sim.hello(player_by_template("talking")).1, ["refuse 1 not_invited"]);
+    assert_eq!(sim.hello(invited("open")).1, ["refuse 2 not_invited"], "an invitation to another template");
+    assert_eq!(
+        sim.hello(invited("talking")).1,
+        ["spawn talking-1.1 n0 map0", "route 3 to talking-1.1 claimed"]
+    );
+    // Naming the match is no way round: players need the invitation, watchers do not.
+    assert_eq!(sim.hello(player_in("talking-1")).1, ["refuse 4 not_invited"]);
+    assert_eq!(sim.hello(spectator_of("talking-1")).1, ["route 5 to talking-1.1"]);
+    let back = Seek { session: true, ..player_in("talking-1") };
+    assert_eq!(sim.hello(back).1, ["route 6 to talking-1.1"], "a session takes its robot back");
+    // Other templates stay open to all.
+    assert_eq!(
+        sim.hello(player_by_template("open")).1,
+        ["spawn open-1.1 n0 map0", "route 7 to open-1.1 claimed"]
+    );
 }
