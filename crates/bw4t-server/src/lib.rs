@@ -25,6 +25,7 @@ pub use arena::{
     Arena, ArenaConfig, ArenaError, CreateRequest, FirstReplay, MapLookup, MatchSpec, OnEnd, ResultsStore,
     Template, Totals, check_match_name,
 };
+pub use budget::{RateBudget, source_key};
 pub use bw4t_agents::{AgentFactory, MatchSetup, Player, Seat};
 pub use bw4t_host::{DEFAULT_MATCH, HostConfig, HostStatus, REPLAY_DIGEST_EVERY};
 pub use config::{ServerConfig, ServerError, program};

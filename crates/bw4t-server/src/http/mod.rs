@@ -40,7 +40,7 @@ use tokio::net::{TcpListener, TcpStream};
 use tokio::sync::{OwnedSemaphorePermit, Semaphore};
 
 use crate::arena::Arena;
-use crate::budget::{SourceBudget, SourcePlace};
+use crate::budget::{SourceBudget, SourcePlace, request_source};
 use websocket::{Live, OriginPolicy};
 
 /// Plain requests read or answered at once, by default; more are answered `503` at once.
@@ -257,7 +257,14 @@ async fn respond(
         Ok(body) => body,
         Err(reply) => return reply.into_response(),
     };
+    let forwarded_for = head.headers.get("x-forwarded-for").and_then(|v| v.to_str().ok());
+    let source = request_source(
+        peer.ip(),
+        forwarded_for,
+        served.live.as_ref().map_or(&[], |l| &l.trusted_proxies[..]),
+    );
     let request = WebRequest {
+        source,
         operator: arena
             .is_some_and(|arena| api::is_operator(&head.method, &head.headers, head.uri.query(), arena)),
         method: head.method,

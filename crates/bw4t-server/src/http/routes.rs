@@ -24,6 +24,8 @@ pub struct WebRequest {
     pub body: Vec<u8>,
     /// Whether the request carries the server's operator token.
     pub operator: bool,
+    /// The client's address: the peer's, or the one a trusted reverse proxy forwarded.
+    pub source: std::net::IpAddr,
 }
 
 /// An answer still being made.
