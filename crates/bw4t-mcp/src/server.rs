@@ -38,7 +38,8 @@ pub const MAX_NAME_BYTES: usize = 256;
 /// The largest `count` or `position` of a message.
 pub const MAX_MESSAGE_NUMBER: u32 = 1000;
 
-/// The MCP server of one robot; every session (stdio, or each HTTP client) shares it.
+/// The MCP server of one robot; every session (stdio, or each HTTP client) shares it, and
+/// over HTTP one of them drives.
 #[derive(Clone)]
 pub struct RobotServer {
     link: Link,
