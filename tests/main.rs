@@ -64,8 +64,8 @@ mod cluster;
 /// The `bw4t` binary, run as a child process.
 mod cli;
 
-/// `bw4t mcp` over HTTP against a hostile visitor: the token, origins, connection limits,
-/// bounded arguments, simulated waits and cancelled calls.
+/// `bw4t mcp` over HTTP against a hostile visitor: the token, origins, one driving session,
+/// connection limits, bounded arguments, simulated waits and cancelled calls.
 mod mcp;
 
 /// `bw4t bench arena` on small figures: fields and invariants, no timing.

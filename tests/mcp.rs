@@ -38,13 +38,20 @@ struct Head<'a> {
     token: Option<&'a str>,
     origin: Option<&'a str>,
     session: Option<&'a str>,
+    /// More headers, by name.
+    more: &'a [(&'a str, &'a str)],
 }
 
 /// One POST of `body` to `/mcp`, read to its end (the connection closes after it).
 async fn post(addr: SocketAddr, head: Head<'_>, body: &Value) -> Answer {
-    let body = body.to_string();
+    request(addr, "POST", head, Some(body)).await
+}
+
+/// One request to `/mcp`, read to its end (the connection closes after it).
+async fn request(addr: SocketAddr, method: &str, head: Head<'_>, body: Option<&Value>) -> Answer {
+    let body = body.map(Value::to_string).unwrap_or_default();
     let mut request = format!(
-        "POST /mcp HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\nContent-Type: application/json\r\n\
+        "{method} /mcp HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\nContent-Type: application/json\r\n\
          Accept: application/json, text/event-stream\r\nContent-Length: {}\r\n",
         body.len()
     );
@@ -54,6 +61,7 @@ async fn post(addr: SocketAddr, head: Head<'_>, body: &Value) -> Answer {
     ]
     .into_iter()
     .chain([("Mcp-Session-Id", head.session.map(String::from))])
+    .chain(head.more.iter().map(|&(name, value)| (name, Some(value.to_string()))))
     {
         if let Some(value) = value {
             request += &format!("{name}: {value}\r\n");
@@ -150,6 +158,12 @@ impl Session {
     async fn tick(&self, id: u64) -> u64 {
         self.call(id, "look", json!({})).await.expect("look")["tick"].as_u64().expect("tick")
     }
+
+    /// Ends the session as a client does (`DELETE`): the HTTP status.
+    async fn close(&self) -> u16 {
+        let head = Head { token: Some(TOKEN), session: Some(&self.id), ..Head::default() };
+        request(self.addr, "DELETE", head, None).await.status
+    }
 }
 
 /// A match of its own on the fixed map (seed 1, alone, lockstep, `max_ticks`), its robot
@@ -201,10 +215,155 @@ async fn a_visitor_without_the_token_is_refused_and_the_robot_stays_put() {
     assert_eq!((state["tick"].as_u64(), state["state"]["at"].as_str()), (Some(0), Some("FrontDropZone")));
 }
 
+/// Asserts that `error` is the refusal of a session that does not drive the robot.
+fn assert_driven_by_another(error: &Value, tool: &str) {
+    let message = error["message"].as_str().unwrap_or_default();
+    assert_eq!(error["code"], -32600, "{error}");
+    assert!(
+        message.starts_with(&format!("{tool}: the robot is driven by another MCP session, since ")),
+        "{error}"
+    );
+    assert!(message.contains(" UTC (") && message.contains("HTTP DELETE"), "{error}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_first_session_to_call_a_tool_drives_and_the_others_are_refused() {
+    let addr = own_match(20_000, WAIT, options()).await;
+    let first = Session::open(addr).await;
+    let second = Session::open(addr).await;
+    let went = first.call(2, "go_to", json!({"place": "RoomA1"})).await.expect("the first drives");
+    assert_eq!(went["outcome"], "arrived", "{went}");
+    let (tick, at) = (went["tick"].clone(), went["state"]["at"].clone());
+    assert_eq!(at, "RoomA1");
+
+    assert_driven_by_another(
+        &second.call(3, "go_to", json!({"place": "DropZone"})).await.expect_err("refused"),
+        "go_to",
+    );
+    assert_driven_by_another(&second.call(4, "look", json!({})).await.expect_err("refused"), "look");
+    // What any reader of the docs knows stays open to every session.
+    let listed = second.post(&json!({"jsonrpc": "2.0", "id": 5, "method": "tools/list"})).await;
+    assert!(listed.reply(5)["result"]["tools"].as_array().is_some_and(|t| !t.is_empty()), "{listed:?}");
+    let read =
+        json!({"jsonrpc": "2.0", "id": 6, "method": "resources/read", "params": {"uri": "bw4t://map"}});
+    let map = second.post(&read).await;
+    assert!(
+        map.reply(6)["result"]["contents"][0]["text"].as_str().is_some_and(|t| t.contains("RoomA1")),
+        "{map:?}"
+    );
+
+    let looked = first.call(7, "look", json!({})).await.expect("the first still drives");
+    assert_eq!((&looked["tick"], &looked["state"]["at"]), (&tick, &at), "nobody else moved the robot");
+    let back = first.call(8, "go_to", json!({"place": "DropZone"})).await.expect("the first still drives");
+    assert_eq!(back["outcome"], "arrived", "{back}");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn when_the_driving_session_ends_the_next_one_takes_the_robot() {
+    let addr = own_match(20_000, WAIT, options()).await;
+    let (first, second, third) =
+        (Session::open(addr).await, Session::open(addr).await, Session::open(addr).await);
+    assert_eq!(first.tick(2).await, 0);
+    assert_driven_by_another(
+        &second.call(3, "go_to", json!({"place": "RoomA1"})).await.expect_err("refused"),
+        "go_to",
+    );
+
+    assert_eq!(first.close().await, 202);
+    let gone = first.post(&call(4, "look", json!({}))).await;
+    assert_eq!(gone.status, 404, "the first session is over: {gone:?}");
+    let went = second.call(5, "go_to", json!({"place": "RoomA1"})).await.expect("the robot is free again");
+    assert_eq!(
+        (went["outcome"].as_str(), went["state"]["at"].as_str()),
+        (Some("arrived"), Some("RoomA1")),
+        "{went}"
+    );
+    // The seat is the second session's now.
+    assert_driven_by_another(&third.call(6, "look", json!({})).await.expect_err("refused"), "look");
+    assert_eq!(second.tick(7).await, went["tick"].as_u64().expect("tick"));
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_driving_session_that_ends_mid_call_frees_the_robot_at_once() {
+    // A lockstep match with a second player, this test, so that the first session's call
+    // lasts as long as the test holds its `ready`.
+    let (setup, mut config) = lockstep("fixed", 1, 2);
+    config.deadline = None;
+    let server = TestServer::start(setup, config).await;
+    let link =
+        Link::join(server.addr, SessionOptions::agent("Model", None), WAIT, None).await.expect("joined");
+    let mut tester = Client::connect(server.addr).await;
+    tester.send(json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": "Tester", "every_tick": true})).await;
+    tester.until(|m| matches!(m, ServerMessage::Percepts(_)).then_some(())).await;
+    tester.send(json!({"type": "ready", "tick": 0})).await;
+
+    let addr = serve(link, Docs::new(Some(shipped_map("fixed"))), WAIT, options()).await;
+    let (first, second) = (Session::open(addr).await, Session::open(addr).await);
+    let journey = {
+        let (addr, id) = (addr, first.id.clone());
+        tokio::spawn(async move {
+            let head = Head { token: Some(TOKEN), session: Some(&id), ..Head::default() };
+            post(addr, head, &call(2, "go_to", json!({"place": "RoomA1"}))).await
+        })
+    };
+    // Tick 1 comes only once the robot answered tick 0: the journey is under way.
+    tester.until(|m| matches!(m, ServerMessage::Percepts(p) if p.tick == 1).then_some(())).await;
+    assert_driven_by_another(&second.call(3, "put_down", json!({})).await.expect_err("refused"), "put_down");
+
+    assert_eq!(first.close().await, 202);
+    let put_down = {
+        let (addr, id) = (addr, second.id.clone());
+        tokio::spawn(async move { Session { addr, id }.call(4, "put_down", json!({})).await })
+    };
+    let answering = tokio::spawn(async move {
+        tester.send(json!({"type": "ready", "tick": 1})).await;
+        while let Some(message) = tester.recv().await {
+            if let ServerMessage::Percepts(p) = message {
+                tester.send(json!({"type": "ready", "tick": p.tick})).await;
+            }
+        }
+    });
+    let put_down = tokio::time::timeout(WAIT, put_down).await.expect("in time").expect("task");
+    // Not `busy` with the first session's journey: that ended with its session.
+    let put_down = put_down.expect("the robot took the order");
+    assert_eq!(put_down["outcome"], "rejected", "{put_down}");
+    assert!(put_down["reason"].as_str().is_some_and(|r| r.starts_with("not_holding")), "{put_down}");
+    journey.abort();
+    answering.abort();
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_call_outside_any_session_drives_nothing() {
+    let addr = own_match(20_000, WAIT, options()).await;
+    // The sessionless revision of MCP: the version in every request, no `initialize`.
+    let version = "2026-07-28";
+    let mut go = call(2, "go_to", json!({"place": "RoomA1"}));
+    go["params"]["_meta"] = json!({
+        "io.modelcontextprotocol/protocolVersion": version,
+        "io.modelcontextprotocol/clientCapabilities": {},
+        "io.modelcontextprotocol/clientInfo": {"name": "test", "version": "0"},
+    });
+    let more = [("MCP-Protocol-Version", version), ("Mcp-Method", "tools/call"), ("Mcp-Name", "go_to")];
+    let sessionless = Head { token: Some(TOKEN), more: &more, ..Head::default() };
+    let made_up = Head { session: Some("made-up"), ..sessionless.clone() };
+    for head in [sessionless, made_up] {
+        let answer = post(addr, head, &go).await;
+        let error = &answer.reply(2)["error"];
+        let message = error["message"].as_str().unwrap_or_default();
+        assert!(
+            message.starts_with("go_to: over HTTP the robot is driven from one MCP session"),
+            "{answer:?}"
+        );
+    }
+    // Nothing moved, and no made-up session holds the robot.
+    let driver = Session::open(addr).await;
+    assert_eq!(driver.tick(3).await, 0);
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn browser_pages_from_other_origins_are_refused() {
     let addr = own_match(20_000, WAIT, options()).await;
-    let with_origin = |origin| Head { token: Some(TOKEN), origin, session: None };
+    let with_origin = |origin| Head { token: Some(TOKEN), origin, ..Head::default() };
     let evil = post(addr, with_origin(Some("http://evil.example")), &initialize()).await;
     assert_eq!(evil.status, 403, "{evil:?}");
     assert!(evil.body.contains("http://evil.example"), "{evil:?}");

@@ -1,6 +1,7 @@
 //! Streamable HTTP: the MCP endpoint at `/mcp` on a plain HTTP/1.1 server (hyper). The
 //! robot belongs to whoever holds the bearer token: every request must carry it, and a
-//! browser page must come from an allowed origin. Only loopback host names are accepted
+//! browser page must come from an allowed origin. Of the token's sessions, one drives
+//! the robot at a time (`seat.rs`). Only loopback host names are accepted
 //! unless the operator names more (rmcp's check against DNS rebinding). Connections are
 //! capped and must send their heads in time, and a failing `accept` (out of file
 //! descriptors) is retried, so no visitor can make the process exit.
@@ -14,13 +15,13 @@ use http::{HeaderMap, StatusCode, header};
 use http_body_util::{BodyExt, Full};
 use hyper::body::Incoming;
 use hyper_util::rt::{TokioIo, TokioTimer};
-use rmcp::transport::streamable_http_server::session::local::LocalSessionManager;
 use rmcp::transport::streamable_http_server::{StreamableHttpServerConfig, StreamableHttpService};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, TcpStream};
 use tokio::sync::Semaphore;
 use tower_service::Service;
 
+use crate::seat::Seat;
 use crate::server::RobotServer;
 
 /// The path of the MCP endpoint.
@@ -72,11 +73,10 @@ impl HttpOptions {
 pub async fn serve_http(server: RobotServer, listener: TcpListener, options: HttpOptions) {
     let mut config = StreamableHttpServerConfig::default().with_max_request_body_bytes(MAX_BODY);
     config.allowed_hosts.extend(options.hosts.iter().cloned());
-    let mcp: StreamableHttpService<RobotServer, LocalSessionManager> = StreamableHttpService::new(
-        move || Ok(server.clone()),
-        Arc::new(LocalSessionManager::default()),
-        config,
-    );
+    let seat = Arc::new(Seat::default());
+    let server = server.seated(seat.clone());
+    let mcp: StreamableHttpService<RobotServer, Seat> =
+        StreamableHttpService::new(move || Ok(server.clone()), seat, config);
     let gate = Arc::new(Gate::new(&options));
     let places = Arc::new(Semaphore::new(options.max_connections));
     let mut failures: u32 = 0;

@@ -3,7 +3,8 @@
 //! rules, map and goal as resources, and gets a role prompt.
 //!
 //! Over stdio only the parent process can reach the server; over HTTP the robot belongs
-//! to whoever holds its bearer token (`http.rs`).
+//! to whoever holds its bearer token (`http.rs`), and is driven by one MCP session at a
+//! time (`seat.rs`).
 //!
 //! The robot is a protocol client like any other ([`Link`] owns its TCP connection): it
 //! joins a served match, or a match of its own ([`LocalMatch`]) on loopback. The tools
@@ -15,6 +16,7 @@ mod http;
 mod link;
 mod local;
 mod robot;
+mod seat;
 mod server;
 mod view;
 

@@ -2,6 +2,8 @@
 //! [`Link`]. Arguments are checked here, each within a documented range and every message
 //! within the protocol's line, so a bad one is an MCP error naming the problem before
 //! anything is sent; what the match refuses is a tool result with outcome `rejected`.
+//! Over HTTP a tool call is refused unless its session drives the robot (`seat.rs`); the
+//! rules, map, goal, tool list and prompt stay open to every session.
 
 use std::sync::Arc;
 use std::time::Duration;
@@ -15,6 +17,7 @@ use rmcp::model::{
     ServerCapabilities, ServerConfig, Tool,
 };
 use rmcp::service::RequestContext;
+use rmcp::transport::common::http_header::HEADER_SESSION_ID;
 use rmcp::{ErrorData, RoleServer, ServerHandler};
 use schemars::JsonSchema;
 use serde::Deserialize;
@@ -24,6 +27,7 @@ use serde_json::{Value, json};
 use crate::docs::{self, Docs};
 use crate::link::{Link, LinkError, Reply, Tokens};
 use crate::robot::{Command, Outcome};
+use crate::seat::Seat;
 
 /// The longest a tool may be given (`wait`'s `seconds`, and `--tool-timeout`).
 pub const MAX_TOOL_SECONDS: f64 = 3600.0;
@@ -34,18 +38,26 @@ pub const MAX_NAME_BYTES: usize = 256;
 /// The largest `count` or `position` of a message.
 pub const MAX_MESSAGE_NUMBER: u32 = 1000;
 
-/// The MCP server of one robot; every session (stdio, or each HTTP client) shares it.
+/// The MCP server of one robot; every session (stdio, or each HTTP client) shares it, and
+/// over HTTP one of them drives.
 #[derive(Clone)]
 pub struct RobotServer {
     link: Link,
     docs: Arc<Docs>,
     timeout: Duration,
+    /// Over HTTP, the session that drives the robot; over stdio there is one session.
+    seat: Option<Arc<Seat>>,
 }
 
 impl RobotServer {
     /// Serves the robot behind `link`; a tool call gives up after `timeout` (wall time).
     pub fn new(link: Link, docs: Docs, timeout: Duration) -> RobotServer {
-        RobotServer { link, docs: Arc::new(docs), timeout }
+        RobotServer { link, docs: Arc::new(docs), timeout, seat: None }
+    }
+
+    /// The same robot, whose tools only the session holding `seat` may call.
+    pub(crate) fn seated(self, seat: Arc<Seat>) -> RobotServer {
+        RobotServer { seat: Some(seat), ..self }
     }
 }
 
@@ -209,6 +221,18 @@ fn parse<T: DeserializeOwned>(tool: &str, arguments: Option<JsonObject>) -> Resu
 
 fn invalid(tool: &str, problem: impl std::fmt::Display) -> ErrorData {
     ErrorData::invalid_params(format!("{tool}: {problem}"), None)
+}
+
+/// A call that is well formed but may not run now (the robot is busy or driven by
+/// another session): an MCP error naming the tool and why.
+fn refused(tool: &str, problem: impl std::fmt::Display) -> ErrorData {
+    ErrorData::invalid_request(format!("{tool}: {problem}"), None)
+}
+
+/// The MCP session a request came in, over HTTP (rmcp hands handlers the request's head).
+fn session_of(context: &RequestContext<RoleServer>) -> Option<&str> {
+    let head = context.extensions.get::<http::request::Parts>()?;
+    head.headers.get(HEADER_SESSION_ID)?.to_str().ok()
 }
 
 /// The token counts a client put in the request's `_meta` (`bw4t/usage`).
@@ -395,19 +419,25 @@ impl ServerHandler for RobotServer {
         request: CallToolRequestParams,
         context: RequestContext<RoleServer>,
     ) -> Result<CallToolResponse, ErrorData> {
+        // Ended when rmcp cancels the request, or when its session leaves the seat; and
+        // once the call is over, so that the seat forgets it.
+        let call = context.ct.child_token();
+        let _over = call.clone().drop_guard();
+        if let Some(seat) = &self.seat {
+            let session = session_of(&context);
+            seat.take(session, &call).await.map_err(|refusal| refused(&request.name, refusal))?;
+        }
         let tokens = reported_tokens([request.meta.as_ref(), Some(&context.meta)]);
         let reply = if request.name == "look" {
             parse::<NoArgs>("look", request.arguments)?;
             self.link.look(tokens, true).await
         } else {
             let command = self.command(&request.name, request.arguments)?;
-            self.link.run(command, self.timeout, tokens, &context.ct).await
+            self.link.run(command, self.timeout, tokens, &call).await
         };
         match reply {
             Ok(reply) => Ok(tool_result(reply).into()),
-            Err(LinkError::Busy(busy)) => {
-                Err(ErrorData::invalid_request(format!("{}: {busy}", request.name), None))
-            }
+            Err(LinkError::Busy(busy)) => Err(refused(&request.name, busy)),
             Err(LinkError::Gone) => {
                 Err(ErrorData::internal_error("the robot's connection to the match is gone", None))
             }
