@@ -630,7 +630,29 @@ impl MatchHost {
             }
             self.tick_sent_at = self.now;
         }
-        self.held = paused;
+        if self.held != paused {
+            self.held = paused;
+            self.tell_pause(None);
+        }
+    }
+
+    /// Tells `only` (else every player and watcher) whether the match is paused.
+    pub(crate) fn tell_pause(&mut self, only: Option<ConnId>) {
+        let line: Arc<str> =
+            encode(&ServerMessage::Pause(bw4t_protocol::Pause { paused: self.held, tick: self.tick() }))
+                .into();
+        let told: Vec<ConnId> = match only {
+            Some(conn) => vec![conn],
+            None => self
+                .conns
+                .iter()
+                .filter(|(_, c)| matches!(c.role, ConnRole::Agent(_) | ConnRole::Watcher(_)))
+                .map(|(conn, _)| *conn)
+                .collect(),
+        };
+        for conn in told {
+            self.send_line(conn, line.clone());
+        }
     }
 
     /// How late the last realtime tick was made after it fell due, and how many ticks

@@ -358,7 +358,7 @@ impl Robot {
                 let act = self.pending.as_ref().filter(|p| !p.acked).and_then(|p| p.act);
                 self.conclude(act, Outcome::Rejected, Some(format!("{}: {}", error.code, error.message)));
             }
-            SessionEvent::Welcome(_) | SessionEvent::Lobby(_) => {}
+            SessionEvent::Welcome(_) | SessionEvent::Lobby(_) | SessionEvent::Pause(_) => {}
         }
     }
 

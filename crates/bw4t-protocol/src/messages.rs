@@ -200,6 +200,18 @@ pub enum ServerMessage {
     /// Before the first tick: who is in the match and how many it still waits for; or,
     /// before `welcome`, the player's place in a template's queue.
     Lobby(Lobby),
+    /// The operator paused the match (no tick until resumed) or resumed it.
+    Pause(Pause),
+}
+
+/// `pause`: sent to every player and watcher when the operator pauses or resumes the
+/// match, and to one who joins while it is paused.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+pub struct Pause {
+    /// Paused (`true`) or resumed (`false`).
+    pub paused: bool,
+    /// The match's tick at that moment.
+    pub tick: u64,
 }
 
 /// `welcome`.

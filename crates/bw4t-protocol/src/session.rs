@@ -83,6 +83,8 @@ pub enum SessionEvent {
     Welcome(Welcome),
     /// The match's players before it starts, or the place in a template's queue.
     Lobby(Lobby),
+    /// The operator paused or resumed the match.
+    Pause(crate::Pause),
     /// What the robot perceives; answer it with [`ClientSession::ready`] once decided.
     Percepts {
         /// The facts, as a delta (a full snapshot when `delta.full`).
@@ -282,6 +284,7 @@ impl ClientSession {
                 }
                 SessionEvent::Bye(bye)
             }
+            ServerMessage::Pause(pause) => SessionEvent::Pause(pause),
             // Players ping nobody and are sent no frames.
             ServerMessage::Pong(_) | ServerMessage::Frame(_) => return Ok(()),
         };

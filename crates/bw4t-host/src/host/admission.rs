@@ -201,6 +201,9 @@ impl MatchHost {
             },
         };
         self.send(conn, &ServerMessage::Welcome(welcome));
+        if self.held {
+            self.tell_pause(Some(conn));
+        }
         // Whoever arrives at a waiting match is told who is there (and the others that
         // someone came).
         self.lobby_changed |= matches!(self.phase, super::Phase::Waiting { .. });
