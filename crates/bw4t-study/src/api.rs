@@ -272,7 +272,10 @@ impl StudyServer {
             Ok(secret) => secret,
             Err(e) => return write_failed(&e),
         };
-        let number = all.values().map(|s| lock(s).state.number + 1).max().unwrap_or(0);
+        let number = match self.inner.store.next_number() {
+            Ok(number) => number,
+            Err(e) => return write_failed(&e),
+        };
         let order = order_for(self.study(), number, &id);
         let names = order.iter().map(|c| self.study().conditions[*c].name.clone()).collect();
         let mut slot = Slot { state: Participant::new(&id, number, order, now_ms()) };

@@ -49,6 +49,10 @@ fn logs(dir: &Path) -> std::io::Result<Vec<PathBuf>> {
 }
 
 fn import_one(store: &Store, path: &Path) -> std::io::Result<bool> {
+    // A log is named after its participant: one imported before is not read again.
+    if path.file_stem().and_then(|s| s.to_str()).map(|id| store.has(id)).transpose()? == Some(true) {
+        return Ok(false);
+    }
     let stored = read(path)?;
     let Some(Stored { record: Record::Created { participant, .. }, .. }) = stored.first() else {
         tracing::warn!(target: "bw4t::study", path = %path.display(), "a log that does not begin with its participant's creation is skipped");

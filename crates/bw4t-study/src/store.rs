@@ -228,6 +228,17 @@ impl Store {
         Ok(found.is_some())
     }
 
+    /// The arrival number of the next participant: one past the highest recorded, so a
+    /// participant whose state could not be rebuilt still keeps theirs.
+    pub(crate) fn next_number(&self) -> std::io::Result<u64> {
+        let connection = super::lock(&self.connection);
+        let next: i64 = connection
+            .prepare_cached("SELECT coalesce(max(number) + 1, 0) FROM participants")
+            .and_then(|mut s| s.query_row([], |r| r.get(0)))
+            .map_err(|e| failed(&self.path, e))?;
+        Ok(u64_of(next))
+    }
+
     /// Every participant's id, in order.
     pub(crate) fn participants(&self) -> std::io::Result<Vec<String>> {
         let connection = super::lock(&self.connection);
@@ -432,7 +443,9 @@ mod tests {
     fn a_request_is_written_whole_or_not_at_all() {
         let dir = temp_dir("atomic");
         let store = Store::open(&dir).expect("a new database");
+        assert_eq!(store.next_number().expect("a number"), 0);
         store.append("p1", 1, 10, &[created("p1", 0)]).expect("created");
+        assert_eq!(store.next_number().expect("a number"), 1);
         let event = Record::Event { event: json!({"kind": "click"}) };
         store.append("p1", 3, 20, std::slice::from_ref(&event)).expect("seq 3");
         // Seq 2 is new, seq 3 is taken: the request fails, and seq 2 is not kept either.
