@@ -2,7 +2,8 @@
 //! the protocol, counterbalancing, resuming (reload, restart, a killed server), the
 //! export's rows, and refusals of bad study files and bad requests; and what a hostile
 //! visitor tries (acting as a participant whose id they know, cross-site requests, open
-//! files, event floods, match ids that are paths) refused.
+//! files, event floods, match ids that are paths) refused; the study's database read by a
+//! connection of its own, as a researcher would, and an older version's logs imported.
 
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
@@ -322,6 +323,33 @@ fn csv_rows(path: &Path) -> Vec<std::collections::BTreeMap<String, String>> {
         .collect()
 }
 
+/// Participant `id`'s records as a connection of its own reads them from the study's
+/// database in `dir`: `seq`, `type` and the record's fields, their `created` first.
+fn stored(dir: &Path, id: &str) -> Vec<(u64, String, Value)> {
+    let database = dir.join("study.sqlite3");
+    assert!(database.is_file(), "{} is missing", database.display());
+    let connection = rusqlite::Connection::open(&database).expect("open the database");
+    let sql = "SELECT 1, 'created', json_object('participant', id, 'number', number, \
+               'order', json(condition_order), 'params', json(params)) FROM participants WHERE id = ?1 \
+               UNION ALL SELECT seq, type, data FROM records WHERE participant = ?1 ORDER BY 1";
+    let mut statement = connection.prepare(sql).expect("the tables are there");
+    let rows = statement.query_map([id], |r| {
+        let row: (i64, String, String) = (r.get(0)?, r.get(1)?, r.get(2)?);
+        Ok(row)
+    });
+    rows.expect("query")
+        .map(|row| {
+            let (seq, kind, data) = row.expect("a row");
+            (seq as u64, kind, serde_json::from_str(&data).expect("JSON data"))
+        })
+        .collect()
+}
+
+/// The `type`s of what `stored` gives.
+fn types(records: &[(u64, String, Value)]) -> Vec<&str> {
+    records.iter().map(|(_, kind, _)| kind.as_str()).collect()
+}
+
 async fn arrive(rig: &StudyRig, id: &str) -> (u16, Value) {
     rig.call(
         "POST",
@@ -483,6 +511,9 @@ async fn a_participant_goes_through_the_whole_study_and_the_export_has_every_row
     let (_, summary) = rig.operator("GET", &format!("/api/matches/{name}")).await;
     let alice_match = summary["id"].as_str().expect("id").to_string();
     let mut player = AutoPlayer::adopt(client, welcome);
+    // The participant was told of the pause and of the resume.
+    let pauses = player.wait("pause and resume", |s| (s.pauses.len() >= 2).then(|| s.pauses.clone())).await;
+    assert_eq!(pauses, [true, false]);
     player.wait("the match's end", |s| s.ended.then_some(())).await;
     tokio::time::timeout(WAIT, rig.arena.ended(1)).await.expect("the match is recorded");
     let (status, bad) = rig
@@ -637,12 +668,13 @@ async fn a_restarted_server_continues_each_participant_and_gives_a_lost_trial_ag
         hello.seat = seat_of(&state);
     }
     assert_eq!((status, &same), (200, &state), "the same trial is given again");
-    let log = std::fs::read_to_string(dir.join("participants/carol.jsonl")).expect("log");
-    assert!(log.contains("\"trial_incomplete\""), "{log}");
-    let seqs: Vec<u64> = log
-        .lines()
-        .map(|l| serde_json::from_str::<Value>(l).expect("a whole line")["seq"].as_u64().expect("seq"))
-        .collect();
+    let records = stored(&dir, "carol");
+    assert_eq!(
+        types(&records),
+        ["created", "answer", "answer", "trial_started", "trial_incomplete"],
+        "{records:?}"
+    );
+    let seqs: Vec<u64> = records.iter().map(|(seq, _, _)| *seq).collect();
     assert_eq!(seqs, (1..=seqs.len() as u64).collect::<Vec<_>>(), "seq numbers go on across the restart");
     let state = rig.play_trial("carol", &again).await;
     assert_eq!(kind_of(&state), "questionnaire");
@@ -681,9 +713,51 @@ impl Drop for KillOnDrop {
     }
 }
 
+/// `bw4t study FILE --data DATA` as its own process, on ports it picked.
+struct StudyProcess {
+    child: KillOnDrop,
+    /// Its standard output, kept open so its writes go on succeeding.
+    _lines: std::io::Lines<std::io::BufReader<std::process::ChildStdout>>,
+    addr: SocketAddr,
+    web: SocketAddr,
+}
+
+impl StudyProcess {
+    fn spawn(file: &Path, data: &Path) -> StudyProcess {
+        use std::io::BufRead;
+        let mut child = KillOnDrop(
+            std::process::Command::new(env!("CARGO_BIN_EXE_bw4t"))
+                .args(["study", file.to_str().expect("path"), "--data", data.to_str().expect("path")])
+                .args(["--port", "0", "--http", "0", "--operator-token", TOKEN, "-q"])
+                .stdout(std::process::Stdio::piped())
+                .stderr(std::process::Stdio::null())
+                .spawn()
+                .expect("start bw4t study"),
+        );
+        let mut lines = std::io::BufReader::new(child.0.stdout.take().expect("stdout")).lines();
+        let mut next = |prefix: &str| {
+            let line = lines.next().expect("a line").expect("read");
+            line.strip_prefix(prefix)
+                .unwrap_or_else(|| panic!("expected '{prefix}...', got {line}"))
+                .to_string()
+        };
+        let addr: SocketAddr = next("listening on ").parse().expect("address");
+        let web: SocketAddr = next("http on ").parse().expect("address");
+        let dashboard =
+            (0..4).map(|_| next("")).find(|l| l.starts_with("dashboard: ")).expect("a dashboard line");
+        assert!(dashboard.ends_with(&format!("/study/admin?token={TOKEN}")), "{dashboard}");
+        StudyProcess { child, _lines: lines, addr, web }
+    }
+
+    /// Kills it (`SIGKILL`: nothing of it runs after) and waits for it to be gone.
+    fn kill(mut self) {
+        self.child.0.kill().expect("kill");
+        self.child.0.wait().expect("wait");
+    }
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_killed_server_leaves_readable_logs_and_the_export_lists_the_unfinished_trial() {
-    use std::io::BufRead;
+async fn a_killed_server_loses_nothing_acknowledged_and_a_restart_continues_from_it() {
     let dir = temp_dir("killed");
     let file = dir.join("pilot.toml");
     std::fs::write(
@@ -694,34 +768,8 @@ async fn a_killed_server_leaves_readable_logs_and_the_export_lists_the_unfinishe
     )
     .expect("study file");
     let data = dir.join("data");
-    let mut child = KillOnDrop(
-        std::process::Command::new(env!("CARGO_BIN_EXE_bw4t"))
-            .args([
-                "study",
-                file.to_str().expect("path"),
-                "--data",
-                data.to_str().expect("path"),
-                "--port",
-                "0",
-                "--http",
-                "0",
-            ])
-            .args(["--operator-token", TOKEN, "-q"])
-            .stdout(std::process::Stdio::piped())
-            .stderr(std::process::Stdio::null())
-            .spawn()
-            .expect("start bw4t study"),
-    );
-    let mut lines = std::io::BufReader::new(child.0.stdout.take().expect("stdout")).lines();
-    let mut next = |prefix: &str| {
-        let line = lines.next().expect("a line").expect("read");
-        line.strip_prefix(prefix).unwrap_or_else(|| panic!("expected '{prefix}...', got {line}")).to_string()
-    };
-    let addr: SocketAddr = next("listening on ").parse().expect("address");
-    let web: SocketAddr = next("http on ").parse().expect("address");
-    let dashboard =
-        (0..4).map(|_| next("")).find(|l| l.starts_with("dashboard: ")).expect("a dashboard line");
-    assert!(dashboard.ends_with(&format!("/study/admin?token={TOKEN}")), "{dashboard}");
+    let server = StudyProcess::spawn(&file, &data);
+    let web = server.web;
     let browser = Browser::default();
     let arrival = json!({"params": {"participant": "erin"}});
     let (status, _) = browser.json(web, "POST", "/api/study/participants", Some(&arrival)).await;
@@ -734,17 +782,25 @@ async fn a_killed_server_leaves_readable_logs_and_the_export_lists_the_unfinishe
         assert_eq!(status, 200);
         state = answered;
     }
-    let player = AutoPlayer::join_with(addr, state["page"]["hello"].clone()).await;
+    let player = AutoPlayer::join_with(server.addr, state["page"]["hello"].clone()).await;
     let body = json!({"step": 2, "match": player.welcome.match_info.name});
     let (status, _) = browser.json(web, "POST", "/api/study/participants/erin/trial", Some(&body)).await;
     assert_eq!(status, 200);
-    child.0.kill().expect("kill");
-    child.0.wait().expect("wait");
+    let events = json!({"events": [{"kind": "key", "key": "p", "step": 2}, {"kind": "blur", "step": 2}]});
+    let (status, _) = browser.json(web, "POST", "/api/study/participants/erin/events", Some(&events)).await;
+    assert_eq!(status, 200);
+    let (status, before) = browser.json(web, "GET", "/api/study/participants/erin", None).await;
+    assert_eq!(status, 200, "{before}");
+    server.kill();
 
-    let log = std::fs::read_to_string(data.join("participants/erin.jsonl")).expect("log");
-    for line in log.lines() {
-        serde_json::from_str::<Value>(line).unwrap_or_else(|e| panic!("a whole JSON line ({e}): {line}"));
-    }
+    // Everything acknowledged is in the database, whole.
+    let killed = stored(&data, "erin");
+    assert_eq!(
+        types(&killed),
+        ["created", "answer", "answer", "trial_started", "event", "event"],
+        "{killed:?}"
+    );
+    assert_eq!(killed[5].2["event"]["kind"], "blur");
     let export = crate::util::bw4t_within(&["study", "export", data.to_str().expect("path")], WAIT);
     assert!(export.status.success(), "{}", String::from_utf8_lossy(&export.stderr));
     let printed = String::from_utf8_lossy(&export.stdout);
@@ -753,6 +809,24 @@ async fn a_killed_server_leaves_readable_logs_and_the_export_lists_the_unfinishe
     assert_eq!((trials[0]["participant"].as_str(), trials[0]["complete"].as_str()), ("erin", "false"));
     assert!(trials[0]["incomplete_reason"].contains("no end recorded"), "{trials:?}");
     drop(player);
+
+    // Restarted: the participant is where they were (the lost trial given again), their
+    // credential still theirs, and what was recorded is still there, unchanged.
+    let server = StudyProcess::spawn(&file, &data);
+    let (status, mut after) = browser.json(server.web, "GET", "/api/study/participants/erin", None).await;
+    // But for the seat token: a restarted server grants new ones.
+    let seat = &mut after["page"]["hello"]["seat"];
+    assert!(seat.is_string() && seat != &before["page"]["hello"]["seat"], "{after}");
+    *seat = before["page"]["hello"]["seat"].clone();
+    assert_eq!((status, &after), (200, &before), "the same state after the restart");
+    let restarted = stored(&data, "erin");
+    assert_eq!(&restarted[..killed.len()], &killed[..], "nothing recorded is changed");
+    assert_eq!(types(&restarted[killed.len()..]), ["trial_incomplete"], "{restarted:?}");
+    let (status, _) =
+        browser.json(server.web, "POST", "/api/study/participants/erin/events", Some(&events)).await;
+    assert_eq!(status, 200);
+    assert_eq!(stored(&data, "erin").len(), restarted.len() + 2, "numbered on after the restart");
+    server.kill();
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -1016,33 +1090,51 @@ async fn another_site_cannot_make_participants_with_a_simple_request() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// The files of this process open under `dir`.
-fn open_files_under(dir: &Path) -> usize {
-    std::fs::read_dir("/proc/self/fd")
-        .map(|fds| {
-            fds.filter_map(|fd| std::fs::read_link(fd.ok()?.path()).ok())
-                .filter(|p| p.starts_with(dir))
-                .count()
-        })
-        .unwrap_or(0)
+/// The descriptors process `pid` holds, and of those the files under `dir`.
+fn descriptors(pid: u32, dir: &Path) -> (usize, Vec<PathBuf>) {
+    let targets: Vec<PathBuf> = std::fs::read_dir(format!("/proc/{pid}/fd"))
+        .expect("the process's descriptors")
+        .filter_map(|fd| std::fs::read_link(fd.ok()?.path()).ok())
+        .collect();
+    let total = targets.len();
+    (total, targets.into_iter().filter(|p| p.starts_with(dir)).collect())
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn participants_do_not_hold_files_open() {
+async fn descriptors_do_not_grow_with_participants() {
     if !Path::new("/proc/self/fd").is_dir() {
         return; // Linux only: elsewhere the descriptors are not listed.
     }
     let dir = temp_dir("descriptors");
-    let rig = StudyRig::start(&dir, SHORT).await;
-    for _ in 0..40 {
-        let (status, answer) = rig.call("POST", "/api/study/participants", Some(json!({}))).await;
+    let file = dir.join("short.toml");
+    std::fs::write(&file, SHORT).expect("study file");
+    let data = dir.join("data");
+    let server = StudyProcess::spawn(&file, &data);
+    let pid = server.child.0.id();
+    let arrive_anonymously = || async {
+        let (status, answer) =
+            Browser::default().json(server.web, "POST", "/api/study/participants", Some(&json!({}))).await;
         assert_eq!(status, 201, "{answer}");
+    };
+    arrive_anonymously().await;
+    let (first, _) = descriptors(pid, &data);
+    const PARTICIPANTS: usize = 2_000;
+    for _ in 1..PARTICIPANTS {
+        arrive_anonymously().await;
     }
-    let (_, list) = rig.operator("GET", "/api/study/participants").await;
-    assert_eq!(read::<ParticipantList>(&list).participants.len(), 40);
-    let participants = dir.canonicalize().expect("dir").join("participants");
-    assert_eq!(open_files_under(&participants), 0, "no participant's log is held open");
-    rig.shutdown().await;
+    let (status, list) = http(server.web, "GET", "/api/study/participants", Some(TOKEN), None).await;
+    assert_eq!(status, 200, "{list}");
+    let list: ParticipantList = serde_json::from_str(&list).expect("the list");
+    assert_eq!(list.participants.len(), PARTICIPANTS);
+    let data = data.canonicalize().expect("data");
+    let (last, files) = descriptors(pid, &data);
+    // A few connections may still be closing; a descriptor a participant would be 2,000.
+    assert!(last <= first + 8, "{first} descriptors after one participant, {last} after {PARTICIPANTS}");
+    // The arena's index of matches is open too (in matches/); the study holds only its database.
+    let files: Vec<PathBuf> = files.into_iter().filter(|f| !f.starts_with(data.join("matches"))).collect();
+    assert!(files.len() <= 3, "the database, its write-ahead log and its index at most: {files:?}");
+    assert!(files.iter().any(|f| f.ends_with("study.sqlite3")), "{files:?}");
+    server.kill();
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -1057,6 +1149,9 @@ async fn a_participant_cannot_record_more_events_than_the_budget() {
     let (status, answer) =
         rig.call("POST", path, Some(json!({"events": [click, click, click, click]}))).await;
     assert_eq!((status, read::<EventsRecorded>(&answer).recorded), (200, 4));
+    // Acknowledged means committed: another connection reads them right after the answer.
+    let events = types(&stored(&dir, "flood")).iter().filter(|t| **t == "event").count();
+    assert_eq!(events, 4, "the acknowledged events are in the database");
     let (status, answer) = rig.call("POST", path, Some(json!({"events": [click, click]}))).await;
     assert_eq!(status, 429, "past the count: {answer}");
     assert!(read::<ErrorReply>(&answer).error.contains("at most 5 events"), "{answer}");
@@ -1066,8 +1161,8 @@ async fn a_participant_cannot_record_more_events_than_the_budget() {
     assert!(read::<ErrorReply>(&answer).error.contains("bytes"), "{answer}");
     let (status, _) = rig.call("POST", path, Some(json!({"events": [click]}))).await;
     assert_eq!(status, 200, "what fits is still taken");
-    let log = std::fs::read_to_string(dir.join("participants/flood.jsonl")).expect("log");
-    assert_eq!(log.matches("\"type\":\"event\"").count(), 5, "{log}");
+    let events = types(&stored(&dir, "flood")).iter().filter(|t| **t == "event").count();
+    assert_eq!(events, 5, "what was taken, and only that, is in the database");
     let browser = rig.browser.clone();
     rig.shutdown().await;
 
@@ -1143,16 +1238,15 @@ async fn a_trial_counts_only_if_the_participant_played() {
     let state = trial_without_playing(&rig, "quitter", 1, true).await;
     assert_eq!((state.step, kind_of(&state)), (1, "trial".into()), "{state:?}");
     rig.shutdown().await;
-    let log = std::fs::read_to_string(dir.join("participants/quitter.jsonl")).expect("log");
-    let reasons: Vec<String> = log
-        .lines()
-        .filter_map(|l| serde_json::from_str::<Value>(l).ok())
-        .filter(|v| v["type"] == "trial_incomplete")
-        .map(|v| v["reason"].as_str().unwrap_or("").to_string())
+    let records = stored(&dir, "quitter");
+    let reasons: Vec<String> = records
+        .iter()
+        .filter(|(_, kind, _)| kind == "trial_incomplete")
+        .map(|(_, _, data)| data["reason"].as_str().unwrap_or("").to_string())
         .collect();
-    assert_eq!(reasons.len(), 2, "{log}");
+    assert_eq!(reasons.len(), 2, "{records:?}");
     assert!(reasons.iter().all(|r| r.contains("did not play") && r.contains("moved in 0 of")), "{reasons:?}");
-    assert!(!log.contains("\"trial_ended\""), "{log}");
+    assert!(!types(&records).contains(&"trial_ended"), "{records:?}");
 
     let _ = std::fs::remove_dir_all(&dir);
 
@@ -1165,5 +1259,102 @@ async fn a_trial_counts_only_if_the_participant_played() {
     let state = trial_without_playing(&rig, "stayer", 1, true).await;
     assert_eq!(kind_of(&state), "final", "{state:?}");
     rig.shutdown().await;
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Copies the files of `from` (and of its folders) into `to`.
+fn copy_tree(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).expect("mkdir");
+    for entry in std::fs::read_dir(from).expect("read").map(|e| e.expect("entry")) {
+        let path = entry.path();
+        if path.is_dir() {
+            copy_tree(&path, &to.join(entry.file_name()));
+        } else {
+            std::fs::copy(&path, to.join(entry.file_name())).expect("copy");
+        }
+    }
+}
+
+/// Each file's bytes under `dir`, by name.
+fn contents(dir: &Path) -> std::collections::BTreeMap<String, Vec<u8>> {
+    std::fs::read_dir(dir)
+        .expect("read")
+        .map(|e| e.expect("entry").path())
+        .map(|p| {
+            (p.file_name().expect("name").to_string_lossy().into_owned(), std::fs::read(&p).expect("read"))
+        })
+        .collect()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_older_versions_logs_are_imported_once_and_export_as_that_version_exported_them() {
+    let fixture = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/study-jsonl");
+    let dir = temp_dir("legacy");
+    copy_tree(&fixture.join("participants"), &dir.join("participants"));
+    let text = std::fs::read_to_string(fixture.join("study.toml")).expect("the study file");
+    std::fs::write(dir.join("study.toml"), &text).expect("study copy");
+    let logs = contents(&dir.join("participants"));
+    // expected/ is what the version that wrote these logs exported from them.
+    let expected = contents(&fixture.join("expected"));
+    assert_eq!(expected.len(), 4, "the four CSV files");
+    let exported = |out: &str| {
+        let out = dir.join(out);
+        study::export(&dir, &out).expect("export");
+        expected.keys().map(|name| (name.clone(), std::fs::read(out.join(name)).expect("exported"))).collect()
+    };
+    let before: std::collections::BTreeMap<String, Vec<u8>> = exported("export-logs");
+    assert_eq!(before, expected, "the logs export as before, without a server");
+    assert!(!dir.join("study.sqlite3").exists(), "the export writes no database");
+
+    // Ann continues in the browser that arrived as her (its cookie kept by that version).
+    let browser = Browser::default();
+    browser.jar.lock().expect("jar").insert("bw4t_study_ann".into(), "ann-secret".into());
+    let rig = StudyRig::start_as(&dir, &text, browser.clone(), EventBudget::default()).await;
+    let (_, list) = rig.operator("GET", "/api/study/participants").await;
+    let people: Vec<(String, usize)> =
+        read::<ParticipantList>(&list).participants.into_iter().map(|p| (p.participant, p.step)).collect();
+    assert_eq!(people, [("ann".into(), 3), ("bob".into(), 0), ("carl".into(), 1)]);
+    rig.shutdown().await;
+    assert_eq!(exported("export-imported"), expected, "imported, the data exports byte for byte the same");
+    let ann = stored(&dir, "ann");
+    assert_eq!(ann.iter().map(|(seq, _, _)| *seq).collect::<Vec<_>>(), (1..=11).collect::<Vec<_>>());
+    assert_eq!(types(&stored(&dir, "bob")), ["created", "event", "answer"], "the torn line is left out");
+
+    // Started again: nothing is imported twice, and Ann's records go on from her log's.
+    let rig = StudyRig::start_as(&dir, &text, browser, EventBudget::default()).await;
+    let (status, state) = rig.call("GET", "/api/study/participants/ann", None).await;
+    assert_eq!((status, kind_of(&read(&state))), (200, "trial".into()), "{state}");
+    let (status, _) = rig
+        .call("POST", "/api/study/participants/ann/events", Some(json!({"events": [{"kind": "focus"}]})))
+        .await;
+    assert_eq!(status, 200);
+    rig.shutdown().await;
+    let ann = stored(&dir, "ann");
+    assert_eq!((ann.len(), ann[11].0, ann[11].1.as_str()), (12, 12, "event"), "{ann:?}");
+    assert_eq!(contents(&dir.join("participants")), logs, "the old logs are left as they were");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_database_that_is_not_a_studys_is_refused_naming_it() {
+    let dir = temp_dir("foreign-database");
+    let file = dir.join("short.toml");
+    std::fs::write(&file, SHORT).expect("study file");
+    let data = dir.join("data");
+    std::fs::create_dir_all(&data).expect("mkdir");
+    let database = data.join("study.sqlite3");
+    std::fs::write(&database, "id,name\n1,ann\n".repeat(200)).expect("a CSV file by that name");
+    let (data_arg, file_arg) = (data.to_str().expect("path"), file.to_str().expect("path"));
+    let served = crate::util::bw4t_within(
+        &["study", file_arg, "--data", data_arg, "--port", "0", "--http", "0"],
+        WAIT,
+    );
+    let export = crate::util::bw4t_within(&["study", "export", data_arg], WAIT);
+    for (what, output) in [("serving", served), ("the export", export)] {
+        let error = String::from_utf8_lossy(&output.stderr);
+        assert!(!output.status.success(), "{what} refuses it");
+        assert!(error.contains(&database.display().to_string()), "{what} names the file: {error}");
+        assert!(error.contains("not a database"), "{what}: {error}");
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }

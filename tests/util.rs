@@ -519,6 +519,8 @@ pub struct Seen {
     pub ended: bool,
     /// `lobby` messages, in order.
     pub lobbies: Vec<bw4t_protocol::Lobby>,
+    /// Each `pause` heard: paused or resumed.
+    pub pauses: Vec<bool>,
 }
 
 /// A player that answers every `percepts` with `ready` (in lockstep), so matches move
@@ -613,6 +615,7 @@ impl AutoPlayer {
                             SessionEvent::Error(e) => s.errors.push(e.code.to_string()),
                             SessionEvent::MatchEnd(_) | SessionEvent::Bye(_) => s.ended = true,
                             SessionEvent::Lobby(l) => s.lobbies.push(l),
+                            SessionEvent::Pause(p) => s.pauses.push(p.paused),
                             SessionEvent::Welcome(_) => {}
                         }
                     }

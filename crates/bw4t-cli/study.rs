@@ -20,7 +20,8 @@ pub(crate) struct StudyArgs {
     /// The study file (every key: docs/STUDIES.md, examples/study/study.toml).
     #[arg(value_name = "STUDY.toml", required = true)]
     file: Option<PathBuf>,
-    /// Where the study's data goes: a copy of the study file, each participant's log,
+    /// Where the study's data goes: a copy of the study file, the participants' records
+    /// (the SQLite database study.sqlite3),
     /// the matches' results and replays. A restarted server continues from it.
     #[arg(long, value_name = "DIR", default_value = "study-data")]
     data: PathBuf,

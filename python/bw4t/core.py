@@ -241,6 +241,8 @@ class ProtocolCore:
         self.pongs: Dict[Any, int] = {}
         #: The latest ``lobby`` received (``None`` before any).
         self.lobby: Optional[Lobby] = None
+        #: Whether the operator has paused the match (the latest ``pause``).
+        self.paused = False
         #: Called with each ``lobby`` as it is received.
         self.on_lobby: Optional[Callable[[Lobby], None]] = None
         #: True from a ``lobby`` with a queue place until ``welcome`` (no seat yet).
@@ -416,6 +418,9 @@ class ProtocolCore:
                 self.in_queue = True
             if self.on_lobby is not None:
                 self.on_lobby(self.lobby)
+        elif kind == "pause":
+            # The operator paused (or resumed) the match; no tick comes while paused.
+            self.paused = bool(msg.get("paused"))
         elif kind == "pong":
             key = msg.get("id")
             self.pongs[key] = self.pongs.get(key, 0) + 1

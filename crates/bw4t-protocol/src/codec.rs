@@ -11,7 +11,7 @@ pub const MAX_LINE: usize = 64 * 1024;
 
 const CLIENT_TYPES: &[&str] = &["hello", "act", "say", "ready", "resync", "ping", "bye", "report"];
 const SERVER_TYPES: &[&str] =
-    &["welcome", "percepts", "ack", "result", "error", "pong", "match_end", "bye", "frame", "lobby"];
+    &["welcome", "percepts", "ack", "result", "error", "pong", "match_end", "bye", "frame", "lobby", "pause"];
 
 /// A line that is not a valid message, with the protocol's error code.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]

@@ -18,7 +18,7 @@ use serde_json::{Value, json};
 
 use super::credential::{self, Proof};
 use super::flow::{Participant, Record, event_size, order_for, valid_id};
-use super::{Ended, Slot, StudyServer, TrialRefusal, append, lock, now_ms};
+use super::{Ended, Slot, StudyServer, TrialRefusal, lock, now_ms};
 
 /// What a study request is answered with.
 pub(crate) enum Answer {
@@ -194,7 +194,7 @@ fn with_participant(
 }
 
 fn write_failed(e: &std::io::Error) -> Answer {
-    tracing::error!(target: "bw4t::study", error = %e, "cannot append to a participant's log");
+    tracing::error!(target: "bw4t::study", error = %e, "cannot write to the study's database");
     error(StatusCode::INTERNAL_SERVER_ERROR, "the server could not record this; please try again")
 }
 
@@ -273,7 +273,7 @@ impl StudyServer {
                 Err(answer) => return answer,
             };
             let mut slot = lock(&slot);
-            return match append(&mut slot, &[Record::Resumed { params }]) {
+            return match self.append(&mut slot, &[Record::Resumed { params }]) {
                 Ok(()) => reply(StatusCode::OK, &self.state_of(&slot.state)),
                 Err(e) => write_failed(&e),
             };
@@ -282,14 +282,13 @@ impl StudyServer {
             Ok(secret) => secret,
             Err(e) => return write_failed(&e),
         };
-        let number = all.values().map(|s| lock(s).state.number + 1).max().unwrap_or(0);
+        let number = match self.inner.store.next_number() {
+            Ok(number) => number,
+            Err(e) => return write_failed(&e),
+        };
         let order = order_for(self.study(), number, &id);
-        let path = self.inner.dir.join("participants").join(format!("{id}.jsonl"));
-        if let Err(e) = std::fs::OpenOptions::new().create_new(true).append(true).open(&path) {
-            return write_failed(&e);
-        }
         let names = order.iter().map(|c| self.study().conditions[*c].name.clone()).collect();
-        let mut slot = Slot { state: Participant::new(&id, number, order, now_ms()), log: path.clone() };
+        let mut slot = Slot { state: Participant::new(&id, number, order, now_ms()) };
         let created = Record::Created {
             participant: id.clone(),
             number,
@@ -297,8 +296,7 @@ impl StudyServer {
             params,
             secret_sha256: Some(credential::digest(&secret)),
         };
-        if let Err(e) = append(&mut slot, &[created]) {
-            let _ = std::fs::remove_file(&path);
+        if let Err(e) = self.append(&mut slot, &[created]) {
             return write_failed(&e);
         }
         let state = self.state_of(&slot.state);
@@ -404,7 +402,7 @@ impl StudyServer {
                 return conflict("the final page takes no answer".into(), &slot.state, self);
             }
         };
-        match append(&mut slot, &records) {
+        match self.append(&mut slot, &records) {
             Ok(()) => reply(StatusCode::OK, &self.state_of(&slot.state)),
             Err(e) => write_failed(&e),
         }
@@ -472,7 +470,7 @@ impl StudyServer {
                 r#match: name.to_string(),
                 match_id: match_id.to_string(),
             };
-            match append(slot, &[record]) {
+            match self.append(slot, &[record]) {
                 Ok(()) => reply(StatusCode::OK, &self.state_of(&slot.state)),
                 Err(e) => write_failed(&e),
             }
@@ -519,7 +517,7 @@ impl StudyServer {
                 );
             }
             let records: Vec<Record> = events.iter().map(|e| Record::Event { event: e.clone() }).collect();
-            match append(slot, &records) {
+            match self.append(slot, &records) {
                 Ok(()) => reply(StatusCode::OK, &EventsRecorded { recorded: records.len() }),
                 Err(e) => write_failed(&e),
             }

@@ -17,7 +17,7 @@ pub(crate) fn new_secret() -> std::io::Result<String> {
     Ok(hex(&bytes))
 }
 
-/// The SHA-256 of `secret`, in hex: what the log keeps.
+/// The SHA-256 of `secret`, in hex: what the study's database keeps.
 pub(crate) fn digest(secret: &str) -> String {
     hex(&Sha256::digest(secret.as_bytes()))
 }
@@ -55,7 +55,7 @@ pub(crate) fn presented<'a>(headers: &'a HeaderMap, id: &str) -> Option<&'a str>
         .map(|(_, value)| value.trim())
 }
 
-/// What a request proves about participant `id`, whose log keeps `expected` (a digest).
+/// What a request proves about participant `id`, whose records keep `expected` (a digest).
 #[derive(Debug, PartialEq, Eq)]
 pub(crate) enum Proof {
     /// The right secret.

@@ -1,12 +1,15 @@
 //! `bw4t study export`: a study's data directory as tidy CSV (one row per event, per trial
 //! and per answer, one per participant), `metadata.json`, and each trial's replay with
 //! the participant, condition and trial in its header's labels. Rows are ordered by
-//! participant id, then by their log's `seq`, so two exports of the same data are equal.
+//! participant id, then by their records' `seq`, so two exports of the same data are
+//! equal. The data is read from the study's database (read only, in one transaction, so a
+//! study being served can be exported); a directory an older version wrote, with only its
+//! participants' logs, is read by importing them into a database in memory.
 //!
 //! A cell a participant could have written cannot become a spreadsheet formula: one that
 //! begins with `=`, `+`, `-`, `@`, a tab or a carriage return (and is not a plain number)
 //! gets a `'` in front, as OWASP's CSV-injection guidance says; the raw values stay in the
-//! participants' logs.
+//! database.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -14,6 +17,7 @@ use std::path::{Path, PathBuf};
 use serde_json::{Value, json};
 
 use super::flow::{Participant, Record};
+use super::store::{DATABASE, Store, Stored};
 
 /// What an export wrote.
 #[derive(Clone, Debug, Default)]
@@ -32,13 +36,6 @@ pub struct ExportSummary {
     pub events: usize,
     /// Replays copied.
     pub replays: usize,
-}
-
-/// A log line read back.
-struct Line {
-    seq: u64,
-    server_ms: u64,
-    record: Record,
 }
 
 /// One trial attempt.
@@ -115,7 +112,7 @@ pub fn export(dir: &Path, out: &Path) -> Result<ExportSummary, String> {
         .collect();
     let study_name =
         study.get("study").and_then(|s| s.get("name")).and_then(toml::Value::as_str).unwrap_or("");
-    let logs = read_logs(&dir.join("participants"))?;
+    let logs = read(dir).map_err(|e| e.to_string())?;
     std::fs::create_dir_all(out.join("replays"))
         .map_err(|e| format!("cannot write {}: {e}", out.display()))?;
 
@@ -332,35 +329,20 @@ fn attempt<'a>(
     &mut trials[at]
 }
 
-/// Every participant's log lines, by id, in `seq` order; lines that are not records (a
-/// line torn by a kill) are left out.
-fn read_logs(dir: &Path) -> Result<BTreeMap<String, Vec<Line>>, String> {
-    let mut out = BTreeMap::new();
-    let entries = std::fs::read_dir(dir).map_err(|e| format!("cannot read {}: {e}", dir.display()))?;
-    for entry in entries.filter_map(Result::ok) {
-        let path = entry.path();
-        let Some(id) = path
-            .file_stem()
-            .and_then(|s| s.to_str())
-            .filter(|_| path.extension().is_some_and(|x| x == "jsonl"))
-        else {
-            continue;
-        };
-        let text =
-            std::fs::read_to_string(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-        let mut lines: Vec<Line> = text
-            .lines()
-            .filter_map(|l| {
-                let v: Value = serde_json::from_str(l).ok()?;
-                let seq = v.get("seq")?.as_u64()?;
-                let server_ms = v.get("server_ms")?.as_u64()?;
-                Some(Line { seq, server_ms, record: serde_json::from_value(v).ok()? })
-            })
-            .collect();
-        lines.sort_by_key(|l| l.seq);
-        out.insert(id.to_string(), lines);
-    }
-    Ok(out)
+/// Every participant's records, by id, in `seq` order: from the database, else from the
+/// logs of an older version.
+fn read(dir: &Path) -> std::io::Result<BTreeMap<String, Vec<Stored>>> {
+    let database = dir.join(DATABASE);
+    let store = if database.exists() {
+        Store::open_read_only(&database)?
+    } else if dir.join(super::legacy::LOGS).is_dir() {
+        let store = Store::in_memory()?;
+        super::legacy::import(&store, dir)?;
+        store
+    } else {
+        return Err(std::io::Error::other(format!("{}: no study data (no {DATABASE})", dir.display())));
+    };
+    store.everything()
 }
 
 /// Copies a trial's replay with the participant, condition and trial added to its

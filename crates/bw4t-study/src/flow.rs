@@ -1,5 +1,5 @@
-//! One participant's way through the study: the records of their log, the state those
-//! records make (replayed in order, so a restarted server continues where they were),
+//! One participant's way through the study: their records (kept by `store.rs`), the state
+//! those records make (replayed in order, so a restarted server continues where they were),
 //! their order of the conditions, and the page each step shows.
 
 use bw4t_protocol::{ParticipantState, StudyPage, TrialHello, TrialLanguage};
@@ -8,7 +8,7 @@ use serde_json::Value;
 
 use super::config::{Order, Page, Study};
 
-/// One line of a participant's log (besides `seq` and `server_ms`, which every line has).
+/// One of a participant's records (besides `seq` and `server_ms`, which every one has).
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(tag = "type", rename_all = "snake_case")]
 pub(crate) enum Record {

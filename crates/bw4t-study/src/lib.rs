@@ -2,13 +2,14 @@
 //! an arena template, and pages every participant goes through in order (consent,
 //! instructions, trials in a counterbalanced order, questionnaires, a final page).
 //!
-//! Each participant's every step and event is a line appended to
-//! `DIR/participants/ID.jsonl`, written with one `write_all` per request (the file is
-//! opened for that write only, so descriptors do not grow with participants), so a killed
-//! server loses nothing already answered; at start the state is rebuilt from those logs
-//! (`flow.rs`). A participant's routes need the secret their arrival set as a cookie
-//! (`credential.rs`). The HTTP side is `api.rs` and the study's pages (`web.rs`), mounted on
-//! the server's web port as [`Routes`]; [`export`] makes tidy CSV of a data directory.
+//! Each participant's every step and event is a record (`flow.rs`) in the study's SQLite
+//! database, `DIR/study.sqlite3` (`store.rs`): one connection for the whole server, each
+//! request's records one transaction committed before the request is answered, so a killed
+//! server loses nothing already answered; at start each participant's state is rebuilt
+//! from their records, after the logs of an older version are imported (`legacy.rs`). A
+//! participant's routes need the secret their arrival set as a cookie (`credential.rs`).
+//! The HTTP side is `api.rs` and the study's pages (`web.rs`), mounted on the server's web
+//! port as [`Routes`]; [`export`] makes tidy CSV of a data directory.
 
 mod answers;
 mod api;
@@ -16,13 +17,13 @@ mod config;
 mod credential;
 mod export;
 mod flow;
+mod legacy;
 mod markdown;
+mod store;
 mod web;
 
 use std::collections::BTreeMap;
-use std::fs::{File, OpenOptions};
-use std::io::{BufRead, Write};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::{Arc, Mutex, MutexGuard};
 
 use serde_json::{Value, json};
@@ -32,8 +33,9 @@ pub use export::{ExportSummary, export};
 
 use bw4t_server::{Answering, Arena, Reply, Routes, WebRequest};
 use flow::{Participant, Record};
+use store::{Store, Stored};
 
-/// A study being served: its participants, their logs, the arena its trials play in.
+/// A study being served: its participants, their records, the arena its trials play in.
 #[derive(Clone)]
 pub struct StudyServer {
     inner: Arc<Shared>,
@@ -42,7 +44,7 @@ pub struct StudyServer {
 struct Shared {
     study: Study,
     budget: EventBudget,
-    dir: PathBuf,
+    store: Store,
     arena: Arena,
     participants: Mutex<BTreeMap<String, Arc<Mutex<Slot>>>>,
 }
@@ -65,13 +67,12 @@ impl Default for EventBudget {
     }
 }
 
-/// A participant and where their log is.
+/// A participant's state, locked while a request of theirs is answered.
 struct Slot {
     state: Participant,
-    log: PathBuf,
 }
 
-/// The milliseconds since the Unix epoch (the logs' `server_ms`).
+/// The milliseconds since the Unix epoch (the records' `server_ms`).
 pub fn now_ms() -> u64 {
     std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
@@ -83,9 +84,10 @@ fn lock<T>(mutex: &Mutex<T>) -> MutexGuard<'_, T> {
 }
 
 impl StudyServer {
-    /// Serves `study` on `arena` (made from [`Study::templates`]), its data in `dir`
-    /// (`participants/` made if missing). Every participant's state is rebuilt from their
-    /// log; a trial whose match did not end before the server stopped is marked
+    /// Serves `study` on `arena` (made from [`Study::templates`]), its data in `dir`'s
+    /// database (`study.sqlite3`, made if missing; the logs of an older version in
+    /// `participants/` are imported into it). Every participant's state is rebuilt from
+    /// their records; a trial whose match did not end before the server stopped is marked
     /// incomplete and given again. The study answers on the arena's HTTP API for as
     /// long as it is mounted on the server's web port (its [`Routes`]).
     pub fn open(study: Study, dir: &Path, arena: Arena) -> std::io::Result<StudyServer> {
@@ -99,31 +101,27 @@ impl StudyServer {
         arena: Arena,
         budget: EventBudget,
     ) -> std::io::Result<StudyServer> {
-        let logs = dir.join("participants");
-        std::fs::create_dir_all(&logs)?;
+        std::fs::create_dir_all(dir)?;
+        let store = Store::open(dir)?;
+        legacy::import(&store, dir)?;
+        let ids = store.participants()?;
         let server = StudyServer {
             inner: Arc::new(Shared {
                 study,
                 budget,
-                dir: dir.to_path_buf(),
+                store,
                 arena,
                 participants: Mutex::new(BTreeMap::new()),
             }),
         };
-        let mut files: Vec<PathBuf> = std::fs::read_dir(&logs)?
-            .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| p.extension().is_some_and(|x| x == "jsonl"))
-            .collect();
-        files.sort();
-        for path in files {
-            match server.reload(&path) {
+        for id in ids {
+            match server.reload(&id) {
                 Ok(Some(slot)) => {
-                    let id = slot.state.id.clone();
                     lock(&server.inner.participants).insert(id, Arc::new(Mutex::new(slot)));
                 }
                 Ok(None) => {}
                 Err(e) => {
-                    tracing::error!(target: "bw4t::study", path = %path.display(), error = %e, "cannot read a participant's log");
+                    tracing::error!(target: "bw4t::study", participant = %id, error = %e, "cannot rebuild a participant's state");
                 }
             }
         }
@@ -135,27 +133,15 @@ impl StudyServer {
         &self.inner.study
     }
 
-    /// How many participants have a log.
+    /// How many participants there are.
     pub fn participants(&self) -> usize {
         lock(&self.inner.participants).len()
     }
 
-    /// A participant's state rebuilt from their log; a trial left running is settled.
-    fn reload(&self, path: &Path) -> std::io::Result<Option<Slot>> {
-        let reader = std::io::BufReader::new(File::open(path)?);
+    /// A participant's state rebuilt from their records; a trial left running is settled.
+    fn reload(&self, id: &str) -> std::io::Result<Option<Slot>> {
         let mut state: Option<Participant> = None;
-        for (n, line) in reader.lines().enumerate() {
-            let line = line?;
-            let parsed = serde_json::from_str::<Value>(&line).ok().and_then(|v| {
-                let seq = v.get("seq")?.as_u64()?;
-                let ms = v.get("server_ms")?.as_u64()?;
-                Some((seq, ms, serde_json::from_value::<Record>(v).ok()?))
-            });
-            let Some((seq, ms, record)) = parsed else {
-                // Only a line cut by a kill while it was written can be torn: the last.
-                tracing::warn!(target: "bw4t::study", path = %path.display(), line = n + 1, "a log line that is not a record is skipped");
-                continue;
-            };
+        for Stored { seq, server_ms: ms, record } in self.inner.store.records(id)? {
             if let Record::Created { participant, number, order, .. } = &record {
                 let order = order
                     .iter()
@@ -172,7 +158,7 @@ impl StudyServer {
             }
         }
         let Some(state) = state else { return Ok(None) };
-        let mut slot = Slot { state, log: path.to_path_buf() };
+        let mut slot = Slot { state };
         if let Some((_, match_id)) = slot.state.playing.clone() {
             // The server stopped during this trial. Its match either ended (the page had
             // not answered yet) or was interrupted by the stop.
@@ -190,7 +176,7 @@ impl StudyServer {
                     vec![self.incomplete(&slot.state, step, &match_id, "the server stopped during the trial")]
                 }
             };
-            append(&mut slot, &records)?;
+            self.append(&mut slot, &records)?;
         }
         Ok(Some(slot))
     }
@@ -278,6 +264,18 @@ impl StudyServer {
     fn slot(&self, id: &str) -> Option<Arc<Mutex<Slot>>> {
         lock(&self.inner.participants).get(id).cloned()
     }
+
+    /// Writes `records` in one transaction and, once it is committed, applies them.
+    fn append(&self, slot: &mut Slot, records: &[Record]) -> std::io::Result<()> {
+        let now = now_ms();
+        let first = slot.state.seq + 1;
+        self.inner.store.append(&slot.state.id, first, now, records)?;
+        slot.state.seq += records.len() as u64;
+        for record in records {
+            slot.state.apply(record, now);
+        }
+        Ok(())
+    }
 }
 
 /// A trial's match, ended.
@@ -326,32 +324,6 @@ fn trial_result(result: &Value) -> Value {
         kept.insert("players".into(), names.into());
     }
     Value::Object(kept)
-}
-
-/// Appends `records` to the participant's log in one write, then applies them.
-fn append(slot: &mut Slot, records: &[Record]) -> std::io::Result<()> {
-    let now = now_ms();
-    let mut text = String::new();
-    let mut seq = slot.state.seq;
-    for record in records {
-        seq += 1;
-        let mut line = serde_json::Map::new();
-        line.insert("seq".into(), seq.into());
-        line.insert("server_ms".into(), now.into());
-        if let Ok(Value::Object(fields)) = serde_json::to_value(record) {
-            line.extend(fields);
-        }
-        text.push_str(&Value::Object(line).to_string());
-        text.push('\n');
-    }
-    let mut file = OpenOptions::new().append(true).open(&slot.log)?;
-    file.write_all(text.as_bytes())?;
-    file.flush()?;
-    slot.state.seq = seq;
-    for record in records {
-        slot.state.apply(record, now);
-    }
-    Ok(())
 }
 
 impl Routes for StudyServer {

@@ -170,6 +170,8 @@ export class PlayerSession {
   ended = false;
   /** Waiting in a template's queue for a seat (from its first place until `welcome`). */
   queued = false;
+  /** Whether the operator has paused the match (the latest `pause`). */
+  paused = false;
   /** `welcome` and a `percepts` after it arrived. */
   joined = false;
 
@@ -393,6 +395,11 @@ export class PlayerSession {
       }
       case 'lobby':
         this.#onLobby(message, events);
+        break;
+      case 'pause':
+        // The operator paused (or resumed) the match; no tick comes while paused.
+        this.paused = Boolean(message.paused);
+        events.push({ type: 'pause', paused: this.paused });
         break;
       case 'percepts':
         this.#onPercepts(message, events);
