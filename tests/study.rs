@@ -13,7 +13,7 @@ use bw4t_protocol::{
     StudyInfo, StudyPage, TrialHello, TrialLanguage,
 };
 use bw4t_server::{Arena, ArenaConfig, ResultsStore};
-use bw4t_study::{self as study, EventBudget, StudyServer};
+use bw4t_study::{self as study, StudyBudget, StudyServer};
 use serde_json::{Value, json};
 use tokio::sync::oneshot;
 
@@ -203,11 +203,11 @@ struct StudyRig {
 
 impl StudyRig {
     async fn start(dir: &Path, text: &str) -> StudyRig {
-        StudyRig::start_as(dir, text, Browser::default(), EventBudget::default()).await
+        StudyRig::start_as(dir, text, Browser::default(), StudyBudget::default()).await
     }
 
     /// A study whose participants use `browser`, each with `budget` of events.
-    async fn start_as(dir: &Path, text: &str, browser: Browser, budget: EventBudget) -> StudyRig {
+    async fn start_as(dir: &Path, text: &str, browser: Browser, budget: StudyBudget) -> StudyRig {
         std::fs::write(dir.join("study.toml"), text).expect("study copy");
         let study = parse(text).expect("the study file is good");
         let mut config = ArenaConfig::new(study.templates());
@@ -654,7 +654,7 @@ async fn a_restarted_server_continues_each_participant_and_gives_a_lost_trial_ag
     rig.shutdown().await;
     drop(client);
 
-    let rig = StudyRig::start_as(&dir, STUDY, browser, EventBudget::default()).await;
+    let rig = StudyRig::start_as(&dir, STUDY, browser, StudyBudget::default()).await;
     let (status, again) = rig.call("GET", "/api/study/participants/carol", None).await;
     let again: ParticipantState = read(&again);
     // With a new seat token: the one granted before the restart died with that server.
@@ -724,11 +724,17 @@ struct StudyProcess {
 
 impl StudyProcess {
     fn spawn(file: &Path, data: &Path) -> StudyProcess {
+        StudyProcess::spawn_with(file, data, &[])
+    }
+
+    /// Started with more options.
+    fn spawn_with(file: &Path, data: &Path, options: &[&str]) -> StudyProcess {
         use std::io::BufRead;
         let mut child = KillOnDrop(
             std::process::Command::new(env!("CARGO_BIN_EXE_bw4t"))
                 .args(["study", file.to_str().expect("path"), "--data", data.to_str().expect("path")])
                 .args(["--port", "0", "--http", "0", "--operator-token", TOKEN, "-q"])
+                .args(options)
                 .stdout(std::process::Stdio::piped())
                 .stderr(std::process::Stdio::null())
                 .spawn()
@@ -1109,7 +1115,8 @@ async fn descriptors_do_not_grow_with_participants() {
     let file = dir.join("short.toml");
     std::fs::write(&file, SHORT).expect("study file");
     let data = dir.join("data");
-    let server = StudyProcess::spawn(&file, &data);
+    // 2,000 arrivals from this one address: far beyond the default rate.
+    let server = StudyProcess::spawn_with(&file, &data, &["--arrivals-per-minute", "1000000"]);
     let pid = server.child.0.id();
     let arrive_anonymously = || async {
         let (status, answer) =
@@ -1141,7 +1148,7 @@ async fn descriptors_do_not_grow_with_participants() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_participant_cannot_record_more_events_than_the_budget() {
     let dir = temp_dir("event-budget");
-    let budget = EventBudget { events: 5, bytes: 400 };
+    let budget = StudyBudget { events: 5, bytes: 400, ..StudyBudget::default() };
     let rig = StudyRig::start_as(&dir, SHORT, Browser::default(), budget).await;
     let path = "/api/study/participants/flood/events";
     rig.call("POST", "/api/study/participants", Some(json!({"params": {"pid": "flood"}}))).await;
@@ -1309,7 +1316,7 @@ async fn an_older_versions_logs_are_imported_once_and_export_as_that_version_exp
     // Ann continues in the browser that arrived as her (its cookie kept by that version).
     let browser = Browser::default();
     browser.jar.lock().expect("jar").insert("bw4t_study_ann".into(), "ann-secret".into());
-    let rig = StudyRig::start_as(&dir, &text, browser.clone(), EventBudget::default()).await;
+    let rig = StudyRig::start_as(&dir, &text, browser.clone(), StudyBudget::default()).await;
     let (_, list) = rig.operator("GET", "/api/study/participants").await;
     let people: Vec<(String, usize)> =
         read::<ParticipantList>(&list).participants.into_iter().map(|p| (p.participant, p.step)).collect();
@@ -1321,7 +1328,7 @@ async fn an_older_versions_logs_are_imported_once_and_export_as_that_version_exp
     assert_eq!(types(&stored(&dir, "bob")), ["created", "event", "answer"], "the torn line is left out");
 
     // Started again: nothing is imported twice, and Ann's records go on from her log's.
-    let rig = StudyRig::start_as(&dir, &text, browser, EventBudget::default()).await;
+    let rig = StudyRig::start_as(&dir, &text, browser, StudyBudget::default()).await;
     let (status, state) = rig.call("GET", "/api/study/participants/ann", None).await;
     assert_eq!((status, kind_of(&read(&state))), (200, "trial".into()), "{state}");
     let (status, _) = rig
@@ -1356,5 +1363,36 @@ fn a_database_that_is_not_a_studys_is_refused_naming_it() {
         assert!(error.contains(&database.display().to_string()), "{what} names the file: {error}");
         assert!(error.contains("not a database"), "{what}: {error}");
     }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn one_address_cannot_make_participants_faster_than_its_rate() {
+    let dir = temp_dir("arrivals");
+    let file = dir.join("short.toml");
+    std::fs::write(&file, SHORT).expect("study file");
+    // The test's requests come through a "proxy" (this machine) naming the participant's address.
+    let options = ["--arrivals-per-minute", "3", "--trust-proxy", "127.0.0.1"];
+    let server = StudyProcess::spawn_with(&file, &dir.join("data"), &options);
+    let arrive = |browser: Browser, from: &'static str, id: &'static str| async move {
+        let headers = [("Content-Type", "application/json"), ("X-Forwarded-For", from)];
+        let body = json!({"params": {"participant": id}}).to_string();
+        let got = browser.send(server.web, "POST", "/api/study/participants", &headers, &body).await;
+        (got.status, got.body)
+    };
+    let first = Browser::default();
+    assert_eq!(arrive(first.clone(), "203.0.113.7", "a1").await.0, 201);
+    for id in ["a2", "a3"] {
+        assert_eq!(arrive(Browser::default(), "203.0.113.7", id).await.0, 201);
+    }
+    let (status, refused) = arrive(Browser::default(), "203.0.113.7", "a4").await;
+    assert_eq!(status, 429, "{refused}");
+    assert!(refused.contains("at most 3 a minute"), "{refused}");
+    // Another address has its own rate; someone coming back is no new arrival.
+    assert_eq!(arrive(Browser::default(), "198.51.100.1", "b1").await.0, 201);
+    assert_eq!(arrive(first, "203.0.113.7", "a1").await.0, 200);
+    let (status, list) = http(server.web, "GET", "/api/study/participants", Some(TOKEN), None).await;
+    let list: ParticipantList = serde_json::from_str(&list).expect("the list");
+    assert_eq!((status, list.participants.len()), (200, 4), "the refused arrival made nobody");
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -52,8 +52,13 @@ pub(crate) struct StudyArgs {
     /// for participants who share one address.
     #[arg(long, value_name = "N", default_value_t = bw4t_server::ServerConfig::default().max_per_source)]
     max_per_source: usize,
+    /// New participants one source address may make a minute (more get 429): raise it
+    /// for a lab whose computers share one address.
+    #[arg(long, value_name = "N", default_value_t = bw4t_study::StudyBudget::ARRIVALS_PER_MINUTE,
+          value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    arrivals_per_minute: u32,
     /// A reverse proxy in front of the web port, whose `X-Forwarded-For` names the
-    /// participant a WebSocket is counted for (repeatable).
+    /// participant a WebSocket or a request is counted for (repeatable).
     #[arg(long, value_name = "IP")]
     trust_proxy: Vec<std::net::IpAddr>,
     #[command(flatten)]
@@ -143,7 +148,11 @@ fn serve(args: &StudyArgs, file: &Path) -> Result<()> {
         outln!("listening on {local}");
         outln!("http on {web}");
         let arena = bw4t_server::Arena::start(settings).context("cannot start the study's matches")?;
-        let server = StudyServer::open(study, &args.data, arena.clone())
+        let budget = bw4t_study::StudyBudget {
+            arrivals_per_minute: args.arrivals_per_minute,
+            ..bw4t_study::StudyBudget::default()
+        };
+        let server = StudyServer::open_with(study, &args.data, arena.clone(), budget)
             .with_context(|| format!("cannot open the study's data in {}", args.data.display()))?;
         let host = if web.ip().is_unspecified() { "THIS-HOST".to_string() } else { web.ip().to_string() };
         let base = format!("http://{host}:{}", web.port());

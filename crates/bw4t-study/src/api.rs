@@ -95,7 +95,7 @@ pub(crate) async fn respond(study: &StudyServer, request: &WebRequest, rest: &[&
         (&Method::GET, ["participants"]) if !operator => Answer::Unauthorized,
         (&Method::GET, ["participants"]) => reply(StatusCode::OK, &study.list().await),
         (&Method::POST, ["participants"]) => match parse(body) {
-            Ok(body) => study.arrive(&body, headers),
+            Ok(body) => study.arrive(&body, headers, request.source),
             Err(answer) => answer,
         },
         (&Method::GET, ["participants", id]) => {
@@ -231,7 +231,7 @@ impl StudyServer {
     }
 
     /// `POST /api/study/participants`: a new participant, or one coming back.
-    fn arrive(&self, body: &Value, headers: &HeaderMap) -> Answer {
+    fn arrive(&self, body: &Value, headers: &HeaderMap, source: std::net::IpAddr) -> Answer {
         let params = body.get("params").cloned().unwrap_or_else(|| json!({}));
         let Some(map) = params.as_object() else {
             return error(StatusCode::BAD_REQUEST, "params: expected an object (the link's query)");
@@ -277,6 +277,17 @@ impl StudyServer {
                 Ok(()) => reply(StatusCode::OK, &self.state_of(&slot.state)),
                 Err(e) => write_failed(&e),
             };
+        }
+        // Only a new participant counts against the address's arrivals.
+        if let Err(wait) = self.inner.arrivals.take(source, std::time::Instant::now()) {
+            return error(
+                StatusCode::TOO_MANY_REQUESTS,
+                format!(
+                    "too many new participants from your address: at most {} a minute; try again in {} s",
+                    self.inner.arrivals.limit(),
+                    wait.as_secs().max(1)
+                ),
+            );
         }
         let secret = match credential::new_secret() {
             Ok(secret) => secret,

@@ -43,27 +43,43 @@ pub struct StudyServer {
 
 struct Shared {
     study: Study,
-    budget: EventBudget,
+    budget: StudyBudget,
+    /// Arrivals counted per source address, against `budget.arrivals_per_minute`.
+    arrivals: bw4t_server::RateBudget,
     store: Store,
     arena: Arena,
     participants: Mutex<BTreeMap<String, Arc<Mutex<Slot>>>>,
 }
 
-/// How much of the page's events one participant may have recorded: past either, more
-/// are refused (`429` for the count, `413` for the bytes), so no client fills the disk.
+/// What anonymous clients may cost the study: how much of the page's events one
+/// participant may have recorded (past either, more are refused: `429` for the count, `413`
+/// for the bytes), so no client fills the disk; and how many new participants one source
+/// address may make a minute (more get `429`), so no client makes thousands.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct EventBudget {
+pub struct StudyBudget {
     /// The most events.
     pub events: u64,
     /// The most bytes of events (each as compact JSON).
     pub bytes: u64,
+    /// The most arrivals (new participants) from one source address a minute.
+    pub arrivals_per_minute: u32,
 }
 
-impl Default for EventBudget {
-    /// Far above a long session's (a 30-minute trial logs some tens of thousands of
+impl StudyBudget {
+    /// The default arrivals a minute from one address: a lab session's worth behind one
+    /// address (a classroom's NAT) arriving at once, far below a flood.
+    pub const ARRIVALS_PER_MINUTE: u32 = 60;
+}
+
+impl Default for StudyBudget {
+    /// Events far above a long session's (a 30-minute trial logs some tens of thousands of
     /// events, a few MB), far below what fills a disk.
-    fn default() -> EventBudget {
-        EventBudget { events: 200_000, bytes: 32 * 1024 * 1024 }
+    fn default() -> StudyBudget {
+        StudyBudget {
+            events: 200_000,
+            bytes: 32 * 1024 * 1024,
+            arrivals_per_minute: StudyBudget::ARRIVALS_PER_MINUTE,
+        }
     }
 }
 
@@ -91,15 +107,15 @@ impl StudyServer {
     /// incomplete and given again. The study answers on the arena's HTTP API for as
     /// long as it is mounted on the server's web port (its [`Routes`]).
     pub fn open(study: Study, dir: &Path, arena: Arena) -> std::io::Result<StudyServer> {
-        StudyServer::open_with(study, dir, arena, EventBudget::default())
+        StudyServer::open_with(study, dir, arena, StudyBudget::default())
     }
 
-    /// [`StudyServer::open`] with a budget of events per participant.
+    /// [`StudyServer::open`] with a budget for anonymous clients.
     pub fn open_with(
         study: Study,
         dir: &Path,
         arena: Arena,
-        budget: EventBudget,
+        budget: StudyBudget,
     ) -> std::io::Result<StudyServer> {
         std::fs::create_dir_all(dir)?;
         let store = Store::open(dir)?;
@@ -108,6 +124,10 @@ impl StudyServer {
         let server = StudyServer {
             inner: Arc::new(Shared {
                 study,
+                arrivals: bw4t_server::RateBudget::new(
+                    budget.arrivals_per_minute,
+                    std::time::Duration::from_secs(60),
+                ),
                 budget,
                 store,
                 arena,
