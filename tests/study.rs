@@ -283,7 +283,7 @@ impl StudyRig {
     async fn play_trial(&self, id: &str, state: &ParticipantState) -> ParticipantState {
         let Some(StudyPage::Trial { hello, .. }) = &state.page else { panic!("not a trial: {state:?}") };
         let ended: u64 = self.arena.totals().values().map(|t| t.ended).sum();
-        let hello = serde_json::to_value(hello).expect("json");
+        let hello = player_fields(hello);
         let mut player = AutoPlayer::join_with(self.addr, hello).await;
         let name = player.welcome.match_info.name.clone();
         let step = state.step;
@@ -431,7 +431,12 @@ async fn a_participant_goes_through_the_whole_study_and_the_export_has_every_row
     };
     assert_eq!((*trial, *trials), (1, 2));
     let alice_seat = hello.seat.clone().expect("a trial's hello carries a seat token");
-    let first = TrialHello { template: "alpha".into(), name: "P1".into(), seat: Some(alice_seat.clone()) };
+    let first = TrialHello {
+        template: "alpha".into(),
+        name: "P1".into(),
+        seat: Some(alice_seat.clone()),
+        watch_token: None,
+    };
     assert_eq!(hello, &first, "the first to arrive starts with alpha");
     assert!(alice_seat.len() == 32 && alice_seat.bytes().all(|b| b.is_ascii_hexdigit()), "{alice_seat}");
     assert_eq!(language, &TrialLanguage { kinds: vec!["going_to".into(), "have".into()], free_text: false });
@@ -446,6 +451,7 @@ async fn a_participant_goes_through_the_whole_study_and_the_export_has_every_row
     let Some(StudyPage::Trial { hello, view, .. }) = &bob.page else { panic!("a trial: {bob:?}") };
     assert_eq!((hello.template.as_str(), hello.name.as_str()), ("beta", "P2"));
     assert!(hello.seat.as_ref().is_some_and(|seat| seat != &alice_seat), "each participant's own seat");
+    let watch_token = hello.watch_token.clone().expect("an overview condition's watch token");
     assert_eq!(view, "overview");
 
     // Events: any content type, appended with the server's time; unknown kinds refused.
@@ -473,6 +479,10 @@ async fn a_participant_goes_through_the_whole_study_and_the_export_has_every_row
         (json!({"name": "P9", "template": "alpha", "seat": alice_seat}), "bad_token"),
         (json!({"name": "P1", "template": "alpha", "seat": "0".repeat(32)}), "bad_token"),
         (json!({"name": "P1", "match": name}), "not_invited"),
+        // Nor watches it: an own-view condition's match is the operator's to watch, and
+        // another condition's watch token opens nothing here.
+        (json!({"role": "spectator", "match": name}), "bad_token"),
+        (json!({"role": "spectator", "match": name, "token": watch_token}), "bad_token"),
     ] {
         let mut outsider = Client::connect(rig.addr).await;
         let mut hello = json!({"type": "hello", "protocol": "bw4t", "versions": [1]});
@@ -946,7 +956,7 @@ async fn trial_hello(rig: &StudyRig, id: &str) -> Value {
         panic!("a trial first: {state:?}")
     };
     assert_eq!(*humans, 2, "{state:?}");
-    serde_json::to_value(hello).expect("json")
+    player_fields(hello)
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -1213,7 +1223,7 @@ async fn trial_without_playing(rig: &StudyRig, id: &str, step: usize, stay: bool
     let state: ParticipantState = read(&state);
     let Some(StudyPage::Trial { hello, .. }) = &state.page else { panic!("a trial: {state:?}") };
     let ended: u64 = rig.arena.totals().values().map(|t| t.ended).sum();
-    let mut player = AutoPlayer::join_with(rig.addr, serde_json::to_value(hello).expect("json")).await;
+    let mut player = AutoPlayer::join_with(rig.addr, player_fields(hello)).await;
     let (name, match_id) = (player.welcome.match_info.name.clone(), player.welcome.match_info.id.clone());
     let started = json!({"step": step, "match": name, "match_id": match_id});
     let (status, answer) =
@@ -1395,4 +1405,51 @@ async fn one_address_cannot_make_participants_faster_than_its_rate() {
     let list: ParticipantList = serde_json::from_str(&list).expect("the list");
     assert_eq!((status, list.participants.len()), (200, 4), "the refused arrival made nobody");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_study_server_shows_its_matches_to_the_operator_only() {
+    let dir = temp_dir("closed");
+    let file = dir.join("short.toml");
+    std::fs::write(&file, SHORT).expect("study file");
+    let server = StudyProcess::spawn(&file, &dir.join("data"));
+    let browser = Browser::default();
+    let arrival = json!({"params": {"participant": "gus"}});
+    assert_eq!(browser.json(server.web, "POST", "/api/study/participants", Some(&arrival)).await.0, 201);
+    let body = json!({"step": 0, "answers": {"consent": true}});
+    let (status, state) =
+        browser.json(server.web, "POST", "/api/study/participants/gus/answer", Some(&body)).await;
+    assert_eq!(status, 200, "{state}");
+    let fields = state["page"]["hello"].clone();
+    let hello = json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": fields["name"],
+                       "template": fields["template"], "seat": fields["seat"], "every_tick": true});
+    let (_player, welcome) = welcomed(server.addr, hello).await;
+    let name = welcome.match_info.name.clone();
+    // No lobby: the listing, a match's summary and the templates are not for outsiders.
+    for path in ["/api/matches".to_string(), format!("/api/matches/{name}")] {
+        let (status, body) = http(server.web, "GET", &path, None, None).await;
+        assert_eq!(status, 401, "{path}: {body}");
+        let (status, _) = http(server.web, "GET", &path, Some(TOKEN), None).await;
+        assert_eq!(status, 200, "{path}: the operator's");
+    }
+    let (status, info) = http(server.web, "GET", "/info.json", None, None).await;
+    let info: Value = serde_json::from_str(&info).expect("json");
+    assert_eq!((status, &info["lobby"], &info["templates"]), (200, &json!(false), &json!([])), "{info}");
+    // Watching needs the operator's token.
+    let mut outsider = Client::connect(server.addr).await;
+    outsider
+        .send(json!({"type": "hello", "protocol": "bw4t", "versions": [1], "role": "spectator",
+                         "match": name}))
+        .await;
+    assert_eq!(outsider.error_code().await, "bad_token");
+    let operator = json!({"type": "hello", "protocol": "bw4t", "versions": [1], "role": "operator",
+                          "match": name, "token": TOKEN});
+    let (_operator, watching) = welcomed(server.addr, operator).await;
+    assert_eq!(watching.match_info.name, name);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// What a trial page's hello asks of a player's session (the watch token is the overview's).
+fn player_fields(hello: &TrialHello) -> Value {
+    json!({"name": hello.name, "template": hello.template, "seat": hello.seat})
 }

@@ -116,6 +116,7 @@ fn serve(args: &StudyArgs, file: &Path) -> Result<()> {
     let mut settings = ArenaConfig::new(study.templates());
     settings.default = None;
     settings.server.operator_token = Some(token.clone());
+    settings.server.closed = true;
     settings.server.allowed_origins = args.allow_origin.clone();
     settings.server.max_connections = args.max_connections;
     settings.server.max_per_source = args.max_per_source;

@@ -119,6 +119,10 @@ pub struct TrialHello {
     /// The seat token that binds the seat to the participant (`hello.seat`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub seat: Option<String>,
+    /// A condition whose view is the whole map: the spectator token of its matches, for
+    /// the overview beside the player's own view.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub watch_token: Option<String>,
 }
 
 /// The messages a trial's player may send.

@@ -383,7 +383,9 @@ function showPlayerPanel() {
  * keeps its own view. */
 function startOverview(matchName) {
   stopOverview();
-  const hello = helloFor(matchName ? { role: 'spectator', match: matchName } : { role: 'spectator' });
+  // A study's condition gives its spectator token (its matches are watched by no one else).
+  const watch = player.extra.watch_token ? { token: player.extra.watch_token } : {};
+  const hello = helloFor(matchName ? { role: 'spectator', match: matchName, ...watch } : { role: 'spectator', ...watch });
   const socket = openSocket(
     hello,
     (message) => {

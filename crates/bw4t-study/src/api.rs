@@ -224,8 +224,13 @@ impl StudyServer {
     /// binds their seat in the condition's matches to them.
     fn state_of(&self, p: &Participant) -> ParticipantState {
         let mut state = p.state(self.study());
-        if let Some(StudyPage::Trial { hello, .. }) = &mut state.page {
-            hello.seat = self.inner.arena.invite(&hello.template, &hello.name).ok();
+        if let Some(StudyPage::Trial { hello, view, .. }) = &mut state.page {
+            let arena = &self.inner.arena;
+            hello.seat = arena.invite(&hello.template, &hello.name).ok();
+            if view.as_str() == "overview" {
+                let template = arena.config().templates.iter().find(|t| t.name == hello.template);
+                hello.watch_token = template.and_then(|t| t.config.spectator_token.clone());
+            }
         }
         state
     }

@@ -599,6 +599,9 @@ impl Study {
         setup.seats.extend(std::iter::repeat_with(Seat::open).take(c.humans));
         let mut config = HostConfig::new();
         config.name = c.name.clone();
+        // Nobody watches a condition's match but the operator, and the participants of a
+        // condition whose view is the whole map (their trial page gives them this token).
+        config.spectator_token = Some(bw4t_server::random_token());
         config.mode = c.mode;
         config.language = c.language.clone();
         config.labels =

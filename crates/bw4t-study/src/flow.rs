@@ -187,6 +187,7 @@ impl Participant {
                         template: condition.name.clone(),
                         name: self.player_name(),
                         seat: None,
+                        watch_token: None,
                     },
                     view: condition.view.clone(),
                     language: TrialLanguage {
