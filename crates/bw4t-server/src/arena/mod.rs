@@ -511,7 +511,7 @@ impl Arena {
             protocol: bw4t_protocol::VERSION,
             map,
             default_match,
-            lobby: !config.once && !config.server.closed,
+            lobby: !config.once,
             templates,
         }
     }
