@@ -599,6 +599,9 @@ async fn a_participant_goes_through_the_whole_study_and_the_export_has_every_row
         .collect();
     assert_eq!(conditions, [("alice", "alpha", "true"), ("alice", "beta", "true")]);
     assert!(trials.iter().all(|t| t["end_reason"] == "max_ticks" && t["ticks"] == "20"), "{trials:?}");
+    let marks: Vec<(&str, &str)> =
+        trials.iter().map(|t| (t["pauses"].as_str(), t["disconnections"].as_str())).collect();
+    assert_eq!(marks, [("1", "0"), ("0", "0")], "the operator paused alice's first trial once");
     let answers = csv_rows(&out.join("answers.csv"));
     let teamwork: Vec<(&str, &str)> = answers
         .iter()
@@ -1218,7 +1221,18 @@ async fn a_trial_start_takes_only_what_a_match_id_looks_like() {
 
 /// Starts `id`'s trial at `step` with a player that leaves at once (or, with `stay`, only
 /// says `ready`), waits for the match's end, and answers the trial with it.
-async fn trial_without_playing(rig: &StudyRig, id: &str, step: usize, stay: bool) -> ParticipantState {
+/// How a trial without playing ends.
+#[derive(Clone, Copy, PartialEq)]
+enum Without {
+    /// The player leaves at once.
+    Leaving,
+    /// The player stays to the end, never moving.
+    Staying,
+    /// The operator stops the match.
+    Stopped,
+}
+
+async fn trial_without_playing(rig: &StudyRig, id: &str, step: usize, how: Without) -> ParticipantState {
     let (_, state) = rig.call("GET", &format!("/api/study/participants/{id}"), None).await;
     let state: ParticipantState = read(&state);
     let Some(StudyPage::Trial { hello, .. }) = &state.page else { panic!("a trial: {state:?}") };
@@ -1229,10 +1243,13 @@ async fn trial_without_playing(rig: &StudyRig, id: &str, step: usize, stay: bool
     let (status, answer) =
         rig.call("POST", &format!("/api/study/participants/{id}/trial"), Some(started)).await;
     assert_eq!(status, 200, "{answer}");
-    if stay {
-        player.wait("the match's end", |s| s.ended.then_some(())).await;
-    } else {
-        player.disconnect().await;
+    match how {
+        Without::Staying => player.wait("the match's end", |s| s.ended.then_some(())).await,
+        Without::Leaving => player.disconnect().await,
+        Without::Stopped => {
+            let (status, stopped) = rig.operator("POST", &format!("/api/matches/{name}/stop")).await;
+            assert_eq!(status, 200, "{stopped}");
+        }
     }
     tokio::time::timeout(WAIT, rig.arena.ended(ended + 1)).await.expect("the match is recorded in time");
     let body = json!({"step": step, "answers": {"match_id": match_id}});
@@ -1249,10 +1266,10 @@ async fn a_trial_counts_only_if_the_participant_played() {
     rig.call("POST", "/api/study/participants", Some(json!({"params": {"pid": "quitter"}}))).await;
     rig.answer("quitter", 0, json!({"consent": true})).await;
     // Left at tick 0: in the result, but the trial is given again.
-    let state = trial_without_playing(&rig, "quitter", 1, false).await;
+    let state = trial_without_playing(&rig, "quitter", 1, Without::Leaving).await;
     assert_eq!((state.step, kind_of(&state)), (1, "trial".into()), "{state:?}");
     // Stayed, but never moved: again.
-    let state = trial_without_playing(&rig, "quitter", 1, true).await;
+    let state = trial_without_playing(&rig, "quitter", 1, Without::Staying).await;
     assert_eq!((state.step, kind_of(&state)), (1, "trial".into()), "{state:?}");
     rig.shutdown().await;
     let records = stored(&dir, "quitter");
@@ -1264,7 +1281,25 @@ async fn a_trial_counts_only_if_the_participant_played() {
     assert_eq!(reasons.len(), 2, "{records:?}");
     assert!(reasons.iter().all(|r| r.contains("did not play") && r.contains("moved in 0 of")), "{reasons:?}");
     assert!(!types(&records).contains(&"trial_ended"), "{records:?}");
+    let _ = std::fs::remove_dir_all(&dir);
 
+    // A trial the operator stops is no complete trial, even for one who need not move.
+    let dir = temp_dir("played-stopped");
+    // A realtime match of ten minutes: it is surely still running when the operator stops it.
+    let long = SHORT
+        .replace("teammates = 1", "teammates = 1\nmin_active_ticks = 0")
+        .replace("mode = \"lockstep\"", "mode = \"realtime\"")
+        .replace("time_limit_s = 1", "time_limit_s = 600");
+    let rig = StudyRig::start(&dir, &long).await;
+    rig.call("POST", "/api/study/participants", Some(json!({"params": {"pid": "stopped"}}))).await;
+    rig.answer("stopped", 0, json!({"consent": true})).await;
+    let state = trial_without_playing(&rig, "stopped", 1, Without::Stopped).await;
+    assert_eq!((state.step, kind_of(&state)), (1, "trial".into()), "given again: {state:?}");
+    rig.shutdown().await;
+    let records = stored(&dir, "stopped");
+    let last = records.last().expect("a record");
+    assert_eq!(last.1, "trial_incomplete", "{records:?}");
+    assert!(last.2["reason"].as_str().is_some_and(|r| r.contains("stopped before its end")), "{last:?}");
     let _ = std::fs::remove_dir_all(&dir);
 
     // A condition of talking alone asks for no moving: staying to the end is enough.
@@ -1273,7 +1308,7 @@ async fn a_trial_counts_only_if_the_participant_played() {
         StudyRig::start(&dir, &SHORT.replace("teammates = 1", "teammates = 1\nmin_active_ticks = 0")).await;
     rig.call("POST", "/api/study/participants", Some(json!({"params": {"pid": "stayer"}}))).await;
     rig.answer("stayer", 0, json!({"consent": true})).await;
-    let state = trial_without_playing(&rig, "stayer", 1, true).await;
+    let state = trial_without_playing(&rig, "stayer", 1, Without::Staying).await;
     assert_eq!(kind_of(&state), "final", "{state:?}");
     rig.shutdown().await;
     let _ = std::fs::remove_dir_all(&dir);
@@ -1311,7 +1346,8 @@ async fn an_older_versions_logs_are_imported_once_and_export_as_that_version_exp
     let text = std::fs::read_to_string(fixture.join("study.toml")).expect("the study file");
     std::fs::write(dir.join("study.toml"), &text).expect("study copy");
     let logs = contents(&dir.join("participants"));
-    // expected/ is what the version that wrote these logs exported from them.
+    // expected/ is what the version that wrote these logs exported from them (with the
+    // columns trials.csv has gained since, empty for those trials, at the end).
     let expected = contents(&fixture.join("expected"));
     assert_eq!(expected.len(), 4, "the four CSV files");
     let exported = |out: &str| {

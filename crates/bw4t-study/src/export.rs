@@ -79,6 +79,9 @@ const TRIAL_COLUMNS: &[&str] = &[
     "map",
     "players",
     "replay",
+    "disconnections",
+    "absent_s",
+    "pauses",
 ];
 const ANSWER_COLUMNS: &[&str] =
     &["participant", "step", "page", "questionnaire", "after_condition", "item", "value", "server_ms"];
@@ -253,6 +256,9 @@ pub fn export(dir: &Path, out: &Path) -> Result<ExportSummary, String> {
                         p.iter().filter_map(Value::as_str).collect::<Vec<_>>().join(";")
                     }),
                     replay.unwrap_or_default(),
+                    field("disconnections"),
+                    field("absent_s"),
+                    field("pauses"),
                 ],
             );
         }

@@ -184,12 +184,12 @@ impl StudyServer {
             // not answered yet) or was interrupted by the stop.
             let step = slot.state.step;
             let records = match self.ended_trial(&slot.state, &match_id) {
-                Ok(Ended { result, failed: None })
-                    if result.get("end_reason") != Some(&json!("interrupted")) =>
-                {
+                Ok(Ended { result, failed: None }) => {
                     self.trial_end_records(&slot.state, step, &match_id, result)
                 }
-                Ok(Ended { failed: Some(why), .. }) => {
+                Ok(Ended { result, failed: Some(why) })
+                    if result.get("end_reason") != Some(&json!("interrupted")) =>
+                {
                     vec![self.incomplete(&slot.state, step, &match_id, &why)]
                 }
                 _ => {
@@ -269,7 +269,9 @@ impl StudyServer {
         let ticks = result["ticks"].as_u64().unwrap_or(0);
         let active = ticks.saturating_sub(robot["idle_ticks"].as_u64().unwrap_or(ticks));
         let least = study.conditions[c].min_active_ticks;
-        let failed = if robot["present"] == json!(false) {
+        let failed = if result["end_reason"] == json!("interrupted") {
+            Some("the match was stopped before its end by the operator or the server".to_string())
+        } else if robot["present"] == json!(false) {
             Some("the participant did not play: they left the match before its end".to_string())
         } else if active < least {
             Some(format!(
@@ -278,7 +280,13 @@ impl StudyServer {
         } else {
             None
         };
-        Ok(Ended { result: trial_result(&result), failed })
+        let mut kept = trial_result(&result);
+        // The participant's own absences: drops of their connection and the time away.
+        let tick_hz = f64::from(study.conditions[c].tick_hz);
+        kept["disconnections"] = robot["disconnections"].as_u64().unwrap_or(0).into();
+        kept["absent_s"] = (robot["absent_ticks"].as_u64().unwrap_or(0) as f64 / tick_hz).into();
+        kept["pauses"] = result["pauses"].as_u64().unwrap_or(0).into();
+        Ok(Ended { result: kept, failed })
     }
 
     fn slot(&self, id: &str) -> Option<Arc<Mutex<Slot>>> {
