@@ -1489,3 +1489,36 @@ async fn a_study_server_shows_its_matches_to_the_operator_only() {
 fn player_fields(hello: &TrialHello) -> Value {
     json!({"name": hello.name, "template": hello.template, "seat": hello.seat})
 }
+
+#[test]
+fn a_dry_run_takes_scripted_participants_through_the_example_study_and_exports_them() {
+    let dir = temp_dir("dry-run");
+    let data = dir.join("data");
+    let example = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/study/study.toml");
+    let args = ["study", example, "--simulate", "10", "--data", data.to_str().expect("path"), "-q"];
+    let out = crate::util::bw4t_within(&args, std::time::Duration::from_secs(120));
+    let said = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{said}\n{}", String::from_utf8_lossy(&out.stderr));
+    assert!(said.contains("dry run: 9 completed, 1 declined consent, 18 trials played"), "{said}");
+    let participants = csv_rows(&data.join("export/participants.csv"));
+    let completed = participants.iter().filter(|p| p["completed"] == "true").count();
+    assert_eq!((participants.len(), completed), (10, 9), "{participants:?}");
+    let trials = csv_rows(&data.join("export/trials.csv"));
+    assert!(trials.len() == 18 && trials.iter().all(|t| t["complete"] == "true"), "{trials:?}");
+    // Each completer played both conditions; the replays were kept.
+    for p in participants.iter().filter(|p| p["completed"] == "true") {
+        let mut played: Vec<&str> = trials
+            .iter()
+            .filter(|t| t["participant"] == p["participant"])
+            .map(|t| t["condition"].as_str())
+            .collect();
+        played.sort_unstable();
+        assert_eq!(played, ["silent", "talking"], "{}", p["participant"]);
+    }
+    assert!(trials.iter().all(|t| data.join("export").join(&t["replay"]).is_file()), "{trials:?}");
+    // A second dry run into the same directory is refused, naming it.
+    let again = crate::util::bw4t_within(&args, std::time::Duration::from_secs(30));
+    assert!(!again.status.success());
+    assert!(String::from_utf8_lossy(&again.stderr).contains("not empty"), "{again:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
