@@ -94,7 +94,7 @@ async fn participant(k: u32, web: SocketAddr, play: SocketAddr) -> Result<Outcom
         let answers = match page {
             StudyPage::Final { .. } => return Ok(Outcome { end: End::Completed, trials }),
             StudyPage::Declined { .. } => return Ok(Outcome { end: End::Declined, trials }),
-            StudyPage::Consent { .. } => json!({"consent": k % 10 != 0}),
+            StudyPage::Consent { .. } => json!({"consent": !k.is_multiple_of(10)}),
             StudyPage::Instructions { .. } => json!({}),
             StudyPage::Questionnaire { items, .. } => answer_all(&items, &mut rng),
             StudyPage::Trial { hello, .. } => {
