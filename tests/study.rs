@@ -1482,6 +1482,29 @@ async fn a_study_server_shows_its_matches_to_the_operator_only() {
                           "match": name, "token": TOKEN});
     let (_operator, watching) = welcomed(server.addr, operator).await;
     assert_eq!(watching.match_info.name, name);
+    // The dashboard's export, made and read by the operator only.
+    let auth = format!("Bearer {TOKEN}");
+    let json_body = ("Content-Type", "application/json");
+    let refused = browser.send(server.web, "POST", "/api/study/export", &[json_body], "{}").await;
+    assert_eq!(refused.status, 401, "{}", refused.body);
+    let made = browser
+        .send(server.web, "POST", "/api/study/export", &[json_body, ("Authorization", &auth)], "{}")
+        .await;
+    assert_eq!(made.status, 200, "{}", made.body);
+    let exported: bw4t_protocol::StudyExported =
+        serde_json::from_str(&made.body).expect("the export's summary");
+    assert_eq!((exported.participants, exported.files.len()), (1, 4), "{exported:?}");
+    let (status, csv) =
+        http(server.web, "GET", "/api/study/export/participants.csv", Some(TOKEN), None).await;
+    assert!(
+        status == 200 && csv.starts_with("participant,number,") && csv.contains("\ngus,"),
+        "{status} {csv}"
+    );
+    let (status, _) = http(server.web, "GET", "/api/study/export/participants.csv", None, None).await;
+    assert_eq!(status, 401);
+    let (status, _) =
+        http(server.web, "GET", "/api/study/export/..%2Fstudy.sqlite3", Some(TOKEN), None).await;
+    assert_eq!(status, 404, "only the export's CSV files");
     let _ = std::fs::remove_dir_all(&dir);
 }
 

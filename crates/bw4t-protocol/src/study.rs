@@ -188,6 +188,26 @@ pub struct EventsRecorded {
     pub recorded: usize,
 }
 
+/// `POST /api/study/export` (operator): the export made into the data directory's
+/// `export/`, whose CSV files `GET /api/study/export/NAME.csv` gives.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct StudyExported {
+    /// Participants exported.
+    pub participants: usize,
+    /// Trials (attempts) exported, complete or not.
+    pub trials: usize,
+    /// Of those, the trials that do not count.
+    pub incomplete: usize,
+    /// Answers exported (one per item).
+    pub answers: usize,
+    /// Events exported.
+    pub events: usize,
+    /// Replays copied.
+    pub replays: usize,
+    /// The CSV files, each at `GET /api/study/export/FILE`.
+    pub files: Vec<String>,
+}
+
 /// `GET /api/study/participants` (operator): everyone, by id.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct ParticipantList {

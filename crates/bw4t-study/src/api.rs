@@ -28,6 +28,8 @@ pub(crate) enum Answer {
     Arrived(StatusCode, String, String),
     /// The operator's token is needed.
     Unauthorized,
+    /// A file of the export, to be saved under its name.
+    Download(String, String),
 }
 
 /// The body of a JSON answer. Made through a `Value`, so the keys come in alphabetical
@@ -37,14 +39,14 @@ pub(crate) fn reply_body(body: &impl Serialize) -> Result<String, serde_json::Er
 }
 
 /// A JSON answer (one of `bw4t_protocol`'s study replies) with a status.
-fn reply(status: StatusCode, body: &impl Serialize) -> Answer {
+pub(crate) fn reply(status: StatusCode, body: &impl Serialize) -> Answer {
     match reply_body(body) {
         Ok(text) => Answer::Json(status, text),
         Err(e) => error(StatusCode::INTERNAL_SERVER_ERROR, format!("reply not serialisable: {e}")),
     }
 }
 
-fn error(status: StatusCode, message: impl Into<String>) -> Answer {
+pub(crate) fn error(status: StatusCode, message: impl Into<String>) -> Answer {
     let body = ErrorReply { error: message.into() };
     Answer::Json(status, serde_json::to_string(&body).unwrap_or_default())
 }
@@ -92,7 +94,10 @@ pub(crate) async fn respond(study: &StudyServer, request: &WebRequest, rest: &[&
             let conditions = s.conditions.iter().map(|c| c.name.clone()).collect();
             reply(StatusCode::OK, &StudyInfo { name: s.name.clone(), title: s.title.clone(), conditions })
         }
-        (&Method::GET, ["participants"]) if !operator => Answer::Unauthorized,
+        (_, ["participants"] | ["export", ..]) if !operator && method == Method::GET => Answer::Unauthorized,
+        (&Method::POST, ["export"]) if !operator => Answer::Unauthorized,
+        (&Method::POST, ["export"]) => study.export_now().await,
+        (&Method::GET, ["export", file]) => study.exported(file),
         (&Method::GET, ["participants"]) => reply(StatusCode::OK, &study.list().await),
         (&Method::POST, ["participants"]) => match parse(body) {
             Ok(body) => study.arrive(&body, headers, request.source),

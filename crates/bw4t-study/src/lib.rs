@@ -15,6 +15,7 @@ mod answers;
 mod api;
 mod config;
 mod credential;
+mod download;
 mod export;
 mod flow;
 mod legacy;
@@ -46,6 +47,8 @@ struct Shared {
     budget: StudyBudget,
     /// Arrivals counted per source address, against `budget.arrivals_per_minute`.
     arrivals: bw4t_server::RateBudget,
+    /// Held while the dashboard's export runs.
+    exporting: tokio::sync::Mutex<()>,
     store: Store,
     arena: Arena,
     participants: Mutex<BTreeMap<String, Arc<Mutex<Slot>>>>,
@@ -129,6 +132,7 @@ impl StudyServer {
                     std::time::Duration::from_secs(60),
                 ),
                 budget,
+                exporting: tokio::sync::Mutex::new(()),
                 store,
                 arena,
                 participants: Mutex::new(BTreeMap::new()),
@@ -373,6 +377,10 @@ impl Routes for StudyServer {
                 }
                 api::Answer::Unauthorized => {
                     Reply::unauthorized(self.inner.arena.config().server.operator_token.is_some())
+                }
+                api::Answer::Download(name, text) => {
+                    Reply::new(http::StatusCode::OK, "text/csv; charset=utf-8", text)
+                        .with("Content-Disposition", format!("attachment; filename=\"{name}\""))
                 }
             }
         })
