@@ -6,7 +6,9 @@
 // robot is seen moving after a click on a place (the latency is printed), a refused
 // action is said plainly, and the tick logged with every action's answer is the tick the
 // match's replay has for it. A small window gets the screen-out page, and no participant
-// is made. Screenshots: test-output/browser/participant-WxH.png, participant-screen-out.png.
+// is made. Screenshots: test-output/browser/participant-WxH.png, participant-screen-out.png;
+// with BW4T_SCREENSHOTS=1 also docs/screenshots/study-participant.png (1280x720) and
+// study-screen-out.png.
 
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
@@ -17,6 +19,14 @@ import { ROOT, openBrowser, runBw4t, screenshot, startBw4t, stop, tempDir } from
 
 const STUDY = path.join(ROOT, 'tests', 'fixtures', 'study-view', 'study.toml');
 const TOKEN = 'op-secret';
+const SHOTS = process.env.BW4T_SCREENSHOTS === '1' ? path.join(ROOT, 'docs', 'screenshots') : null;
+
+/** Saves docs/screenshots/study-NAME.png when asked to (BW4T_SCREENSHOTS=1). */
+async function keep(page, name) {
+  if (!SHOTS) return;
+  fs.mkdirSync(SHOTS, { recursive: true });
+  await page.screenshot({ path: path.join(SHOTS, `study-${name}.png`) });
+}
 const CONDITIONS = ['talking', 'deceptive'];
 const SIZES = [
   { width: 1280, height: 720 },
@@ -137,6 +147,7 @@ test('the participant view fits the window, names nothing of the study and logs 
     await frame.evaluate(() => document.activeElement?.blur());
     await frame.press('body', 'd');
     await frame.waitForSelector('#feedback[data-code="not_holding"]:not([hidden])');
+    await keep(browsers[0].page, 'participant');
     assert.match(await frame.innerText('#feedback'), /not holding a block/);
     // A click on a place: the robot is seen on its way, then moving on the map.
     const before = await frame.evaluate(() => ({ reacted: window.bw4tMotion.reacted.length, moved: window.bw4tMotion.moved.length }));
@@ -207,6 +218,7 @@ test('a small window gets the screen-out page, and no participant is made', { ti
   assert.equal(await small.page.$('#consent-agree'), null, 'no consent page');
   assert.deepEqual(await participants(server), [], 'no participant made');
   await screenshot(small.page, 'participant-screen-out');
+  await keep(small.page, 'screen-out');
   // The same link in a window large enough comes to consent, and makes the participant.
   await small.page.setViewportSize({ width: 1280, height: 720 });
   await small.page.click('#screen-again');

@@ -101,7 +101,8 @@ export function joinAsPlayer(name, template = null, extra = {}) {
   player.extra = extra;
   // After a reload, take the robot back with the session the server gave this tab.
   const session = template ? null : sessionStorage.getItem(sessionKey(name));
-  connectPlayer(session ? { session } : { name });
+  // A seat token (the study's) is checked against the name: it goes with the session too.
+  connectPlayer(session ? { session, ...(extra.seat ? { name } : {}) } : { name });
 }
 
 /** Where a player's `hello` asks to play: the named match, a template, or neither. */
