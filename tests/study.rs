@@ -9,8 +9,8 @@ use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 
 use bw4t_protocol::{
-    ErrorReply, EventsRecorded, ParticipantList, ParticipantState, QuestionItem, QuestionKind, StepConflict,
-    StudyInfo, StudyPage, TrialHello, TrialLanguage,
+    ErrorReply, EventsRecorded, ParticipantList, ParticipantState, QuestionItem, QuestionKind,
+    ScreenRequirement, StepConflict, StudyInfo, StudyPage, TrialHello, TrialLanguage,
 };
 use bw4t_server::{Arena, ArenaConfig, ResultsStore};
 use bw4t_study::{self as study, StudyBudget, StudyServer};
@@ -378,6 +378,8 @@ async fn a_participant_goes_through_the_whole_study_and_the_export_has_every_row
         (status, info.name.as_str(), info.conditions),
         (200, "pilot", vec!["alpha".into(), "beta".into()])
     );
+    // The file sets no device needs: a computer's window of 1024 x 640 at least.
+    assert_eq!(info.screen, ScreenRequirement { min_width: 1024, min_height: 640, allow_touch_only: false });
 
     let (status, state) = arrive(&rig, "alice").await;
     assert_eq!(status, 201, "{state}");
@@ -913,6 +915,23 @@ fn bad_study_files_are_refused_naming_the_problem() {
     let error = study::load(&path, &maps).expect_err("refused");
     assert!(error.starts_with(&path.display().to_string()), "{error}");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_study_sets_the_device_it_needs_and_a_too_small_screen_is_refused() {
+    let text =
+        STUDY.replacen("seed = 7\n", "seed = 7\nmin_screen = [1280, 720]\nallow_touch_only = true\n", 1);
+    let study = parse(&text).expect("the file loads");
+    assert_eq!(
+        study.info().screen,
+        ScreenRequirement { min_width: 1280, min_height: 720, allow_touch_only: true }
+    );
+    let error =
+        parse(&STUDY.replacen("seed = 7\n", "seed = 7\nmin_screen = [320, 200]\n", 1)).expect_err("refused");
+    assert!(error.contains("min_screen = [320, 200]"), "{error}");
+    let error =
+        parse(&STUDY.replacen("seed = 7\n", "seed = 7\nmin_screen = 1024\n", 1)).expect_err("refused");
+    assert!(error.contains("min_screen"), "{error}");
 }
 
 #[test]

@@ -16,6 +16,19 @@ pub struct StudyInfo {
     pub title: String,
     /// Its conditions' names, in the study file's order.
     pub conditions: Vec<String>,
+    /// The device a participant needs: the page turns others away before consent.
+    pub screen: ScreenRequirement,
+}
+
+/// The device a study needs (`[study] min_screen`, `allow_touch_only`).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+pub struct ScreenRequirement {
+    /// The narrowest browser window taken, in CSS pixels.
+    pub min_width: u32,
+    /// The lowest browser window taken, in CSS pixels.
+    pub min_height: u32,
+    /// Whether a device with a touch screen and no mouse (a phone, a tablet) is taken.
+    pub allow_touch_only: bool,
 }
 
 /// A participant's state: the step they are at and its page. The answer to their arrival,

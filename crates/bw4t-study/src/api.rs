@@ -9,7 +9,7 @@
 
 use bw4t_protocol::{
     ErrorReply, EventsRecorded, MatchState, MatchSummary, ParticipantList, ParticipantRow, ParticipantState,
-    StepConflict, StudyInfo, StudyPage,
+    StepConflict, StudyPage,
 };
 use bw4t_server::WebRequest;
 use http::{HeaderMap, Method, StatusCode};
@@ -89,11 +89,7 @@ pub(crate) async fn respond(study: &StudyServer, request: &WebRequest, rest: &[&
         );
     }
     match (method, rest) {
-        (&Method::GET, []) => {
-            let s = study.study();
-            let conditions = s.conditions.iter().map(|c| c.name.clone()).collect();
-            reply(StatusCode::OK, &StudyInfo { name: s.name.clone(), title: s.title.clone(), conditions })
-        }
+        (&Method::GET, []) => reply(StatusCode::OK, &study.study().info()),
         (_, ["participants"] | ["export", ..]) if !operator && method == Method::GET => Answer::Unauthorized,
         (&Method::POST, ["export"]) if !operator => Answer::Unauthorized,
         (&Method::POST, ["export"]) => study.export_now().await,

@@ -8,7 +8,7 @@ use std::time::Duration;
 
 use bw4t_agents::Strategy;
 use bw4t_map::Map;
-use bw4t_protocol::{MessagePolicy, Mode, QuestionKind};
+use bw4t_protocol::{MessagePolicy, Mode, QuestionKind, ScreenRequirement, StudyInfo};
 use serde::Deserialize;
 
 use super::markdown::to_html;
@@ -37,6 +37,8 @@ struct StudySection {
     time_limit_s: Option<u64>,
     max_running: Option<usize>,
     partner_timeout_s: Option<u64>,
+    min_screen: Option<[u32; 2]>,
+    allow_touch_only: Option<bool>,
 }
 
 #[derive(Deserialize)]
@@ -164,9 +166,30 @@ pub struct Study {
     pub conditions: Vec<Condition>,
     /// The pages, in order: a participant's steps.
     pub pages: Vec<Page>,
+    /// The device a participant needs; others are turned away before consent.
+    pub screen: ScreenRequirement,
     /// The file's text, as it was read.
     pub text: String,
 }
+
+impl Study {
+    /// What `GET /api/study` says of the study.
+    pub fn info(&self) -> StudyInfo {
+        StudyInfo {
+            name: self.name.clone(),
+            title: self.title.clone(),
+            conditions: self.conditions.iter().map(|c| c.name.clone()).collect(),
+            screen: self.screen.clone(),
+        }
+    }
+}
+
+/// The smallest window a trial's view fits in without scrolling (CSS pixels), below the
+/// study page's own header.
+const DEFAULT_MIN_SCREEN: [u32; 2] = [1024, 640];
+
+/// `min_screen` below this is refused: the trial's view cannot show its panels.
+const SMALLEST_SCREEN: [u32; 2] = [640, 400];
 
 /// One condition: the matches of its trials.
 #[derive(Clone, Debug)]
@@ -361,6 +384,16 @@ pub fn parse(text: &str, path: &Path, maps: MapLoader<'_>) -> Result<Study, Stri
             plural(conditions.len(), "condition")
         ));
     }
+    let [min_width, min_height] = s.min_screen.unwrap_or(DEFAULT_MIN_SCREEN);
+    if min_width < SMALLEST_SCREEN[0] || min_height < SMALLEST_SCREEN[1] {
+        return Err(format!(
+            "study: min_screen = [{min_width}, {min_height}]: the trial's view needs at least \
+             [{}, {}] (width, height in CSS pixels)",
+            SMALLEST_SCREEN[0], SMALLEST_SCREEN[1]
+        ));
+    }
+    let screen =
+        ScreenRequirement { min_width, min_height, allow_touch_only: s.allow_touch_only.unwrap_or(false) };
     let study = Study {
         name: s.name,
         title: s.title.unwrap_or_else(|| "Study".into()),
@@ -368,6 +401,7 @@ pub fn parse(text: &str, path: &Path, maps: MapLoader<'_>) -> Result<Study, Stri
         order,
         conditions,
         pages,
+        screen,
         text: text.to_string(),
     };
     // What the conditions' matches are run with is in range (partner_timeout_s, ...):
