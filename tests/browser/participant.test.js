@@ -149,20 +149,44 @@ test('the participant view fits the window, names nothing of the study and logs 
     await frame.waitForSelector('#feedback[data-code="not_holding"]:not([hidden])');
     await keep(browsers[0].page, 'participant');
     assert.match(await frame.innerText('#feedback'), /not holding a block/);
-    // A click on a place: the robot is seen on its way, then moving on the map.
+    // A click on a place: the robot is seen moving on the map (its "on its way" ring, when a
+    // picture catches it before the marker moves, gives the latency report a figure too).
     const before = await frame.evaluate(() => ({ reacted: window.bw4tMotion.reacted.length, moved: window.bw4tMotion.moved.length }));
     // The places' buttons (for keyboards) show once focused; Enter is a click.
     await frame.focus('#places button[data-place="RoomC3"]');
     await frame.press('#places button[data-place="RoomC3"]', 'Enter');
-    await frame.waitForFunction((n) => window.bw4tMotion.moved.length > n.moved && window.bw4tMotion.reacted.length > n.reacted, before, { timeout: 10_000, polling: 50 });
+    await frame
+      .waitForFunction((n) => window.bw4tMotion.moved.length > n.moved, before, { timeout: 10_000, polling: 50 })
+      .catch(async (err) => {
+        const seen = await frame.evaluate(() => JSON.stringify({ motion: window.bw4tMotion, log: [...document.querySelectorAll('#log li')].slice(-8).map((n) => n.textContent) }));
+        throw new Error(`${err.message}: the robot was not seen moving (${seen})`);
+      });
     latency = await frame.evaluate(() => ({ reacted: window.bw4tMotion.reacted.at(-1), moved: window.bw4tMotion.moved.at(-1), ack: window.bw4tLatency.p50() }));
     await frame.press('body', 'p');
     await frame.waitForFunction(() => window.bw4tLatency.samples.length >= 3, null, { timeout: 5000 });
   };
 
+  // The experimenter pauses the participant's match and resumes it: the view says so.
+  const operator = async (verb, match) => {
+    const url = new URL(`/api/matches/${encodeURIComponent(match)}/${verb}`, server.url);
+    const response = await fetch(url, { method: 'POST', headers: { Authorization: `Bearer ${TOKEN}` } });
+    assert.equal(response.status, 200, `${verb} ${match}`);
+  };
+  const pausing = async (frame, id) => {
+    const response = await fetch(new URL('/api/study/participants', server.url), { headers: { Authorization: `Bearer ${TOKEN}` } });
+    const match = (await response.json()).participants.find((p) => p.participant === id)?.match;
+    assert.ok(match, `${id} is in a match`);
+    await operator('pause', match);
+    await frame.waitForSelector('#paused:not([hidden])', { timeout: 10_000 });
+    assert.match(await frame.innerText('#paused'), /The experimenter has paused the task/);
+    await operator('resume', match);
+    await frame.waitForSelector('#paused', { state: 'hidden', timeout: 10_000 });
+  };
+
   try {
     const frames = await Promise.all(SIZES.map((size, i) => checkView(browsers[i], size, ids[i])));
     await acts(frames[0]);
+    await pausing(frames[1], ids[1]);
     // The match ends at its time limit: the view says so plainly, and the page saves it.
     for (const [i, frame] of frames.entries()) {
       await frame.waitForSelector('#task-over:not([hidden])', { timeout: 40_000 });
@@ -174,7 +198,7 @@ test('the participant view fits the window, names nothing of the study and logs 
     for (const [i, b] of browsers.entries()) await screenshot(b.page, `participant-end-${SIZES[i].width}`);
   }
   for (const b of browsers) await b.page.waitForFunction(() => window.bw4tStudy.pending() === 0, null, { timeout: 10_000 });
-  console.log(`participant view latency at 10 ticks/s: input to ack ${latency.ack?.toFixed(0)} ms, to the robot shown on its way ${latency.reacted.toFixed(0)} ms, to the robot drawn moving ${latency.moved.toFixed(0)} ms`);
+  console.log(`participant view latency at 10 ticks/s: input to ack ${latency.ack?.toFixed(0)} ms, to the robot shown on its way ${latency.reacted?.toFixed(0) ?? '-'} ms, to the robot drawn moving ${latency.moved.toFixed(0)} ms`);
   await stop(server.proc);
 
   // Every answer to an action is logged with the tick the replay has for that action.

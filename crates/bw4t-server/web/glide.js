@@ -22,8 +22,10 @@ export const glide = {
   place: null, // that place's name
   unitsPerSecond: UNITS_PER_TICK * 10,
   lastMs: null,
-  inputAt: null, // a pending go-to's input time, until the robot is seen moving
-  reactedFor: null, // the input time whose `reacted` sample was taken
+  // A go-to's input time, until the picture shows the robot on its way (`reactFor`) and
+  // until the marker moves (`moveFor`): two samples, in whichever order they come.
+  reactFor: null,
+  moveFor: null,
 
   /** The match's tick rate: the robot's speed in map units per second. */
   setTickHz(tickHz) {
@@ -41,14 +43,16 @@ export const glide = {
 
   /** A go-to was sent, made by an input at `inputAt` (performance.now() time). */
   sent(inputAt) {
-    if (inputAt !== undefined && inputAt !== null) this.inputAt = inputAt;
+    if (inputAt === undefined || inputAt === null) return;
+    this.reactFor = inputAt;
+    this.moveFor = inputAt;
   },
 
   /** The picture shows the robot travelling (its first sign of moving). */
   shownTraveling(now) {
-    if (this.inputAt === null || this.reactedFor === this.inputAt) return;
-    this.reactedFor = this.inputAt;
-    motion.reacted.push(now - this.inputAt);
+    if (this.reactFor === null) return;
+    motion.reacted.push(now - this.reactFor);
+    this.reactFor = null;
   },
 
   /** Moves the marker for the time since the last call; returns whether it moved. */
@@ -64,9 +68,9 @@ export const glide = {
     const travel = Math.max(this.unitsPerSecond, distance / CATCH_UP_S) * seconds;
     const k = Math.min(1, travel / distance);
     this.drawn = { x: this.drawn.x + dx * k, y: this.drawn.y + dy * k };
-    if (this.inputAt !== null) {
-      motion.moved.push(now - this.inputAt);
-      this.inputAt = null;
+    if (this.moveFor !== null) {
+      motion.moved.push(now - this.moveFor);
+      this.moveFor = null;
     }
     return true;
   },
