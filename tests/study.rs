@@ -910,6 +910,25 @@ fn the_example_study_loads() {
     assert_eq!(names, ["talking", "silent"]);
     assert_eq!(study.trials(), 2);
     assert!(matches!(study.pages.last(), Some(study::Page::Final { completion_code: Some(_), .. })));
+
+    // Its between-subjects variant, with a practice round and a comprehension check.
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/study/between.toml");
+    let between = study::load(&path, &maps).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(between.assignment, study::Assignment::Between);
+    assert_eq!(between.balance, study::Balance::Completers);
+    let groups: Vec<&str> = between.groups.iter().map(|g| g.name.as_str()).collect();
+    assert_eq!(groups, ["talking", "silent"]);
+    assert_eq!(between.practices.iter().map(|p| p.name.as_str()).collect::<Vec<_>>(), ["warm-up"]);
+    let practice = between.pages.iter().find(|p| matches!(p, study::Page::Practice { .. }));
+    assert!(
+        matches!(
+            practice,
+            Some(study::Page::Practice { pass: Some(study::PracticePass::Sequence(1)), attempts: 2, .. })
+        ),
+        "{practice:?}"
+    );
+    assert!(between.templates().iter().any(|t| t.name == "warm-up" && t.invited_only));
+    assert_eq!(between.screen_out.completion_code.as_deref(), Some("SCREENED1"));
 }
 
 /// One condition for two people and two built-in teammates; a person whose partner does

@@ -65,7 +65,8 @@ pub struct Template {
     /// Its name (`hello.template`).
     pub name: String,
     /// What its matches play: `setup.map` is the first map, `setup.seed` the first
-    /// match's seed (the n-th match made gets `seed + n`), and `setup.seats` every seat,
+    /// match's seed (the n-th match made gets `seed + n`, unless made for a player whose seat token
+    /// carries a seed: [`Arena::invite_seeded`]), and `setup.seats` every seat,
     /// built-in ones first and open ones after.
     pub setup: MatchSetup,
     /// How its matches are run.
