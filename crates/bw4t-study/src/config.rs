@@ -83,6 +83,8 @@ struct ConditionFile {
 }
 
 /// One `[[page]]`; `kind` says which keys it takes.
+// Read once at the start, a page at a time: a practice's many keys cost nothing worth boxing.
+#[allow(clippy::large_enum_variant)]
 #[derive(Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 enum PageFile {
