@@ -219,6 +219,7 @@ fn a_dropped_player_keeps_its_seat_for_the_grace_period_and_can_take_it_back() {
     sim.run_until(Duration::from_secs(5));
     sim.close(2);
     let dropped_at = sim.now;
+    let dropped_tick = sim.host.tick();
     // The seat is kept: the grace period's end is the next thing due while nobody waits.
     assert!(sim.host.poll_timeout().is_some());
     sim.join(3, "Cy");
@@ -236,6 +237,15 @@ fn a_dropped_player_keeps_its_seat_for_the_grace_period_and_can_take_it_back() {
         .find_map(|m| if let ServerMessage::Welcome(w) = m { Some(w.clone()) } else { None });
     assert_eq!(welcome.and_then(|w| w.robot), Some(1), "Bob is back on robot 1");
     assert!(sim.now - dropped_at < Duration::from_secs(30));
+    // The result says he was away once, for the ticks between his drop and his return.
+    let away = sim.host.tick() - dropped_tick;
+    assert!(away > 0, "the match went on without him");
+    let result = sim.finish();
+    let figures = |name: &str| {
+        let robot = result.per_robot.iter().find(|r| r.name == name).expect("a robot");
+        (robot.disconnections, robot.absent_ticks)
+    };
+    assert_eq!((figures("Bob"), figures("Ann")), ((1, away), (0, 0)));
 }
 
 #[test]

@@ -9,8 +9,8 @@ use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 
 use bw4t_protocol::{
-    ErrorReply, EventsRecorded, ParticipantList, ParticipantState, QuestionItem, QuestionKind, StepConflict,
-    StudyInfo, StudyPage, TrialHello, TrialLanguage,
+    ErrorReply, EventsRecorded, ParticipantList, ParticipantState, QuestionItem, QuestionKind,
+    ScreenRequirement, StepConflict, StudyInfo, StudyPage, TrialHello, TrialLanguage,
 };
 use bw4t_server::{Arena, ArenaConfig, ResultsStore};
 use bw4t_study::{self as study, StudyBudget, StudyServer};
@@ -283,7 +283,7 @@ impl StudyRig {
     async fn play_trial(&self, id: &str, state: &ParticipantState) -> ParticipantState {
         let Some(StudyPage::Trial { hello, .. }) = &state.page else { panic!("not a trial: {state:?}") };
         let ended: u64 = self.arena.totals().values().map(|t| t.ended).sum();
-        let hello = serde_json::to_value(hello).expect("json");
+        let hello = player_fields(hello);
         let mut player = AutoPlayer::join_with(self.addr, hello).await;
         let name = player.welcome.match_info.name.clone();
         let step = state.step;
@@ -378,6 +378,8 @@ async fn a_participant_goes_through_the_whole_study_and_the_export_has_every_row
         (status, info.name.as_str(), info.conditions),
         (200, "pilot", vec!["alpha".into(), "beta".into()])
     );
+    // The file sets no device needs: a computer's window of 1024 x 640 at least.
+    assert_eq!(info.screen, ScreenRequirement { min_width: 1024, min_height: 640, allow_touch_only: false });
 
     let (status, state) = arrive(&rig, "alice").await;
     assert_eq!(status, 201, "{state}");
@@ -431,7 +433,12 @@ async fn a_participant_goes_through_the_whole_study_and_the_export_has_every_row
     };
     assert_eq!((*trial, *trials), (1, 2));
     let alice_seat = hello.seat.clone().expect("a trial's hello carries a seat token");
-    let first = TrialHello { template: "alpha".into(), name: "P1".into(), seat: Some(alice_seat.clone()) };
+    let first = TrialHello {
+        template: "alpha".into(),
+        name: "P1".into(),
+        seat: Some(alice_seat.clone()),
+        watch_token: None,
+    };
     assert_eq!(hello, &first, "the first to arrive starts with alpha");
     assert!(alice_seat.len() == 32 && alice_seat.bytes().all(|b| b.is_ascii_hexdigit()), "{alice_seat}");
     assert_eq!(language, &TrialLanguage { kinds: vec!["going_to".into(), "have".into()], free_text: false });
@@ -446,6 +453,7 @@ async fn a_participant_goes_through_the_whole_study_and_the_export_has_every_row
     let Some(StudyPage::Trial { hello, view, .. }) = &bob.page else { panic!("a trial: {bob:?}") };
     assert_eq!((hello.template.as_str(), hello.name.as_str()), ("beta", "P2"));
     assert!(hello.seat.as_ref().is_some_and(|seat| seat != &alice_seat), "each participant's own seat");
+    let watch_token = hello.watch_token.clone().expect("an overview condition's watch token");
     assert_eq!(view, "overview");
 
     // Events: any content type, appended with the server's time; unknown kinds refused.
@@ -473,6 +481,10 @@ async fn a_participant_goes_through_the_whole_study_and_the_export_has_every_row
         (json!({"name": "P9", "template": "alpha", "seat": alice_seat}), "bad_token"),
         (json!({"name": "P1", "template": "alpha", "seat": "0".repeat(32)}), "bad_token"),
         (json!({"name": "P1", "match": name}), "not_invited"),
+        // Nor watches it: an own-view condition's match is the operator's to watch, and
+        // another condition's watch token opens nothing here.
+        (json!({"role": "spectator", "match": name}), "bad_token"),
+        (json!({"role": "spectator", "match": name, "token": watch_token}), "bad_token"),
     ] {
         let mut outsider = Client::connect(rig.addr).await;
         let mut hello = json!({"type": "hello", "protocol": "bw4t", "versions": [1]});
@@ -589,6 +601,9 @@ async fn a_participant_goes_through_the_whole_study_and_the_export_has_every_row
         .collect();
     assert_eq!(conditions, [("alice", "alpha", "true"), ("alice", "beta", "true")]);
     assert!(trials.iter().all(|t| t["end_reason"] == "max_ticks" && t["ticks"] == "20"), "{trials:?}");
+    let marks: Vec<(&str, &str)> =
+        trials.iter().map(|t| (t["pauses"].as_str(), t["disconnections"].as_str())).collect();
+    assert_eq!(marks, [("1", "0"), ("0", "0")], "the operator paused alice's first trial once");
     let answers = csv_rows(&out.join("answers.csv"));
     let teamwork: Vec<(&str, &str)> = answers
         .iter()
@@ -903,6 +918,23 @@ fn bad_study_files_are_refused_naming_the_problem() {
 }
 
 #[test]
+fn a_study_sets_the_device_it_needs_and_a_too_small_screen_is_refused() {
+    let text =
+        STUDY.replacen("seed = 7\n", "seed = 7\nmin_screen = [1280, 720]\nallow_touch_only = true\n", 1);
+    let study = parse(&text).expect("the file loads");
+    assert_eq!(
+        study.info().screen,
+        ScreenRequirement { min_width: 1280, min_height: 720, allow_touch_only: true }
+    );
+    let error =
+        parse(&STUDY.replacen("seed = 7\n", "seed = 7\nmin_screen = [320, 200]\n", 1)).expect_err("refused");
+    assert!(error.contains("min_screen = [320, 200]"), "{error}");
+    let error =
+        parse(&STUDY.replacen("seed = 7\n", "seed = 7\nmin_screen = 1024\n", 1)).expect_err("refused");
+    assert!(error.contains("min_screen"), "{error}");
+}
+
+#[test]
 fn the_example_study_loads() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/study/study.toml");
     let study = study::load(&path, &maps).unwrap_or_else(|e| panic!("{e}"));
@@ -965,7 +997,7 @@ async fn trial_hello(rig: &StudyRig, id: &str) -> Value {
         panic!("a trial first: {state:?}")
     };
     assert_eq!(*humans, 2, "{state:?}");
-    serde_json::to_value(hello).expect("json")
+    player_fields(hello)
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -1227,21 +1259,35 @@ async fn a_trial_start_takes_only_what_a_match_id_looks_like() {
 
 /// Starts `id`'s trial at `step` with a player that leaves at once (or, with `stay`, only
 /// says `ready`), waits for the match's end, and answers the trial with it.
-async fn trial_without_playing(rig: &StudyRig, id: &str, step: usize, stay: bool) -> ParticipantState {
+/// How a trial without playing ends.
+#[derive(Clone, Copy, PartialEq)]
+enum Without {
+    /// The player leaves at once.
+    Leaving,
+    /// The player stays to the end, never moving.
+    Staying,
+    /// The operator stops the match.
+    Stopped,
+}
+
+async fn trial_without_playing(rig: &StudyRig, id: &str, step: usize, how: Without) -> ParticipantState {
     let (_, state) = rig.call("GET", &format!("/api/study/participants/{id}"), None).await;
     let state: ParticipantState = read(&state);
     let Some(StudyPage::Trial { hello, .. }) = &state.page else { panic!("a trial: {state:?}") };
     let ended: u64 = rig.arena.totals().values().map(|t| t.ended).sum();
-    let mut player = AutoPlayer::join_with(rig.addr, serde_json::to_value(hello).expect("json")).await;
+    let mut player = AutoPlayer::join_with(rig.addr, player_fields(hello)).await;
     let (name, match_id) = (player.welcome.match_info.name.clone(), player.welcome.match_info.id.clone());
     let started = json!({"step": step, "match": name, "match_id": match_id});
     let (status, answer) =
         rig.call("POST", &format!("/api/study/participants/{id}/trial"), Some(started)).await;
     assert_eq!(status, 200, "{answer}");
-    if stay {
-        player.wait("the match's end", |s| s.ended.then_some(())).await;
-    } else {
-        player.disconnect().await;
+    match how {
+        Without::Staying => player.wait("the match's end", |s| s.ended.then_some(())).await,
+        Without::Leaving => player.disconnect().await,
+        Without::Stopped => {
+            let (status, stopped) = rig.operator("POST", &format!("/api/matches/{name}/stop")).await;
+            assert_eq!(status, 200, "{stopped}");
+        }
     }
     tokio::time::timeout(WAIT, rig.arena.ended(ended + 1)).await.expect("the match is recorded in time");
     let body = json!({"step": step, "answers": {"match_id": match_id}});
@@ -1258,10 +1304,10 @@ async fn a_trial_counts_only_if_the_participant_played() {
     rig.call("POST", "/api/study/participants", Some(json!({"params": {"pid": "quitter"}}))).await;
     rig.answer("quitter", 0, json!({"consent": true})).await;
     // Left at tick 0: in the result, but the trial is given again.
-    let state = trial_without_playing(&rig, "quitter", 1, false).await;
+    let state = trial_without_playing(&rig, "quitter", 1, Without::Leaving).await;
     assert_eq!((state.step, kind_of(&state)), (1, "trial".into()), "{state:?}");
     // Stayed, but never moved: again.
-    let state = trial_without_playing(&rig, "quitter", 1, true).await;
+    let state = trial_without_playing(&rig, "quitter", 1, Without::Staying).await;
     assert_eq!((state.step, kind_of(&state)), (1, "trial".into()), "{state:?}");
     rig.shutdown().await;
     let records = stored(&dir, "quitter");
@@ -1273,7 +1319,25 @@ async fn a_trial_counts_only_if_the_participant_played() {
     assert_eq!(reasons.len(), 2, "{records:?}");
     assert!(reasons.iter().all(|r| r.contains("did not play") && r.contains("moved in 0 of")), "{reasons:?}");
     assert!(!types(&records).contains(&"trial_ended"), "{records:?}");
+    let _ = std::fs::remove_dir_all(&dir);
 
+    // A trial the operator stops is no complete trial, even for one who need not move.
+    let dir = temp_dir("played-stopped");
+    // A realtime match of ten minutes: it is surely still running when the operator stops it.
+    let long = SHORT
+        .replace("teammates = 1", "teammates = 1\nmin_active_ticks = 0")
+        .replace("mode = \"lockstep\"", "mode = \"realtime\"")
+        .replace("time_limit_s = 1", "time_limit_s = 600");
+    let rig = StudyRig::start(&dir, &long).await;
+    rig.call("POST", "/api/study/participants", Some(json!({"params": {"pid": "stopped"}}))).await;
+    rig.answer("stopped", 0, json!({"consent": true})).await;
+    let state = trial_without_playing(&rig, "stopped", 1, Without::Stopped).await;
+    assert_eq!((state.step, kind_of(&state)), (1, "trial".into()), "given again: {state:?}");
+    rig.shutdown().await;
+    let records = stored(&dir, "stopped");
+    let last = records.last().expect("a record");
+    assert_eq!(last.1, "trial_incomplete", "{records:?}");
+    assert!(last.2["reason"].as_str().is_some_and(|r| r.contains("stopped before its end")), "{last:?}");
     let _ = std::fs::remove_dir_all(&dir);
 
     // A condition of talking alone asks for no moving: staying to the end is enough.
@@ -1282,7 +1346,7 @@ async fn a_trial_counts_only_if_the_participant_played() {
         StudyRig::start(&dir, &SHORT.replace("teammates = 1", "teammates = 1\nmin_active_ticks = 0")).await;
     rig.call("POST", "/api/study/participants", Some(json!({"params": {"pid": "stayer"}}))).await;
     rig.answer("stayer", 0, json!({"consent": true})).await;
-    let state = trial_without_playing(&rig, "stayer", 1, true).await;
+    let state = trial_without_playing(&rig, "stayer", 1, Without::Staying).await;
     assert_eq!(kind_of(&state), "final", "{state:?}");
     rig.shutdown().await;
     let _ = std::fs::remove_dir_all(&dir);
@@ -1340,7 +1404,8 @@ async fn an_older_versions_logs_are_imported_once_and_export_as_that_version_exp
     let text = std::fs::read_to_string(fixture.join("study.toml")).expect("the study file");
     std::fs::write(dir.join("study.toml"), &text).expect("study copy");
     let logs = contents(&dir.join("participants"));
-    // expected/ is what the version that wrote these logs exported from them.
+    // expected/ is what the version that wrote these logs exported from them (with the
+    // columns trials.csv has gained since, empty for those trials, at the end).
     let expected = contents(&fixture.join("expected"));
     assert_eq!(expected.len(), 4, "the four CSV files");
     let exported = |out: &str| {
@@ -1433,5 +1498,108 @@ async fn one_address_cannot_make_participants_faster_than_its_rate() {
     let (status, list) = http(server.web, "GET", "/api/study/participants", Some(TOKEN), None).await;
     let list: ParticipantList = serde_json::from_str(&list).expect("the list");
     assert_eq!((status, list.participants.len()), (200, 4), "the refused arrival made nobody");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_study_server_shows_its_matches_to_the_operator_only() {
+    let dir = temp_dir("closed");
+    let file = dir.join("short.toml");
+    std::fs::write(&file, SHORT).expect("study file");
+    let server = StudyProcess::spawn(&file, &dir.join("data"));
+    let browser = Browser::default();
+    let arrival = json!({"params": {"participant": "gus"}});
+    assert_eq!(browser.json(server.web, "POST", "/api/study/participants", Some(&arrival)).await.0, 201);
+    let body = json!({"step": 0, "answers": {"consent": true}});
+    let (status, state) =
+        browser.json(server.web, "POST", "/api/study/participants/gus/answer", Some(&body)).await;
+    assert_eq!(status, 200, "{state}");
+    let fields = state["page"]["hello"].clone();
+    let hello = json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": fields["name"],
+                       "template": fields["template"], "seat": fields["seat"], "every_tick": true});
+    let (_player, welcome) = welcomed(server.addr, hello).await;
+    let name = welcome.match_info.name.clone();
+    // No lobby: the listing, a match's summary and the templates are not for outsiders.
+    for path in ["/api/matches".to_string(), format!("/api/matches/{name}")] {
+        let (status, body) = http(server.web, "GET", &path, None, None).await;
+        assert_eq!(status, 401, "{path}: {body}");
+        let (status, _) = http(server.web, "GET", &path, Some(TOKEN), None).await;
+        assert_eq!(status, 200, "{path}: the operator's");
+    }
+    let (status, info) = http(server.web, "GET", "/info.json", None, None).await;
+    let info: Value = serde_json::from_str(&info).expect("json");
+    assert_eq!((status, &info["templates"]), (200, &json!([])), "no template to join: {info}");
+    // Watching needs the operator's token.
+    let mut outsider = Client::connect(server.addr).await;
+    outsider
+        .send(json!({"type": "hello", "protocol": "bw4t", "versions": [1], "role": "spectator",
+                         "match": name}))
+        .await;
+    assert_eq!(outsider.error_code().await, "bad_token");
+    let operator = json!({"type": "hello", "protocol": "bw4t", "versions": [1], "role": "operator",
+                          "match": name, "token": TOKEN});
+    let (_operator, watching) = welcomed(server.addr, operator).await;
+    assert_eq!(watching.match_info.name, name);
+    // The dashboard's export, made and read by the operator only.
+    let auth = format!("Bearer {TOKEN}");
+    let json_body = ("Content-Type", "application/json");
+    let refused = browser.send(server.web, "POST", "/api/study/export", &[json_body], "{}").await;
+    assert_eq!(refused.status, 401, "{}", refused.body);
+    let made = browser
+        .send(server.web, "POST", "/api/study/export", &[json_body, ("Authorization", &auth)], "{}")
+        .await;
+    assert_eq!(made.status, 200, "{}", made.body);
+    let exported: bw4t_protocol::StudyExported =
+        serde_json::from_str(&made.body).expect("the export's summary");
+    assert_eq!((exported.participants, exported.files.len()), (1, 4), "{exported:?}");
+    let (status, csv) =
+        http(server.web, "GET", "/api/study/export/participants.csv", Some(TOKEN), None).await;
+    assert!(
+        status == 200 && csv.starts_with("participant,number,") && csv.contains("\ngus,"),
+        "{status} {csv}"
+    );
+    let (status, _) = http(server.web, "GET", "/api/study/export/participants.csv", None, None).await;
+    assert_eq!(status, 401);
+    let (status, _) =
+        http(server.web, "GET", "/api/study/export/..%2Fstudy.sqlite3", Some(TOKEN), None).await;
+    assert_eq!(status, 404, "only the export's CSV files");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// What a trial page's hello asks of a player's session (the watch token is the overview's).
+fn player_fields(hello: &TrialHello) -> Value {
+    json!({"name": hello.name, "template": hello.template, "seat": hello.seat})
+}
+
+#[test]
+fn a_dry_run_takes_scripted_participants_through_the_example_study_and_exports_them() {
+    let dir = temp_dir("dry-run");
+    let data = dir.join("data");
+    let example = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/study/study.toml");
+    let args = ["study", example, "--simulate", "10", "--data", data.to_str().expect("path"), "-q"];
+    let out = crate::util::bw4t_within(&args, std::time::Duration::from_secs(120));
+    let said = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{said}\n{}", String::from_utf8_lossy(&out.stderr));
+    assert!(said.contains("dry run: 9 completed, 1 declined consent, 18 trials played"), "{said}");
+    let participants = csv_rows(&data.join("export/participants.csv"));
+    let completed = participants.iter().filter(|p| p["completed"] == "true").count();
+    assert_eq!((participants.len(), completed), (10, 9), "{participants:?}");
+    let trials = csv_rows(&data.join("export/trials.csv"));
+    assert!(trials.len() == 18 && trials.iter().all(|t| t["complete"] == "true"), "{trials:?}");
+    // Each completer played both conditions; the replays were kept.
+    for p in participants.iter().filter(|p| p["completed"] == "true") {
+        let mut played: Vec<&str> = trials
+            .iter()
+            .filter(|t| t["participant"] == p["participant"])
+            .map(|t| t["condition"].as_str())
+            .collect();
+        played.sort_unstable();
+        assert_eq!(played, ["silent", "talking"], "{}", p["participant"]);
+    }
+    assert!(trials.iter().all(|t| data.join("export").join(&t["replay"]).is_file()), "{trials:?}");
+    // A second dry run into the same directory is refused, naming it.
+    let again = crate::util::bw4t_within(&args, std::time::Duration::from_secs(30));
+    assert!(!again.status.success());
+    assert!(String::from_utf8_lossy(&again.stderr).contains("not empty"), "{again:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }

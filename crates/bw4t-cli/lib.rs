@@ -23,6 +23,7 @@ mod serving;
 mod signals;
 mod status;
 mod study;
+mod study_simulate;
 mod tournament;
 
 use std::ffi::OsString;

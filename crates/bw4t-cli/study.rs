@@ -23,8 +23,14 @@ pub(crate) struct StudyArgs {
     /// Where the study's data goes: a copy of the study file, the participants' records
     /// (the SQLite database study.sqlite3),
     /// the matches' results and replays. A restarted server continues from it.
-    #[arg(long, value_name = "DIR", default_value = "study-data")]
-    data: PathBuf,
+    #[arg(long, value_name = "DIR")]
+    data: Option<PathBuf>,
+    /// A dry run: serve the study on free local ports into a fresh data directory
+    /// (default study-data-dry-run), play N scripted participants through every page
+    /// (every tenth declines consent), export the data and stop. The conditions play
+    /// lockstep, as fast as the scripted players answer.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=1000))]
+    simulate: Option<u32>,
     /// Run with a study file that differs from the one the data directory was started
     /// with (the old copy is kept as study-MS.toml). Pages and conditions must still mean
     /// what they meant for the participants so far.
@@ -81,6 +87,14 @@ struct ExportArgs {
     out: Option<PathBuf>,
 }
 
+impl StudyArgs {
+    /// The data directory: the one given, else the default of a real run or a dry run.
+    fn data(&self) -> PathBuf {
+        let default = if self.simulate.is_some() { "study-data-dry-run" } else { "study-data" };
+        self.data.clone().unwrap_or_else(|| PathBuf::from(default))
+    }
+}
+
 /// Runs `bw4t study ...`.
 pub(crate) fn run(args: &StudyArgs) -> Result<()> {
     match (&args.command, &args.file) {
@@ -109,19 +123,36 @@ fn run_export(args: &ExportArgs) -> Result<()> {
 
 fn serve(args: &StudyArgs, file: &Path) -> Result<()> {
     crate::serving::init_logs(&args.log);
-    let study = bw4t_study::load(file, &|spec: &str| crate::maps::load(spec).map_err(|e| format!("{e:#}")))
-        .map_err(anyhow::Error::msg)?;
-    keep_study_file(&args.data, &study, args.changed_study)?;
+    let mut study =
+        bw4t_study::load(file, &|spec: &str| crate::maps::load(spec).map_err(|e| format!("{e:#}")))
+            .map_err(anyhow::Error::msg)?;
+    let data = args.data();
+    if args.simulate.is_some() {
+        let used = std::fs::read_dir(&data).map(|mut d| d.next().is_some()).unwrap_or(false);
+        if used {
+            bail!(
+                "a dry run needs a fresh data directory, and {} is not empty: remove it or give --data DIR",
+                data.display()
+            );
+        }
+        // As fast as the scripted players answer, and no long wait for a partner.
+        for condition in &mut study.conditions {
+            condition.mode = bw4t_protocol::Mode::Lockstep;
+            condition.partner_timeout_s = condition.partner_timeout_s.min(1);
+        }
+    }
+    keep_study_file(&data, &study, args.changed_study)?;
     let token = args.operator_token.clone().unwrap_or_else(bw4t_server::random_token);
     let mut settings = ArenaConfig::new(study.templates());
     settings.default = None;
     settings.server.operator_token = Some(token.clone());
+    settings.server.closed = true;
     settings.server.allowed_origins = args.allow_origin.clone();
     settings.server.max_connections = args.max_connections;
     settings.server.max_per_source = args.max_per_source;
     settings.server.trusted_proxies = args.trust_proxy.clone();
     settings.server.hello_timeout = Duration::from_secs(10);
-    let matches = args.data.join("matches");
+    let matches = data.join("matches");
     settings.results = ResultsStore::in_dir(&matches)
         .with_context(|| format!("cannot write results into {}", matches.display()))?;
     for c in &study.conditions {
@@ -141,10 +172,14 @@ fn serve(args: &StudyArgs, file: &Path) -> Result<()> {
         .enable_all()
         .build()
         .context("cannot start the runtime")?;
-    runtime.block_on(async {
+    let dry_run = args.simulate.is_some();
+    // A dry run is this machine's only, on ports nobody else uses.
+    let (bind, port, http) =
+        if dry_run { ([127, 0, 0, 1].into(), 0, 0) } else { (args.bind, args.port, args.http) };
+    let simulated = runtime.block_on(async {
         let stop = crate::serving::stop_signal();
-        let (listener, local) = crate::serving::listen(SocketAddr::new(args.bind, args.port))?;
-        let (http, web) = crate::serving::listen(SocketAddr::new(args.bind, args.http))?;
+        let (listener, local) = crate::serving::listen(SocketAddr::new(bind, port))?;
+        let (http, web) = crate::serving::listen(SocketAddr::new(bind, http))?;
         outln!("listening on {local}");
         outln!("http on {web}");
         let arena = bw4t_server::Arena::start(settings).context("cannot start the study's matches")?;
@@ -152,8 +187,8 @@ fn serve(args: &StudyArgs, file: &Path) -> Result<()> {
             arrivals_per_minute: args.arrivals_per_minute,
             ..bw4t_study::StudyBudget::default()
         };
-        let server = StudyServer::open_with(study, &args.data, arena.clone(), budget)
-            .with_context(|| format!("cannot open the study's data in {}", args.data.display()))?;
+        let server = StudyServer::open_with(study, &data, arena.clone(), budget)
+            .with_context(|| format!("cannot open the study's data in {}", data.display()))?;
         let host = if web.ip().is_unspecified() { "THIS-HOST".to_string() } else { web.ip().to_string() };
         let base = format!("http://{host}:{}", web.port());
         outln!(
@@ -167,14 +202,44 @@ fn serve(args: &StudyArgs, file: &Path) -> Result<()> {
             outln!("operator token: {token}");
         }
         let routes: Vec<std::sync::Arc<dyn bw4t_server::Routes>> = vec![std::sync::Arc::new(server)];
-        bw4t_server::serve_arena(&arena, listener, Some(bw4t_server::Web { listener: http, routes }), stop)
-            .await;
-        anyhow::Ok(())
+        let web_routes = Some(bw4t_server::Web { listener: http, routes });
+        let Some(n) = args.simulate else {
+            bw4t_server::serve_arena(&arena, listener, web_routes, stop).await;
+            return anyhow::Ok(None);
+        };
+        let (done, finished) = tokio::sync::oneshot::channel::<()>();
+        let serving = {
+            let arena = arena.clone();
+            tokio::spawn(async move {
+                let finished = async {
+                    let _ = finished.await;
+                };
+                bw4t_server::serve_arena(&arena, listener, web_routes, finished).await;
+            })
+        };
+        outln!("dry run: {} through the study", bw4t_runner::plural(n as usize, "scripted participant"));
+        let simulated = crate::study_simulate::simulate(n, web, local).await;
+        let _ = done.send(());
+        serving.await.context("the study's server")?;
+        anyhow::Ok(Some(simulated))
     })?;
-    crate::output::note(format_args!(
-        "bw4t: stopped; the data is in {} (bw4t study export {0})",
-        args.data.display()
-    ));
+    let Some(simulated) = simulated else {
+        crate::output::note(format_args!(
+            "bw4t: stopped; the data is in {} (bw4t study export {0})",
+            data.display()
+        ));
+        return Ok(());
+    };
+    outln!(
+        "dry run: {} completed, {} declined consent, {} played",
+        simulated.completed,
+        simulated.declined,
+        bw4t_runner::plural(simulated.trials, "trial")
+    );
+    run_export(&ExportArgs { dir: data.clone(), out: None })?;
+    if !simulated.stopped.is_empty() {
+        bail!("the dry run found problems:\n  {}", simulated.stopped.join("\n  "));
+    }
     Ok(())
 }
 

@@ -93,7 +93,7 @@ async function questionnaire(page, step, { comments = null } = {}) {
 async function trial(page, admin, id, step, expected, { reload = false } = {}) {
   await onPage(page, 'trial', step);
   let frame = await (await page.waitForSelector('#trial-frame')).contentFrame();
-  await frame.waitForSelector('#status[data-status="connected"]', { timeout: 20_000 });
+  await frame.waitForSelector('#status[data-status="connected"]', { state: 'attached', timeout: 20_000 });
   const condition = await page.evaluate(() => document.querySelector('#trial-head')?.textContent || '');
   // Which condition this is shows in what the menu offers.
   await frame.waitForFunction(() => Number(document.querySelector('#menu-form').dataset.kinds) > 0);
@@ -129,7 +129,9 @@ async function trial(page, admin, id, step, expected, { reload = false } = {}) {
     await page.reload();
     await onPage(page, 'trial', step);
     frame = await (await page.waitForSelector('#trial-frame')).contentFrame();
-    await frame.waitForSelector('#status[data-status="connected"]', { timeout: 20_000 });
+    await frame.waitForSelector('#status[data-status="connected"]', { state: 'attached', timeout: 20_000 });
+    // The header is hidden in the participant view: its robot line is read once welcomed.
+    await frame.waitForFunction(() => document.querySelector('#me').textContent.includes('(robot'), null, { timeout: 20_000 });
     assert.deepEqual([await frame.textContent('#match-name'), await frame.textContent('#me')], before, 'the same match and robot after a reload');
   }
 
@@ -306,7 +308,7 @@ test('two people share a trial: the first waits in the waiting room until the se
     await onPage(ben, 'trial', 0);
     const benView = await frameOf(ben);
     for (const view of [annView, benView]) {
-      await view.waitForSelector('#status[data-status="connected"]');
+      await view.waitForSelector('#status[data-status="connected"]', { state: 'attached' });
       await view.waitForSelector('#waiting', { state: 'hidden', timeout: 20_000 });
     }
     assert.equal(await annView.textContent('#match-name'), await benView.textContent('#match-name'), 'one match for both');

@@ -239,6 +239,44 @@ impl Seats for HostSeats<'_> {
     }
 }
 
+/// What the result keeps of a player whose robot was taken out.
+#[derive(Clone, Copy, Debug, Default)]
+struct GoneFigures {
+    errors: u64,
+    connected: bool,
+    absences: Absences,
+}
+
+/// A player's absences after the start: drops of its connection and the ticks away.
+#[derive(Clone, Copy, Debug, Default)]
+struct Absences {
+    drops: u32,
+    ticks: u64,
+    /// The tick of the drop it has not come back from.
+    since: Option<u64>,
+}
+
+impl Absences {
+    /// The connection dropped at `tick`.
+    fn dropped(&mut self, tick: u64) {
+        self.drops = self.drops.saturating_add(1);
+        self.since = Some(tick);
+    }
+
+    /// The player is back (or the absence ends otherwise) at `tick`.
+    fn ended(&mut self, tick: u64) {
+        if let Some(since) = self.since.take() {
+            self.ticks = self.ticks.saturating_add(tick.saturating_sub(since));
+        }
+    }
+
+    /// The figures as of `tick`, an absence still going on counted to it.
+    fn as_of(mut self, tick: u64) -> Absences {
+        self.ended(tick);
+        self
+    }
+}
+
 struct Player {
     name: String,
     session: String,
@@ -263,6 +301,8 @@ struct Player {
     late_in_row: u32,
     /// Bad lines from this player's connections.
     errors: u64,
+    /// Its drops and time away after the start.
+    absences: Absences,
     /// The tick its last `resync` was answered at: one a tick at most, since a snapshot is
     /// many times the size of the request (the match's clock paces them, as percepts).
     resynced_at: Option<u64>,
@@ -288,6 +328,7 @@ impl Player {
             connected_ever: false,
             late_in_row: 0,
             errors: 0,
+            absences: Absences::default(),
             resynced_at: None,
         }
     }
@@ -330,8 +371,10 @@ pub struct MatchHost {
     recorder: Option<Recorder>,
     /// Names of reserved seats whose player will not come.
     abandoned: BTreeSet<String>,
-    /// Figures of players that left (errors, whether they ever connected), for the result.
-    gone: BTreeMap<RobotId, (u64, bool)>,
+    /// Figures of players that left, for the result.
+    gone: BTreeMap<RobotId, GoneFigures>,
+    /// How often the operator paused the match.
+    pauses: u32,
     /// Who is in the waiting match changed: connections get a `lobby`.
     lobby_changed: bool,
     /// The operator paused the match: no tick is made until it is resumed.
@@ -437,6 +480,7 @@ impl MatchHost {
             recorder,
             abandoned: BTreeSet::new(),
             gone: BTreeMap::new(),
+            pauses: 0,
             lobby_changed: false,
             held: false,
             lateness: None,
@@ -632,6 +676,7 @@ impl MatchHost {
         }
         if self.held != paused {
             self.held = paused;
+            self.pauses += u32::from(paused);
             self.tell_pause(None);
         }
     }
@@ -754,19 +799,28 @@ impl MatchHost {
             Phase::Playing { since, .. } => self.now.saturating_duration_since(since).as_millis() as u64,
             Phase::Waiting { .. } => 0,
         };
+        let tick = self.game.tick();
         let extra = |id: RobotId| {
-            let (errors, connected) = match self.players.get(&id) {
-                Some(p) => (p.errors, p.connected_ever || p.local.is_some()),
-                None => self.gone.get(&id).copied().unwrap_or((0, false)),
+            let figures = match self.players.get(&id) {
+                Some(p) => GoneFigures {
+                    errors: p.errors,
+                    connected: p.connected_ever || p.local.is_some(),
+                    absences: p.absences,
+                },
+                None => self.gone.get(&id).copied().unwrap_or_default(),
             };
+            let absences = figures.absences.as_of(tick);
             RobotExtra {
                 late_ticks: self.late.get(&id).copied().unwrap_or(0),
-                errors,
-                connected,
+                errors: figures.errors,
+                connected: figures.connected,
                 usage: self.usage.get(&id).copied(),
+                disconnections: absences.drops,
+                absent_ticks: absences.ticks,
             }
         };
-        let result = MatchResult::of(&self.game, Some(self.config.mode), reason, wall_ms, extra);
+        let mut result = MatchResult::of(&self.game, Some(self.config.mode), reason, wall_ms, extra);
+        result.pauses = self.pauses;
         if let Some(recorder) = self.recorder.take() {
             // A replay that cannot be written must not cost the match its result.
             let _ = recorder.finish(&self.game, reason);
@@ -1002,6 +1056,9 @@ impl MatchHost {
                     // The robot stands still (holding what it holds) until its player returns.
                     player.conn = None;
                     player.dropped_at = Some(self.now);
+                    if matches!(self.phase, Phase::Playing { .. }) {
+                        player.absences.dropped(self.game.tick());
+                    }
                     player.awaiting = false;
                     player.orders.clear();
                     player.pending = vec![Pending::Stop];
@@ -1127,7 +1184,9 @@ impl MatchHost {
         self.lobby_changed |= matches!(self.phase, Phase::Waiting { .. });
         if let Some(player) = self.players.remove(&id) {
             tracing::info!(target: "bw4t::match", r#match = %self.config.name, player = %player.name, robot = id.0, "player left");
-            self.gone.insert(id, (player.errors, player.connected_ever));
+            let absences = player.absences.as_of(self.game.tick());
+            let figures = GoneFigures { errors: player.errors, connected: player.connected_ever, absences };
+            self.gone.insert(id, figures);
         }
         let _ = self.game.leave_logged(id, &mut self.recorder);
         self.note_presence();

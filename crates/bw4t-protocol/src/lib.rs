@@ -39,7 +39,7 @@ pub use schema::schemas;
 pub use session::{ClientSession, Closed, Request, SessionError, SessionEvent, SessionOptions};
 pub use study::{
     EventsRecorded, ParticipantList, ParticipantRow, ParticipantState, QuestionItem, QuestionKind,
-    StepConflict, StudyInfo, StudyPage, TrialHello, TrialLanguage,
+    ScreenRequirement, StepConflict, StudyExported, StudyInfo, StudyPage, TrialHello, TrialLanguage,
 };
 pub use table::{
     ACTIONS, ActionRow, PERCEPTS, PerceptRow, Scope, SendType, action_row, percept_row, table_json,

@@ -49,6 +49,9 @@ pub struct MatchResult {
     pub digest: String,
     /// Per robot, by id.
     pub per_robot: Vec<RobotResult>,
+    /// How often the operator paused the match (absent when never).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub pauses: u32,
 }
 
 /// One robot's part of a result.
@@ -80,9 +83,20 @@ pub struct RobotResult {
     pub connected: bool,
     /// Whether the robot was still in the match at the end.
     pub present: bool,
+    /// How often its player's connection dropped after the start (absent when never).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub disconnections: u32,
+    /// Ticks made while its player was away after a drop, until it came back, its robot
+    /// was taken out, or the match ended (absent when none).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub absent_ticks: u64,
     /// How its player says it was driven (its last `report`), if it sent one.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub usage: Option<PlayerUsage>,
+}
+
+fn is_zero<T: Default + PartialEq>(n: &T) -> bool {
+    *n == T::default()
 }
 
 /// How a player says it was driven: tool calls, thinking time and model tokens. Reported
@@ -122,11 +136,22 @@ pub struct RobotExtra {
     pub connected: bool,
     /// What its player last reported of how it was driven.
     pub usage: Option<PlayerUsage>,
+    /// Its player's connection drops after the start.
+    pub disconnections: u32,
+    /// Ticks its player was away after a drop.
+    pub absent_ticks: u64,
 }
 
 impl RobotExtra {
-    /// A robot played in-process: never late, never wrong.
-    pub const LOCAL: RobotExtra = RobotExtra { late_ticks: 0, errors: 0, connected: true, usage: None };
+    /// A robot played in-process: never late, never wrong, never away.
+    pub const LOCAL: RobotExtra = RobotExtra {
+        late_ticks: 0,
+        errors: 0,
+        connected: true,
+        usage: None,
+        disconnections: 0,
+        absent_ticks: 0,
+    };
 }
 
 impl MatchResult {
@@ -155,6 +180,8 @@ impl MatchResult {
                 errors: extra.errors,
                 connected: extra.connected,
                 present,
+                disconnections: extra.disconnections,
+                absent_ticks: extra.absent_ticks,
                 usage: extra.usage,
             })
             .collect();
@@ -176,6 +203,7 @@ impl MatchResult {
             messages: stats.messages,
             digest: format!("{:016x}", game.digest()),
             per_robot,
+            pauses: 0,
         }
     }
 }

@@ -6,7 +6,9 @@ use serde_json::{Value, json};
 
 use crate::http::{ErrorReply, MapLayout, MatchList, MatchSummary, ResultList, ServerInfo, StoppedMatch};
 use crate::messages::{ClientMessage, ServerMessage};
-use crate::study::{EventsRecorded, ParticipantList, ParticipantState, StepConflict, StudyInfo};
+use crate::study::{
+    EventsRecorded, ParticipantList, ParticipantState, StepConflict, StudyExported, StudyInfo,
+};
 use crate::vocabulary::{AckCode, AgentStatus, ByeReason, EndReason, ErrorCode, Leaving, MoveState, Outcome};
 
 /// Every message's schema as (relative path, schema): `client/hello.json`, `server/welcome.json`, ...,
@@ -80,6 +82,7 @@ fn http() -> Vec<(String, Value)> {
             reply::<EventsRecorded>(),
         ),
         ("study/conflict", "409 at a step not the participant's current one", reply::<StepConflict>()),
+        ("study/exported", "POST /api/study/export: the export made", reply::<StudyExported>()),
     ]
     .into_iter()
     .map(|(name, title, schema)| {

@@ -16,6 +16,19 @@ pub struct StudyInfo {
     pub title: String,
     /// Its conditions' names, in the study file's order.
     pub conditions: Vec<String>,
+    /// The device a participant needs: the page turns others away before consent.
+    pub screen: ScreenRequirement,
+}
+
+/// The device a study needs (`[study] min_screen`, `allow_touch_only`).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+pub struct ScreenRequirement {
+    /// The narrowest browser window taken, in CSS pixels.
+    pub min_width: u32,
+    /// The lowest browser window taken, in CSS pixels.
+    pub min_height: u32,
+    /// Whether a device with a touch screen and no mouse (a phone, a tablet) is taken.
+    pub allow_touch_only: bool,
 }
 
 /// A participant's state: the step they are at and its page. The answer to their arrival,
@@ -155,6 +168,10 @@ pub struct TrialHello {
     /// The seat token that binds the seat to the participant (`hello.seat`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub seat: Option<String>,
+    /// A condition whose view is the whole map: the spectator token of its matches, for
+    /// the overview beside the player's own view.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub watch_token: Option<String>,
 }
 
 /// The messages a trial's player may send.
@@ -218,6 +235,26 @@ pub struct StepConflict {
 pub struct EventsRecorded {
     /// The events recorded.
     pub recorded: usize,
+}
+
+/// `POST /api/study/export` (operator): the export made into the data directory's
+/// `export/`, whose CSV files `GET /api/study/export/NAME.csv` gives.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct StudyExported {
+    /// Participants exported.
+    pub participants: usize,
+    /// Trials (attempts) exported, complete or not.
+    pub trials: usize,
+    /// Of those, the trials that do not count.
+    pub incomplete: usize,
+    /// Answers exported (one per item).
+    pub answers: usize,
+    /// Events exported.
+    pub events: usize,
+    /// Replays copied.
+    pub replays: usize,
+    /// The CSV files, each at `GET /api/study/export/FILE`.
+    pub files: Vec<String>,
 }
 
 /// `GET /api/study/participants` (operator): everyone, by id.

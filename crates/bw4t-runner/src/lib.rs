@@ -15,7 +15,7 @@ pub use external::{AgentReport, Served, ServedError, ServedRun, play_served};
 pub use headless::{RunError, play, play_headless};
 pub use limit::{MIN_DEFAULT_TICKS, TickLimit};
 pub use preflight::check_command;
-pub use remote::{RemoteError, play_remote};
+pub use remote::{RemoteError, play_remote, play_remote_told};
 pub use replay::{
     FRAME_CACHE_BYTES, MAX_DIGEST_EVERY, ReplayError, ReplayFrames, ReplayMessage, ReplaySummary, Verdict,
     read_replay, verify_replay,

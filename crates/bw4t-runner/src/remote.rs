@@ -4,7 +4,7 @@
 use std::net::SocketAddr;
 
 use bw4t_agents::{ActionAck, Agent, Observation, OrderDone};
-use bw4t_protocol::{ClientSession, MatchResult, SessionEvent, SessionOptions};
+use bw4t_protocol::{ClientSession, MatchResult, SessionEvent, SessionOptions, Welcome};
 use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader};
 use tokio::net::TcpStream;
 
@@ -32,7 +32,17 @@ impl From<std::io::Error> for RemoteError {
 pub async fn play_remote(
     addr: SocketAddr,
     options: SessionOptions,
+    agent: Box<dyn Agent>,
+) -> Result<MatchResult, RemoteError> {
+    play_remote_told(addr, options, agent, |_| {}).await
+}
+
+/// [`play_remote`], telling `welcomed` the `welcome` (which match, which robot) as it comes.
+pub async fn play_remote_told(
+    addr: SocketAddr,
+    options: SessionOptions,
     mut agent: Box<dyn Agent>,
+    mut welcomed: impl FnMut(&Welcome) + Send,
 ) -> Result<MatchResult, RemoteError> {
     let stream = TcpStream::connect(addr).await?;
     stream.set_nodelay(true)?;
@@ -76,6 +86,7 @@ pub async fn play_remote(
                     }
                     session.ready();
                 }
+                SessionEvent::Welcome(welcome) => welcomed(&welcome),
                 SessionEvent::MatchEnd(end) => return Ok(end.result),
                 SessionEvent::Error(e) if e.fatal => {
                     return Err(RemoteError::Protocol(format!("{}: {}", e.code, e.message)));

@@ -33,6 +33,9 @@ pub struct ServerConfig {
     /// Web pages, besides the server's own, that may open WebSockets (see
     /// [`parse_origin`](crate::parse_origin); `*`: any).
     pub allowed_origins: Vec<String>,
+    /// A closed server (a study's): only the operator lists and inspects matches; there is
+    /// no lobby for anyone else.
+    pub closed: bool,
 }
 
 impl Default for ServerConfig {
@@ -45,6 +48,7 @@ impl Default for ServerConfig {
             hello_timeout: Duration::from_secs(10),
             queue: 1024,
             allowed_origins: Vec::new(),
+            closed: false,
         }
     }
 }

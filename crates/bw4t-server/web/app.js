@@ -16,7 +16,7 @@
 // /replay.json. This module starts the page and runs the drawing loop; the others are
 //   dom.js · page.js (the state shown) · geometry.js · renderer.js · panels.js ·
 //   connection.js · waiting.js · lobby.js · spectator.js · player.js · replay.js ·
-//   language.js · menu.js · embed.js,
+//   language.js · menu.js · embed.js · participant.js · glide.js,
 // and the JavaScript client's belief base, served from protocol/clients/js/src at
 // /client/beliefs.js and /client/table.js.
 
@@ -31,10 +31,14 @@ import { joinAsPlayer, playerScene, setupPlayerControls } from './player.js';
 import { replay } from './replay.js';
 import { loadLanguage } from './language.js';
 import { embeddedHello } from './embed.js';
+import { participant, setupParticipant } from './participant.js';
+import { glide } from './glide.js';
 
 /** The one drawing loop: redraws when something changed, and lets the replay advance. */
 function animate(now) {
   if (page.view === 'replay') replay.step(now);
+  // The participant's own robot glides between the places its percepts named.
+  if (participant && page.view === 'player' && glide.step(now)) page.dirty = true;
   if (page.dirty && page.renderer) {
     page.dirty = false;
     const started = performance.now();
@@ -110,6 +114,7 @@ async function start() {
   // Embedded by the study page: play with the hello it gives: a template's next match, or
   // (after a reload) the match the trial is in, with this tab's session for it.
   const hello = embeddedHello();
+  setupParticipant();
   if (hello) {
     // A player's role is the protocol's default (`agent`); the page sets the rest itself.
     const { name: embeddedName, template, match, type: _t, protocol: _p, versions: _v, role: _r, ...extra } = hello;

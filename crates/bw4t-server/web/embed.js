@@ -27,10 +27,11 @@ export function setReportTick(tick) {
 }
 
 /** Reports one event (`kind` and its fields) to the embedding page, with the page clock's
- * time (`wall_ms`, ms since the Unix epoch) and the tick. */
-export function report(kind, fields = {}) {
+ * time (`wall_ms`, ms since the Unix epoch) and the match's tick: `tick` when the server
+ * said it (an ack's, a result's), else the latest tick the view knows. */
+export function report(kind, fields = {}, tick = current.tick) {
   if (!embedded) return;
-  const event = { wall_ms: Date.now(), tick: current.tick, kind, ...fields };
+  const event = { wall_ms: Date.now(), tick: tick ?? current.tick, kind, ...fields };
   window.parent.postMessage({ bw4t: 'event', event }, location.origin);
 }
 

@@ -55,8 +55,9 @@ export function appendLog(list, node) {
 }
 
 /** One line of the message list (`to`: null for a message to all): the sentence of a
- * message of the language (`said`, or a text that is its text form), else the text. */
-export function addMessage(tick, from, to, text, said = null) {
+ * message of the language (`said`, or a text that is its text form), else the text.
+ * `shown`: the sender's name as shown (the participant view shows its own as "You"). */
+export function addMessage(tick, from, to, text, said = null, shown = from) {
   const line = chatLine(text, said);
   const dataset = { from, to: to ?? '' };
   if (line.said) {
@@ -69,7 +70,7 @@ export function addMessage(tick, from, to, text, said = null) {
       'li',
       { dataset },
       el('span', { class: 'when' }, `${tick ?? ''}`),
-      el('b', {}, from),
+      el('b', {}, shown),
       to && to !== 'all' ? el('span', { class: 'to' }, ` → ${to}`) : '',
       ': ',
       el('span', { class: 'sentence' }, line.sentence),

@@ -16,7 +16,10 @@
 // Messages are composed with the menu (menu.js) in the shared language, or typed when the
 // match allows free text. The time from a key or click to the `ack` of the action it made
 // is kept in `window.bw4tLatency` (samples in ms, and their percentiles), for tests and
-// benchmarks. Embedded in the study page, the view reports what happens (embed.js).
+// benchmarks. Embedded in the study page, the view reports what happens (embed.js), each
+// event with the match's tick then: an ack's or result's own tick, else the latest
+// `percepts`' (the participant view asks for one every tick). It is then the participant
+// view (participant.js): its own robot drawn moving (glide.js), a countdown, plain words.
 
 import { Beliefs } from './client/beliefs.js';
 import { PlayerSession } from './client/core.js';
@@ -31,6 +34,8 @@ import { spectator, spectatorScene, startSpectator, stopSpectator } from './spec
 import { hideWaiting, showLobby, showRefusal } from './waiting.js';
 import { embedded, report, setReportTick } from './embed.js';
 import { setMenuOptions, setMessagePolicy, setupMenu } from './menu.js';
+import { participant, setClockOf, setClockTick, showPause, showRefusalOf, showTaskOver } from './participant.js';
+import { glide } from './glide.js';
 
 /** Input-to-acknowledgement latency: ms from a key or click to the `ack` of its action. */
 const latency = {
@@ -96,7 +101,8 @@ export function joinAsPlayer(name, template = null, extra = {}) {
   player.extra = extra;
   // After a reload, take the robot back with the session the server gave this tab.
   const session = template ? null : sessionStorage.getItem(sessionKey(name));
-  connectPlayer(session ? { session } : { name });
+  // A seat token (the study's) is checked against the name: it goes with the session too.
+  connectPlayer(session ? { session, ...(extra.seat ? { name } : {}) } : { name });
 }
 
 /** Where a player's `hello` asks to play: the named match, a template, or neither. */
@@ -111,7 +117,7 @@ function destination() {
  * page's own choices (but the token of the page's address, and where to play). */
 function connectPlayer(identity) {
   stopOverview();
-  const hello = { words: !embedded, ...identity, ...player.extra, ...destination() };
+  const hello = { words: !embedded, ...(participant ? { every_tick: true } : {}), ...identity, ...player.extra, ...destination() };
   const { name, session, words, match, template, token = null, ...fields } = hello;
   const core = new PlayerSession({ name, session, words, match, template, token: tokenOf('agent') ?? token, fields });
   core.start();
@@ -155,6 +161,8 @@ function onPlayerEvent(event, message) {
       }
       sessionStorage.setItem(sessionKey(message.name), player.core.session);
       showMatch(message.match);
+      setClockOf(message.match);
+      glide.setTickHz(message.match.tick_hz);
       setText($('#me'), `${message.name} (robot ${message.robot})`);
       setStatus('connected');
       log(
@@ -179,12 +187,13 @@ function onPlayerEvent(event, message) {
       const action = event.request?.action;
       const request = event.request?.tag ?? { words: `#${message.id ?? '?'}` };
       if (request.inputAt !== undefined) latency.samples.push(performance.now() - request.inputAt);
-      report('ack', { id: message.id, ok: message.ok, ...(message.ok ? {} : { code: message.code }) });
+      report('ack', { id: message.id, ok: message.ok, ...(message.ok ? {} : { code: message.code }) }, message.tick);
       if (message.ok) {
         log('ok', `${request.words}: accepted`, message.tick, { action });
         // Players are not sent their own messages: show an accepted one in the chat here.
-        if (request.say) addMessage(message.tick, player.name, request.say.to, request.say.text, request.say.said);
+        if (request.say) addMessage(message.tick, player.name, request.say.to, request.say.text, request.say.said, participant ? 'You' : undefined);
       } else {
+        if (!request.say) showRefusalOf(message.code);
         log('reject', `${request.words}: rejected, ${message.code}: ${message.reason || ''}`, message.tick, {
           action,
           code: message.code,
@@ -194,7 +203,7 @@ function onPlayerEvent(event, message) {
     }
     case 'result': {
       const request = event.request?.tag ?? { words: `#${message.id}` };
-      report('done', { id: message.id, outcome: message.outcome });
+      report('done', { id: message.id, outcome: message.outcome }, message.tick);
       log('result', `${request.words}: ${message.outcome}`, message.tick, {
         action: event.request?.action,
         outcome: message.outcome,
@@ -209,14 +218,22 @@ function onPlayerEvent(event, message) {
       onPlayerError(message);
       break;
     case 'match_end':
-      report('match_over', { reason: message.reason, result: message.result });
+      report('match_over', { reason: message.reason, result: message.result }, message.result?.ticks);
       hideWaiting();
       endMatch(message, player.name);
+      if (participant) showTaskOver();
       log('info', `match over: ${message.reason}`);
       break;
     case 'bye':
       report('bye', { reason: message.reason });
       if (message.reason !== 'match_over') log('info', `server said bye: ${message.reason}`);
+      break;
+    case 'server':
+      // The operator paused or resumed the match (a server that never says so is fine).
+      if (message.type === 'pause') {
+        report('pause', { paused: message.paused === true });
+        showPause(message.paused === true);
+      }
       break;
     default:
       break;
@@ -261,6 +278,7 @@ function onPlayerError(message) {
  * `ready`, the panels. */
 function onPercepts(percepts) {
   setReportTick(percepts.tick);
+  setClockTick(percepts.tick);
   if (percepts.full || percepts.add?.length || percepts.not?.length) {
     report('percepts', { full: percepts.full === true, add: percepts.add || [], del: percepts.not || [] });
   }
@@ -279,6 +297,7 @@ function onPercepts(percepts) {
   player.core.ready(percepts.tick);
   setTick(percepts.tick, page.match ? percepts.tick / page.match.tick_hz : undefined);
   if (typeof percepts.words === 'string') showWords(percepts);
+  if (page.map) glide.setPlace(page.map.byName.get(player.beliefs.get('at')));
   showPlayerPanel();
   page.dirty = true;
 }
@@ -383,7 +402,9 @@ function showPlayerPanel() {
  * keeps its own view. */
 function startOverview(matchName) {
   stopOverview();
-  const hello = helloFor(matchName ? { role: 'spectator', match: matchName } : { role: 'spectator' });
+  // A study's condition gives its spectator token (its matches are watched by no one else).
+  const watch = player.extra.watch_token ? { token: player.extra.watch_token } : {};
+  const hello = helloFor(matchName ? { role: 'spectator', match: matchName, ...watch } : { role: 'spectator', ...watch });
   const socket = openSocket(
     hello,
     (message) => {
@@ -421,6 +442,8 @@ export function playerScene() {
     const inside = (x, y) => room && x >= room.x && x < room.x + room.w && y >= room.y && y < room.y + room.h;
     return {
       ...whole,
+      // The participant's robot is named "you", as in the own view.
+      robots: participant ? (whole.robots || []).map((r) => (r.name === player.name ? { ...r, name: 'you' } : r)) : whole.robots,
       // The room the player is in shows its blocks as the player's chips.
       blocks: (whole.blocks || []).filter((block) => !inside(block.x, block.y)),
       at: map.byName.get(b.get('at')) || null,
@@ -429,11 +452,18 @@ export function playerScene() {
       atBlock: b.get('atBlock'),
       holdingColor: b.get('holding') !== undefined ? b.colourOf(b.get('holding')) || '?' : null,
       me: player.name,
+      placeLabel: !participant,
       hover: page.hover,
     };
   }
   const holding = b.get('holding') !== undefined ? b.colourOf(b.get('holding')) || '?' : null;
-  return { ...perceivedScene(b, map, player.name, holding), hover: page.hover };
+  const scene = { ...perceivedScene(b, map, player.name, holding), hover: page.hover };
+  if (participant && glide.drawn) {
+    const traveling = b.get('state') === 'traveling';
+    if (traveling) glide.shownTraveling(performance.now());
+    scene.self = { ...glide.drawn, holdingColor: holding, traveling };
+  }
+  return scene;
 }
 
 /** The input that made an action: a click (on `target`) at the event's time. */
@@ -456,6 +486,7 @@ function act(action, args = [], input = null) {
   let words = [action, ...args].join(' ');
   const colour = action === 'goToBlock' ? player.beliefs.colourOf(args[0]) : undefined;
   if (colour) words += ` (${colour})`;
+  if (action === 'goTo' || action === 'goToBlock') glide.sent(input?.at);
   sent(player.core.act(action, args, { words, inputAt: input?.at }), words, args);
 }
 

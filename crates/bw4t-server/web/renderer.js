@@ -179,6 +179,10 @@ export class Renderer {
       ctx.strokeStyle = '#1f7ae0';
       ctx.lineWidth = 3 * unit;
       ctx.strokeRect(z.x + 1.5 * unit, z.y + 1.5 * unit, z.w - 3 * unit, z.h - 3 * unit);
+    }
+    // The place's label names the player (not in the participant view: its robot is "you").
+    if (scene.at && !scene.self && scene.placeLabel !== false) {
+      const z = scene.at;
       const size = this.fontUnits(this.scale * 1.2);
       ctx.font = `600 ${size}px system-ui, sans-serif`;
       ctx.textAlign = 'right';
@@ -252,6 +256,38 @@ export class Renderer {
       ctx.fillStyle = '#ffffff';
       ctx.fillText(r.name, r.x, y - unit);
     }
+    if (scene.self) this.drawSelf(ctx, scene.self);
+  }
+
+  /** The participant's own robot where glide.js puts it (`self`: {x, y, holdingColor,
+   * traveling}): a disc with what it holds inside, ringed while it travels, named "you". */
+  drawSelf(ctx, self) {
+    const unit = 1 / this.scale;
+    const radius = Math.max(this.map.robot * 0.75, 7 * unit);
+    ctx.beginPath();
+    ctx.arc(self.x, self.y, radius, 0, 2 * Math.PI);
+    ctx.fillStyle = '#1f6fd1';
+    ctx.fill();
+    ctx.lineWidth = (self.traveling ? 3 : 1.5) * unit;
+    ctx.strokeStyle = self.traveling ? '#ffffff' : '#0b3a78';
+    ctx.stroke();
+    if (self.holdingColor) {
+      const side = radius * 1.1;
+      ctx.fillStyle = colourCss(self.holdingColor);
+      ctx.fillRect(self.x - side / 2, self.y - side / 2, side, side);
+      ctx.strokeStyle = 'rgba(0,0,0,0.6)';
+      ctx.lineWidth = unit;
+      ctx.strokeRect(self.x - side / 2, self.y - side / 2, side, side);
+    }
+    const size = this.fontUnits(this.scale * 1.2);
+    ctx.font = `700 ${size}px system-ui, sans-serif`;
+    ctx.textAlign = 'center';
+    ctx.textBaseline = 'bottom';
+    const w = ctx.measureText('you').width;
+    ctx.fillStyle = 'rgba(255,255,255,0.85)';
+    ctx.fillRect(self.x - w / 2 - 2 * unit, self.y - radius - size - 3 * unit, w + 4 * unit, size + 2 * unit);
+    ctx.fillStyle = '#0b3a78';
+    ctx.fillText('you', self.x, self.y - radius - 2 * unit);
   }
 
   /** The blocks a player sees in its room. Their positions are not in the percepts, so

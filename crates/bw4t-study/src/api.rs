@@ -9,7 +9,7 @@
 
 use bw4t_protocol::{
     ErrorReply, EventsRecorded, MatchState, MatchSummary, ParticipantList, ParticipantRow, ParticipantState,
-    StepConflict, StudyInfo, StudyPage,
+    StepConflict, StudyPage,
 };
 use bw4t_server::WebRequest;
 use http::{HeaderMap, Method, StatusCode};
@@ -29,6 +29,8 @@ pub(crate) enum Answer {
     Arrived(StatusCode, String, String),
     /// The operator's token is needed.
     Unauthorized,
+    /// A file of the export, to be saved under its name.
+    Download(String, String),
 }
 
 /// The body of a JSON answer. Made through a `Value`, so the keys come in alphabetical
@@ -38,14 +40,14 @@ pub(crate) fn reply_body(body: &impl Serialize) -> Result<String, serde_json::Er
 }
 
 /// A JSON answer (one of `bw4t_protocol`'s study replies) with a status.
-fn reply(status: StatusCode, body: &impl Serialize) -> Answer {
+pub(crate) fn reply(status: StatusCode, body: &impl Serialize) -> Answer {
     match reply_body(body) {
         Ok(text) => Answer::Json(status, text),
         Err(e) => error(StatusCode::INTERNAL_SERVER_ERROR, format!("reply not serialisable: {e}")),
     }
 }
 
-fn error(status: StatusCode, message: impl Into<String>) -> Answer {
+pub(crate) fn error(status: StatusCode, message: impl Into<String>) -> Answer {
     let body = ErrorReply { error: message.into() };
     Answer::Json(status, serde_json::to_string(&body).unwrap_or_default())
 }
@@ -88,12 +90,11 @@ pub(crate) async fn respond(study: &StudyServer, request: &WebRequest, rest: &[&
         );
     }
     match (method, rest) {
-        (&Method::GET, []) => {
-            let s = study.study();
-            let conditions = s.conditions.iter().map(|c| c.name.clone()).collect();
-            reply(StatusCode::OK, &StudyInfo { name: s.name.clone(), title: s.title.clone(), conditions })
-        }
-        (&Method::GET, ["participants"]) if !operator => Answer::Unauthorized,
+        (&Method::GET, []) => reply(StatusCode::OK, &study.study().info()),
+        (_, ["participants"] | ["export", ..]) if !operator && method == Method::GET => Answer::Unauthorized,
+        (&Method::POST, ["export"]) if !operator => Answer::Unauthorized,
+        (&Method::POST, ["export"]) => study.export_now().await,
+        (&Method::GET, ["export", file]) => study.exported(file),
         (&Method::GET, ["participants"]) => reply(StatusCode::OK, &study.list().await),
         (&Method::POST, ["participants"]) => match parse(body) {
             Ok(body) => study.arrive(&body, headers, request.source),
@@ -229,8 +230,15 @@ impl StudyServer {
     fn state_of(&self, p: &Participant) -> ParticipantState {
         let mut state = p.state(self.study());
         let seed = p.played_at(self.study(), p.step).map(|played| played.seed);
-        if let Some(StudyPage::Trial { hello, .. } | StudyPage::Practice { hello, .. }) = &mut state.page {
-            hello.seat = self.inner.arena.invite_seeded(&hello.template, &hello.name, seed).ok();
+        if let Some(StudyPage::Trial { hello, view, .. } | StudyPage::Practice { hello, view, .. }) =
+            &mut state.page
+        {
+            let arena = &self.inner.arena;
+            hello.seat = arena.invite_seeded(&hello.template, &hello.name, seed).ok();
+            if view.as_str() == "overview" {
+                let template = arena.config().templates.iter().find(|t| t.name == hello.template);
+                hello.watch_token = template.and_then(|t| t.config.spectator_token.clone());
+            }
         }
         state
     }

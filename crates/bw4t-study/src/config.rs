@@ -10,7 +10,7 @@ use std::time::Duration;
 
 use bw4t_agents::Strategy;
 use bw4t_map::Map;
-use bw4t_protocol::{MessagePolicy, Mode, QuestionKind};
+use bw4t_protocol::{MessagePolicy, Mode, QuestionKind, ScreenRequirement, StudyInfo};
 use serde::Deserialize;
 
 use super::markdown::to_html;
@@ -55,6 +55,8 @@ struct StudySection {
     balance: Option<String>,
     dropout_after_s: Option<u64>,
     full_text: Option<String>,
+    min_screen: Option<[u32; 2]>,
+    allow_touch_only: Option<bool>,
 }
 
 #[derive(Deserialize, Default)]
@@ -292,9 +294,30 @@ pub struct Study {
     pub pages: Vec<Page>,
     /// What a participant who fails a pass mark sees.
     pub screen_out: ScreenOut,
+    /// The device a participant needs; others are turned away before consent.
+    pub screen: ScreenRequirement,
     /// The file's text, as it was read.
     pub text: String,
 }
+
+impl Study {
+    /// What `GET /api/study` says of the study.
+    pub fn info(&self) -> StudyInfo {
+        StudyInfo {
+            name: self.name.clone(),
+            title: self.title.clone(),
+            conditions: self.conditions.iter().map(|c| c.name.clone()).collect(),
+            screen: self.screen.clone(),
+        }
+    }
+}
+
+/// The smallest window a trial's view fits in without scrolling (CSS pixels), below the
+/// study page's own header.
+const DEFAULT_MIN_SCREEN: [u32; 2] = [1024, 640];
+
+/// `min_screen` below this is refused: the trial's view cannot show its panels.
+const SMALLEST_SCREEN: [u32; 2] = [640, 400];
 
 /// One condition: the matches of its trials.
 #[derive(Clone, Debug)]
@@ -562,6 +585,16 @@ pub fn parse(text: &str, path: &Path, maps: MapLoader<'_>) -> Result<Study, Stri
     }
     let screen_out = screen_out(file.screen_out, base)?;
     let dropout_after_s = s.dropout_after_s.unwrap_or(30 * 60);
+    let [min_width, min_height] = s.min_screen.unwrap_or(DEFAULT_MIN_SCREEN);
+    if min_width < SMALLEST_SCREEN[0] || min_height < SMALLEST_SCREEN[1] {
+        return Err(format!(
+            "study: min_screen = [{min_width}, {min_height}]: the trial's view needs at least \
+             [{}, {}] (width, height in CSS pixels)",
+            SMALLEST_SCREEN[0], SMALLEST_SCREEN[1]
+        ));
+    }
+    let screen =
+        ScreenRequirement { min_width, min_height, allow_touch_only: s.allow_touch_only.unwrap_or(false) };
     let study = Study {
         name: s.name,
         title: s.title.unwrap_or_else(|| "Study".into()),
@@ -580,6 +613,7 @@ pub fn parse(text: &str, path: &Path, maps: MapLoader<'_>) -> Result<Study, Stri
         practices,
         pages,
         screen_out,
+        screen,
         text: text.to_string(),
     };
     // What the conditions' matches are run with is in range (partner_timeout_s, ...):
@@ -986,6 +1020,9 @@ impl Study {
         setup.seats.extend(std::iter::repeat_with(Seat::open).take(c.humans));
         let mut config = HostConfig::new();
         config.name = c.name.clone();
+        // Nobody watches a condition's match but the operator, and the participants of a
+        // condition whose view is the whole map (their trial page gives them this token).
+        config.spectator_token = Some(bw4t_server::random_token());
         config.mode = c.mode;
         config.language = c.language.clone();
         config.labels =

@@ -82,6 +82,9 @@ const TRIAL_COLUMNS: &[&str] = &[
     "map",
     "players",
     "replay",
+    "disconnections",
+    "absent_s",
+    "pauses",
     "practice",
     "passed",
 ];
@@ -297,6 +300,9 @@ pub fn export(dir: &Path, out: &Path) -> Result<ExportSummary, String> {
                         p.iter().filter_map(Value::as_str).collect::<Vec<_>>().join(";")
                     }),
                     replay.unwrap_or_default(),
+                    field("disconnections"),
+                    field("absent_s"),
+                    field("pauses"),
                     t.practice.to_string(),
                     t.passed.map(|p| p.to_string()).unwrap_or_default(),
                 ],

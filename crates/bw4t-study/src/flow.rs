@@ -271,6 +271,7 @@ impl Participant {
                         template: condition.name.clone(),
                         name: self.player_name(),
                         seat: None,
+                        watch_token: None,
                     },
                     view: condition.view.clone(),
                     language: TrialLanguage {
@@ -296,6 +297,7 @@ impl Participant {
                         template: practice.name.clone(),
                         name: self.player_name(),
                         seat: None,
+                        watch_token: None,
                     },
                     view: practice.view.clone(),
                     language: TrialLanguage {

@@ -18,6 +18,7 @@ mod api;
 mod assign;
 mod config;
 mod credential;
+mod download;
 mod export;
 mod flow;
 mod legacy;
@@ -52,6 +53,8 @@ struct Shared {
     budget: StudyBudget,
     /// Arrivals counted per source address, against `budget.arrivals_per_minute`.
     arrivals: bw4t_server::RateBudget,
+    /// Held while the dashboard's export runs.
+    exporting: tokio::sync::Mutex<()>,
     store: Store,
     arena: Arena,
     participants: Mutex<BTreeMap<String, Arc<Mutex<Slot>>>>,
@@ -135,6 +138,7 @@ impl StudyServer {
                     std::time::Duration::from_secs(60),
                 ),
                 budget,
+                exporting: tokio::sync::Mutex::new(()),
                 store,
                 arena,
                 participants: Mutex::new(BTreeMap::new()),
@@ -196,12 +200,12 @@ impl StudyServer {
             // not answered yet) or was interrupted by the stop.
             let step = slot.state.step;
             let records = match self.ended_trial(&slot.state, &match_id) {
-                Ok(Ended { result, failed: None })
-                    if result.get("end_reason") != Some(&json!("interrupted")) =>
-                {
+                Ok(Ended { result, failed: None }) => {
                     self.trial_end_records(&slot.state, step, &match_id, result)
                 }
-                Ok(Ended { failed: Some(why), .. }) => {
+                Ok(Ended { result, failed: Some(why) })
+                    if result.get("end_reason") != Some(&json!("interrupted")) =>
+                {
                     vec![self.incomplete(&slot.state, step, &match_id, &why)]
                 }
                 _ => {
@@ -309,7 +313,9 @@ impl StudyServer {
         let ticks = result["ticks"].as_u64().unwrap_or(0);
         let active = ticks.saturating_sub(robot["idle_ticks"].as_u64().unwrap_or(ticks));
         let least = played.condition.min_active_ticks;
-        let failed = if robot["present"] == json!(false) {
+        let failed = if result["end_reason"] == json!("interrupted") {
+            Some("the match was stopped before its end by the operator or the server".to_string())
+        } else if robot["present"] == json!(false) {
             Some("the participant did not play: they left the match before its end".to_string())
         } else if active < least {
             Some(format!(
@@ -318,7 +324,13 @@ impl StudyServer {
         } else {
             None
         };
-        Ok(Ended { result: trial_result(&result), failed })
+        let mut kept = trial_result(&result);
+        // The participant's own absences: drops of their connection and the time away.
+        let tick_hz = f64::from(played.condition.tick_hz);
+        kept["disconnections"] = robot["disconnections"].as_u64().unwrap_or(0).into();
+        kept["absent_s"] = (robot["absent_ticks"].as_u64().unwrap_or(0) as f64 / tick_hz).into();
+        kept["pauses"] = result["pauses"].as_u64().unwrap_or(0).into();
+        Ok(Ended { result: kept, failed })
     }
 
     fn slot(&self, id: &str) -> Option<Arc<Mutex<Slot>>> {
@@ -405,6 +417,10 @@ impl Routes for StudyServer {
                 }
                 api::Answer::Unauthorized => {
                     Reply::unauthorized(self.inner.arena.config().server.operator_token.is_some())
+                }
+                api::Answer::Download(name, text) => {
+                    Reply::new(http::StatusCode::OK, "text/csv; charset=utf-8", text)
+                        .with("Content-Disposition", format!("attachment; filename=\"{name}\""))
                 }
             }
         })

@@ -12,6 +12,11 @@
 // the server says the match is still running). Events are sent in batches every second,
 // and with a keepalive fetch when the page goes away (every POST is JSON). The API: the study contract, served by
 // `bw4t study`.
+//
+// Before anything else the device is checked against the study's needs (`screen` in
+// GET /api/study: a screen of at least min_width x min_height CSS pixels, and a mouse or
+// touchpad unless touch-only devices are allowed): a device that falls short gets a plain
+// page saying what the study needs, and no participant is made.
 
 import { $, el, setText } from './dom.js';
 
@@ -331,7 +336,7 @@ async function finishTrial() {
   trial.finishing = true;
   const over = $('#trial-over');
   over.hidden = false;
-  over.replaceChildren(el('p', {}, 'The task is over. Saving…'));
+  over.replaceChildren(el('p', {}, 'The task is over. Thank you — saving…'));
   await flush();
   if (!trial.matchName && !trial.matchId) {
     over.replaceChildren(el('p', {}, 'The task ended before it started. Please reload the page.'));
@@ -344,7 +349,7 @@ async function finishTrial() {
       localStorage.removeItem(trialKey());
       const next = result.body;
       over.replaceChildren(
-        el('p', {}, 'The task is over.'),
+        el('p', {}, 'The task is over. Thank you — saved.'),
         button('trial-continue', 'Continue', () => render(next)),
       );
       $('#trial-continue').focus();
@@ -434,6 +439,38 @@ function render(state) {
   $('#study-page').querySelector('button, input, textarea')?.focus({ preventScroll: true });
 }
 
+// ---- the device ----
+
+/** What the device lacks for the study (`screen`: GET /api/study's), in words, or null
+ * when it has what the study needs. The screen is the device's (a window smaller than its
+ * screen can be made larger). Touch-only: a touch screen and no fine pointer. */
+function deviceShortfall(screenNeeds) {
+  if (!screenNeeds) return null;
+  const width = Math.max(window.screen.width, window.innerWidth);
+  const height = Math.max(window.screen.height, window.innerHeight);
+  const small = width < screenNeeds.min_width || height < screenNeeds.min_height;
+  const touchOnly = navigator.maxTouchPoints > 0 && !window.matchMedia('(any-pointer: fine)').matches;
+  if (!small && (screenNeeds.allow_touch_only || !touchOnly)) return null;
+  return { small, touchOnly, width, height };
+}
+
+/** The page for a device the study cannot be done on: what it needs, plainly. */
+function renderScreenOut(screenNeeds, shortfall) {
+  document.body.dataset.kind = 'screen-out';
+  const needs = `a screen of at least ${screenNeeds.min_width} × ${screenNeeds.min_height} pixels`;
+  const pointer = screenNeeds.allow_touch_only ? '' : ' and a keyboard and mouse (or touchpad)';
+  const why = [];
+  if (shortfall.small) why.push(`This screen is ${shortfall.width} × ${shortfall.height} pixels.`);
+  if (shortfall.touchOnly && !screenNeeds.allow_touch_only) why.push('This device seems to have only a touch screen.');
+  $('#study-page').replaceChildren(
+    el('h2', {}, 'This study needs a computer'),
+    el('p', { id: 'screen-needs' }, `This study needs a computer with ${needs}${pointer}.`),
+    el('p', { class: 'note' }, why.join(' ')),
+    el('p', {}, 'Please open the same link on such a computer. Nothing has been recorded.'),
+    el('div', { class: 'actions' }, el('button', { type: 'button', id: 'screen-again', onclick: () => location.reload() }, 'Check again')),
+  );
+}
+
 // ---- start ----
 
 async function start() {
@@ -444,11 +481,20 @@ async function start() {
     const stored = localStorage.getItem(STORE_KEY);
     if (stored) params.participant = stored;
   }
-  api('GET', '/api/study').then(({ ok, body }) => {
-    if (!ok || !body) return;
-    setText($('#study-title'), body.title || body.name || 'Study');
-    document.title = body.title || body.name || 'Study';
-  });
+  let info = null;
+  try {
+    const { ok, body } = await api('GET', '/api/study');
+    if (ok && body) info = body;
+  } catch {
+    // the arrival below says the server cannot be reached
+  }
+  if (info) {
+    setText($('#study-title'), info.title || info.name || 'Study');
+    document.title = info.title || info.name || 'Study';
+    // A device the study cannot be done on is turned away before consent: no participant.
+    const shortfall = deviceShortfall(info.screen);
+    if (shortfall) return renderScreenOut(info.screen, shortfall);
+  }
   let result;
   try {
     result = await api('POST', '/api/study/participants', { params });

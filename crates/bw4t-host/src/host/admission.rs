@@ -101,6 +101,7 @@ impl MatchHost {
             player.connected_ever = true;
             player.late_in_row = 0;
             player.dropped_at = None;
+            player.absences.ended(self.game.tick());
             player.every_tick = every_tick;
             // A player taking its robot back with `words` keeps what the robot remembers.
             player.knowledge = match (hello.words, player.knowledge.take()) {

@@ -512,7 +512,8 @@ impl Arena {
         let templates: Vec<_> = config
             .templates
             .iter()
-            .filter(|t| t.names.is_empty())
+            // Templates whose matches seat only invited players are nobody else's to join.
+            .filter(|t| t.names.is_empty() && !t.invited_only)
             .map(|t| TemplateInfo {
                 name: t.name.clone(),
                 robots: t.setup.robots(),

@@ -1,4 +1,5 @@
-//! The HTTP API of a live server (JSON): the lobby's listing for anyone; making,
+//! The HTTP API of a live server (JSON): the lobby's listing for anyone (on a closed
+//! server, a study's, for the operator only); making,
 //! stopping, pausing and inspecting matches, results and replays for the operator
 //! (`Authorization: Bearer TOKEN`, or `?token=` on a GET). Also the live `/map.json` and
 //! `/info.json`.
@@ -36,6 +37,8 @@ pub(crate) async fn respond(request: WebRequest, arena: &Arena) -> Reply {
             None => Reply::error(StatusCode::NOT_FOUND, "no such match"),
         },
         (&Method::GET, ["info.json"]) => ok(StatusCode::OK, &arena.info().await),
+        // A closed server's matches are the operator's business only.
+        (_, ["api", ..]) if !operator && arena.config().server.closed => unauthorized(arena),
         (&Method::GET, ["api", "matches"]) => {
             ok(StatusCode::OK, &MatchList { matches: arena.list(operator).await })
         }

@@ -35,6 +35,8 @@ const PAGE_FILES: &[(&str, &str, &str)] = &[
     ("/language.js", JS, include_str!("../../web/language.js")),
     ("/menu.js", JS, include_str!("../../web/menu.js")),
     ("/embed.js", JS, include_str!("../../web/embed.js")),
+    ("/participant.js", JS, include_str!("../../web/participant.js")),
+    ("/glide.js", JS, include_str!("../../web/glide.js")),
     // The message language's table, one source for the menu and the sentences.
     ("/language.json", JSON, include_str!("../../../../protocol/schema/language.json")),
     ("/client/beliefs.js", JS, include_str!("../../../../protocol/clients/js/src/beliefs.js")),

@@ -64,6 +64,7 @@ fn played(ticks: u64) -> Outcome {
         messages: 0,
         digest: String::new(),
         per_robot: Vec::new(),
+        pauses: 0,
     })
 }
 
