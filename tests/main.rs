@@ -54,6 +54,10 @@ mod web;
 /// Studies: the participant flow over the HTTP API, resuming, the export, bad study files.
 mod study;
 
+/// Study designs: between and mixed subjects, practice rounds, pass marks and the
+/// screen-out, quotas, balance over completers, seeds fixed per slot and trial.
+mod study_designs;
+
 /// `bw4t tournament`: files, statistics, resume, shards, failing agents.
 mod tournament;
 

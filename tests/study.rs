@@ -94,7 +94,7 @@ completion_code = "ABC123"
 redirect = "https://example.org/done?cc={code}&p={participant}"
 "##;
 
-fn temp_dir(what: &str) -> PathBuf {
+pub(crate) fn temp_dir(what: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("bw4t-study-{what}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).expect("temp dir");
@@ -102,18 +102,18 @@ fn temp_dir(what: &str) -> PathBuf {
 }
 
 /// Shipped maps by name; anything else is not found.
-fn maps(spec: &str) -> Result<bw4t_map::Map, String> {
+pub(crate) fn maps(spec: &str) -> Result<bw4t_map::Map, String> {
     let known = Path::new(env!("CARGO_MANIFEST_DIR")).join("maps").join(format!("{spec}.toml")).is_file();
     if known { Ok(shipped_map(spec)) } else { Err(format!("no shipped map named '{spec}'")) }
 }
 
-fn parse(text: &str) -> Result<study::Study, String> {
+pub(crate) fn parse(text: &str) -> Result<study::Study, String> {
     study::parse(text, Path::new("study.toml"), &maps)
 }
 
 /// One browser: a cookie jar sent with every request and filled by every `Set-Cookie`.
 #[derive(Clone, Default)]
-struct Browser {
+pub(crate) struct Browser {
     jar: std::sync::Arc<std::sync::Mutex<std::collections::BTreeMap<String, String>>>,
 }
 
@@ -190,11 +190,11 @@ impl Browser {
 }
 
 /// A study served in-process on loopback ports, its data in `dir`.
-struct StudyRig {
+pub(crate) struct StudyRig {
     /// The one browser the test's participants use.
-    browser: Browser,
-    arena: Arena,
-    addr: SocketAddr,
+    pub(crate) browser: Browser,
+    pub(crate) arena: Arena,
+    pub(crate) addr: SocketAddr,
     http: SocketAddr,
     stop: Option<oneshot::Sender<()>>,
     task: tokio::task::JoinHandle<()>,
@@ -202,12 +202,12 @@ struct StudyRig {
 }
 
 impl StudyRig {
-    async fn start(dir: &Path, text: &str) -> StudyRig {
+    pub(crate) async fn start(dir: &Path, text: &str) -> StudyRig {
         StudyRig::start_as(dir, text, Browser::default(), StudyBudget::default()).await
     }
 
     /// A study whose participants use `browser`, each with `budget` of events.
-    async fn start_as(dir: &Path, text: &str, browser: Browser, budget: StudyBudget) -> StudyRig {
+    pub(crate) async fn start_as(dir: &Path, text: &str, browser: Browser, budget: StudyBudget) -> StudyRig {
         std::fs::write(dir.join("study.toml"), text).expect("study copy");
         let study = parse(text).expect("the study file is good");
         let mut config = ArenaConfig::new(study.templates());
@@ -237,14 +237,14 @@ impl StudyRig {
         StudyRig { browser, arena, addr, http: http_addr, stop: Some(stop), task, _study: served }
     }
 
-    async fn shutdown(mut self) {
+    pub(crate) async fn shutdown(mut self) {
         if let Some(stop) = self.stop.take() {
             let _ = stop.send(());
         }
         tokio::time::timeout(WAIT, &mut self.task).await.expect("the server stops in time").expect("task");
     }
 
-    async fn call(&self, method: &str, path: &str, body: Option<Value>) -> (u16, Value) {
+    pub(crate) async fn call(&self, method: &str, path: &str, body: Option<Value>) -> (u16, Value) {
         let body = body.map(|b| b.to_string()).unwrap_or_default();
         let json = [("Content-Type", "application/json")];
         let Answered { status, body: text, .. } =
@@ -258,13 +258,13 @@ impl StudyRig {
         (status, reply)
     }
 
-    async fn operator(&self, method: &str, path: &str) -> (u16, Value) {
+    pub(crate) async fn operator(&self, method: &str, path: &str) -> (u16, Value) {
         let (status, text) = http(self.http, method, path, Some(TOKEN), Some("")).await;
         (status, serde_json::from_str(&text).unwrap_or_else(|e| panic!("not JSON ({e}): {text}")))
     }
 
     /// Answers step `step` of `id` and expects the state after it.
-    async fn answer(&self, id: &str, step: usize, answers: Value) -> ParticipantState {
+    pub(crate) async fn answer(&self, id: &str, step: usize, answers: Value) -> ParticipantState {
         let (status, state) = self
             .call(
                 "POST",
@@ -303,18 +303,18 @@ impl StudyRig {
 }
 
 /// A reply read back as its type in `bw4t_protocol`.
-fn read<T: serde::de::DeserializeOwned>(reply: &Value) -> T {
+pub(crate) fn read<T: serde::de::DeserializeOwned>(reply: &Value) -> T {
     serde_json::from_value(reply.clone()).unwrap_or_else(|e| panic!("not the expected reply ({e}): {reply}"))
 }
 
 /// The `kind` of a state's page (`none` past the last page).
-fn kind_of(state: &ParticipantState) -> String {
+pub(crate) fn kind_of(state: &ParticipantState) -> String {
     let page = serde_json::to_value(&state.page).expect("json");
     page["kind"].as_str().unwrap_or("none").to_string()
 }
 
 /// A CSV file's rows as maps of column to cell (no quoted commas in what these tests read).
-fn csv_rows(path: &Path) -> Vec<std::collections::BTreeMap<String, String>> {
+pub(crate) fn csv_rows(path: &Path) -> Vec<std::collections::BTreeMap<String, String>> {
     let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().expect("a header").split(',').collect();
@@ -325,7 +325,7 @@ fn csv_rows(path: &Path) -> Vec<std::collections::BTreeMap<String, String>> {
 
 /// Participant `id`'s records as a connection of its own reads them from the study's
 /// database in `dir`: `seq`, `type` and the record's fields, their `created` first.
-fn stored(dir: &Path, id: &str) -> Vec<(u64, String, Value)> {
+pub(crate) fn stored(dir: &Path, id: &str) -> Vec<(u64, String, Value)> {
     let database = dir.join("study.sqlite3");
     assert!(database.is_file(), "{} is missing", database.display());
     let connection = rusqlite::Connection::open(&database).expect("open the database");
@@ -350,7 +350,7 @@ fn types(records: &[(u64, String, Value)]) -> Vec<&str> {
     records.iter().map(|(_, kind, _)| kind.as_str()).collect()
 }
 
-async fn arrive(rig: &StudyRig, id: &str) -> (u16, Value) {
+pub(crate) async fn arrive(rig: &StudyRig, id: &str) -> (u16, Value) {
     rig.call(
         "POST",
         "/api/study/participants",
@@ -942,6 +942,25 @@ fn the_example_study_loads() {
     assert_eq!(names, ["talking", "silent"]);
     assert_eq!(study.trials(), 2);
     assert!(matches!(study.pages.last(), Some(study::Page::Final { completion_code: Some(_), .. })));
+
+    // Its between-subjects variant, with a practice round and a comprehension check.
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/study/between.toml");
+    let between = study::load(&path, &maps).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(between.assignment, study::Assignment::Between);
+    assert_eq!(between.balance, study::Balance::Completers);
+    let groups: Vec<&str> = between.groups.iter().map(|g| g.name.as_str()).collect();
+    assert_eq!(groups, ["talking", "silent"]);
+    assert_eq!(between.practices.iter().map(|p| p.name.as_str()).collect::<Vec<_>>(), ["warm-up"]);
+    let practice = between.pages.iter().find(|p| matches!(p, study::Page::Practice { .. }));
+    assert!(
+        matches!(
+            practice,
+            Some(study::Page::Practice { pass: Some(study::PracticePass::Sequence(1)), attempts: 2, .. })
+        ),
+        "{practice:?}"
+    );
+    assert!(between.templates().iter().any(|t| t.name == "warm-up" && t.invited_only));
+    assert_eq!(between.screen_out.completion_code.as_deref(), Some("SCREENED1"));
 }
 
 /// One condition for two people and two built-in teammates; a person whose partner does
@@ -1357,6 +1376,26 @@ fn contents(dir: &Path) -> std::collections::BTreeMap<String, Vec<u8>> {
         .collect()
 }
 
+/// Each exported CSV is the expected one, byte for byte, but for the columns a later
+/// version appended to every line (their header and cells after the last expected one).
+fn same_but_appended(
+    exported: &std::collections::BTreeMap<String, Vec<u8>>,
+    expected: &std::collections::BTreeMap<String, Vec<u8>>,
+    why: &str,
+) {
+    assert_eq!(exported.keys().collect::<Vec<_>>(), expected.keys().collect::<Vec<_>>(), "{why}");
+    for (name, want) in expected {
+        let (got, want) = (String::from_utf8_lossy(&exported[name]), String::from_utf8_lossy(want));
+        let (got, want): (Vec<&str>, Vec<&str>) = (got.lines().collect(), want.lines().collect());
+        assert_eq!(got.len(), want.len(), "{name}: {why}");
+        for (got, want) in got.iter().zip(&want) {
+            let appended =
+                got.strip_prefix(want).is_some_and(|rest| rest.is_empty() || rest.starts_with(','));
+            assert!(appended, "{name}: {why}:\n{got}\n is not\n{want}\n with columns appended");
+        }
+    }
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn an_older_versions_logs_are_imported_once_and_export_as_that_version_exported_them() {
     let fixture = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/study-jsonl");
@@ -1375,7 +1414,7 @@ async fn an_older_versions_logs_are_imported_once_and_export_as_that_version_exp
         expected.keys().map(|name| (name.clone(), std::fs::read(out.join(name)).expect("exported"))).collect()
     };
     let before: std::collections::BTreeMap<String, Vec<u8>> = exported("export-logs");
-    assert_eq!(before, expected, "the logs export as before, without a server");
+    same_but_appended(&before, &expected, "the logs export as before, without a server");
     assert!(!dir.join("study.sqlite3").exists(), "the export writes no database");
 
     // Ann continues in the browser that arrived as her (its cookie kept by that version).
@@ -1387,7 +1426,7 @@ async fn an_older_versions_logs_are_imported_once_and_export_as_that_version_exp
         read::<ParticipantList>(&list).participants.into_iter().map(|p| (p.participant, p.step)).collect();
     assert_eq!(people, [("ann".into(), 3), ("bob".into(), 0), ("carl".into(), 1)]);
     rig.shutdown().await;
-    assert_eq!(exported("export-imported"), expected, "imported, the data exports byte for byte the same");
+    same_but_appended(&exported("export-imported"), &expected, "imported, the data exports the same");
     let ann = stored(&dir, "ann");
     assert_eq!(ann.iter().map(|(seq, _, _)| *seq).collect::<Vec<_>>(), (1..=11).collect::<Vec<_>>());
     assert_eq!(types(&stored(&dir, "bob")), ["created", "event", "answer"], "the torn line is left out");

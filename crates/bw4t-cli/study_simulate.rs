@@ -91,14 +91,17 @@ async fn participant(k: u32, web: SocketAddr, play: SocketAddr) -> Result<Outcom
         let step = state.step;
         let Some(page) = state.page.clone() else { bail!("step {step} has no page") };
         browser.events(&id, step, &[json!({"kind": "page_shown"})]).await?;
+        // A practice round is played as a trial is, but is not one.
+        let is_trial = matches!(page, StudyPage::Trial { .. });
         let answers = match page {
             StudyPage::Final { .. } => return Ok(Outcome { end: End::Completed, trials }),
             StudyPage::Declined { .. } => return Ok(Outcome { end: End::Declined, trials }),
             StudyPage::Consent { .. } => json!({"consent": !k.is_multiple_of(10)}),
             StudyPage::Instructions { .. } => json!({}),
             StudyPage::Questionnaire { items, .. } => answer_all(&items, &mut rng),
-            StudyPage::Trial { hello, .. } => {
-                trials += 1;
+            StudyPage::ScreenedOut { .. } => bail!("screened out at step {step} (a pass mark failed)"),
+            StudyPage::Trial { hello, .. } | StudyPage::Practice { hello, .. } => {
+                trials += usize::from(is_trial);
                 let options = SessionOptions {
                     name: hello.name.clone(),
                     template: Some(hello.template.clone()),

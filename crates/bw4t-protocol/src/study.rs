@@ -109,6 +109,42 @@ pub enum StudyPage {
         /// People in each of the condition's matches.
         humans: usize,
     },
+    /// A practice round: a match of the practice's own template, outside the conditions
+    /// (played as a trial is: `hello`, then the match id answered).
+    Practice {
+        /// Which attempt this is, from 1.
+        trial: usize,
+        /// The attempts allowed.
+        trials: usize,
+        /// The practice's id (its template's name).
+        condition: String,
+        /// Title.
+        title: String,
+        /// The page's text and the practice's briefing, as HTML (`null` if neither).
+        html: Option<String>,
+        /// What the page's `hello` names.
+        hello: TrialHello,
+        /// What the player sees: `own` or `overview`.
+        view: String,
+        /// Which messages the player may send.
+        language: TrialLanguage,
+        /// The match's time limit, in seconds.
+        time_limit_s: u64,
+        /// People in each match (1).
+        humans: usize,
+    },
+    /// A pass mark was failed: the study has ended for the participant, with the
+    /// screen-out's completion code and/or redirect.
+    ScreenedOut {
+        /// Title.
+        title: String,
+        /// Text, as HTML, the participant's id and the code filled in.
+        html: String,
+        /// The screen-out's completion code (`null` if none).
+        completion_code: Option<String>,
+        /// Where to send the participant, filled in (`null` if nowhere).
+        redirect: Option<String>,
+    },
     /// The end: a completion code and/or a redirect.
     Final {
         /// Title.

@@ -1,5 +1,6 @@
 //! A questionnaire's items as the page shows them, and the check of a participant's
-//! answers to them: every required item answered, each value of its item's kind.
+//! answers to them: every required item answered, each value of its item's kind; and how
+//! many were answered correctly, for a pass mark.
 
 use bw4t_protocol::{QuestionItem, QuestionKind};
 use serde_json::{Map, Value};
@@ -14,6 +15,12 @@ pub(crate) fn item_reply(item: &Item) -> QuestionItem {
         required: item.required,
         kind: item.kind.clone(),
     }
+}
+
+/// How many of `items` with a correct answer the checked `answers` give it.
+pub(crate) fn correct(items: &[Item], answers: &Value) -> usize {
+    let given = |id: &str| answers.get(id).and_then(Value::as_str);
+    items.iter().filter(|i| i.correct.is_some() && given(&i.id) == i.correct.as_deref()).count()
 }
 
 /// The longest text answer kept, in characters.

@@ -16,8 +16,9 @@ use http::{HeaderMap, Method, StatusCode};
 use serde::Serialize;
 use serde_json::{Value, json};
 
+use super::assign::{Holder, slot_for};
 use super::credential::{self, Proof};
-use super::flow::{Participant, Record, event_size, order_for, valid_id};
+use super::flow::{Participant, Record, event_size, group_of, order_for, valid_id};
 use super::{Ended, Slot, StudyServer, TrialRefusal, lock, now_ms};
 
 /// What a study request is answered with.
@@ -204,9 +205,11 @@ fn check_step(study: &StudyServer, p: &Participant, body: &Value) -> Result<(), 
     let Some(step) = body.get("step").and_then(Value::as_u64) else {
         return Err(error(StatusCode::BAD_REQUEST, "step: expected the step's number"));
     };
-    if p.declined || step != p.step as u64 {
+    if p.stopped() || step != p.step as u64 {
         let why = if p.declined {
             "the participant declined consent; the study has ended for them".to_string()
+        } else if p.screened_out {
+            "the participant was screened out; the study has ended for them".to_string()
         } else {
             format!("step {step} is not the participant's current step ({})", p.step)
         };
@@ -221,13 +224,17 @@ fn conflict(why: String, p: &Participant, study: &StudyServer) -> Answer {
 }
 
 impl StudyServer {
-    /// The participant's state as the API answers it: on a trial, with the seat token that
-    /// binds their seat in the condition's matches to them.
+    /// The participant's state as the API answers it: on a trial (or practice), with the
+    /// seat token that binds their seat in the condition's matches to them and makes a
+    /// match made for them play the seed of their slot and the trial's position.
     fn state_of(&self, p: &Participant) -> ParticipantState {
         let mut state = p.state(self.study());
-        if let Some(StudyPage::Trial { hello, view, .. }) = &mut state.page {
+        let seed = p.played_at(self.study(), p.step).map(|played| played.seed);
+        if let Some(StudyPage::Trial { hello, view, .. } | StudyPage::Practice { hello, view, .. }) =
+            &mut state.page
+        {
             let arena = &self.inner.arena;
-            hello.seat = arena.invite(&hello.template, &hello.name).ok();
+            hello.seat = arena.invite_seeded(&hello.template, &hello.name, seed).ok();
             if view.as_str() == "overview" {
                 let template = arena.config().templates.iter().find(|t| t.name == hello.template);
                 hello.watch_token = template.and_then(|t| t.config.spectator_token.clone());
@@ -303,17 +310,35 @@ impl StudyServer {
             Ok(number) => number,
             Err(e) => return write_failed(&e),
         };
-        let order = order_for(self.study(), number, &id);
-        let names = order.iter().map(|c| self.study().conditions[*c].name.clone()).collect();
-        let mut slot = Slot { state: Participant::new(&id, number, order, now_ms()) };
-        let created = Record::Created {
+        let study = self.study();
+        // Who holds a slot now (the lock on everyone keeps two arrivals from taking one).
+        let now = now_ms();
+        let holders: Vec<Holder> = all
+            .values()
+            .filter_map(|slot| {
+                let p = &lock(slot).state;
+                p.holds_slot(study, now).then(|| Holder { slot: p.slot, conditions: p.order.clone() })
+            })
+            .collect();
+        let Some(taken) = slot_for(study, number, &holders) else {
+            // No participant is made: a later arrival may find a slot given up.
+            return error(StatusCode::SERVICE_UNAVAILABLE, study.full_text.clone());
+        };
+        let order = order_for(study, taken, &id);
+        let names = order.iter().map(|c| study.conditions[*c].name.clone()).collect();
+        let mut slot = Slot { state: Participant::new(&id, number, order, now) };
+        let mut records = vec![Record::Created {
             participant: id.clone(),
             number,
             order: names,
             params,
             secret_sha256: Some(credential::digest(&secret)),
-        };
-        if let Err(e) = self.append(&mut slot, &[created]) {
+        }];
+        if taken != number || study.groups.len() > 1 {
+            let group = study.groups[group_of(study, taken)].name.clone();
+            records.push(Record::Assigned { slot: taken, group });
+        }
+        if let Err(e) = self.append(&mut slot, &records) {
             return write_failed(&e);
         }
         let state = self.state_of(&slot.state);
@@ -349,7 +374,9 @@ impl StudyServer {
             self.study().pages[slot.state.step].clone()
         };
         let running = match (&page, answers.get("match_id").and_then(Value::as_str)) {
-            (super::Page::Trial { .. }, Some(match_id)) => self.is_running(match_id).await,
+            (super::Page::Trial { .. } | super::Page::Practice { .. }, Some(match_id)) => {
+                self.is_running(match_id).await
+            }
             _ => false,
         };
         let mut slot = lock(&slot);
@@ -365,6 +392,7 @@ impl StudyServer {
                         page: "consent".into(),
                         questionnaire: None,
                         answers: json!({"consent": consent}),
+                        passed: None,
                     }]
                 }
                 _ => return error(StatusCode::BAD_REQUEST, "consent: expected true or false"),
@@ -375,20 +403,32 @@ impl StudyServer {
                     page: "instructions".into(),
                     questionnaire: None,
                     answers: json!({}),
+                    passed: None,
                 }]
             }
-            super::Page::Questionnaire { id: questionnaire, items, .. } => {
+            super::Page::Questionnaire { id: questionnaire, items, pass, attempts, .. } => {
                 match super::answers::check(items, &answers) {
-                    Ok(checked) => vec![Record::Answer {
-                        step,
-                        page: "questionnaire".into(),
-                        questionnaire: Some(questionnaire.clone()),
-                        answers: checked,
-                    }],
+                    Ok(checked) => {
+                        let passed = pass.map(|pass| super::answers::correct(items, &checked) >= pass);
+                        let mut records = vec![Record::Answer {
+                            step,
+                            page: "questionnaire".into(),
+                            questionnaire: Some(questionnaire.clone()),
+                            answers: checked,
+                            passed,
+                        }];
+                        let tries = slot.state.failed + 1;
+                        if passed == Some(false) && tries >= *attempts {
+                            let reason =
+                                format!("failed questionnaire '{questionnaire}' {tries} of {attempts} times");
+                            records.push(Record::ScreenedOut { step, reason });
+                        }
+                        records
+                    }
                     Err(why) => return error(StatusCode::BAD_REQUEST, why),
                 }
             }
-            super::Page::Trial { .. } => {
+            super::Page::Trial { .. } | super::Page::Practice { .. } => {
                 let Some(match_id) = answers.get("match_id").and_then(Value::as_str) else {
                     return error(
                         StatusCode::BAD_REQUEST,
@@ -458,7 +498,7 @@ impl StudyServer {
                 return answer;
             }
             let step = slot.state.step;
-            let Some((trial, c)) = slot.state.trial_at(self.study(), step) else {
+            let Some(played) = slot.state.played_at(self.study(), step) else {
                 return conflict(format!("step {step} is not a trial"), &slot.state, self);
             };
             let (Some(name), Some(match_id)) =
@@ -479,13 +519,13 @@ impl StudyServer {
                 // Said again (a page that retried): it is recorded already.
                 return reply(StatusCode::OK, &self.state_of(&slot.state));
             }
-            let condition = self.study().conditions[c].name.clone();
             let record = Record::TrialStarted {
                 step,
-                trial,
-                condition,
+                trial: played.trial,
+                condition: played.condition.name.clone(),
                 r#match: name.to_string(),
                 match_id: match_id.to_string(),
+                practice: played.practice,
             };
             match self.append(slot, &[record]) {
                 Ok(()) => reply(StatusCode::OK, &self.state_of(&slot.state)),
@@ -556,12 +596,18 @@ impl StudyServer {
                     number: p.number,
                     step: p.step,
                     steps: study.pages.len(),
-                    page_kind: if p.declined { "declined" } else { page.map_or("", |p| p.kind()) }
-                        .to_string(),
+                    page_kind: if p.declined {
+                        "declined"
+                    } else if p.screened_out {
+                        "screened_out"
+                    } else {
+                        page.map_or("", |p| p.kind())
+                    }
+                    .to_string(),
                     completed: p.completed(study),
                     started_ms: p.started_ms,
                     last_ms: p.last_ms,
-                    condition: p.trial_at(study, p.step).map(|(_, c)| study.conditions[c].name.clone()),
+                    condition: p.played_at(study, p.step).map(|played| played.condition.name.clone()),
                     match_name: p.playing.as_ref().map(|(name, _)| name.clone()),
                     match_id: p.playing.as_ref().map(|(_, id)| id.clone()),
                 }

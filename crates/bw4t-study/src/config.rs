@@ -1,6 +1,8 @@
-//! The study file (TOML): the study, its conditions (each an arena template of matches
-//! made on demand) and its pages in order, read and checked. Every problem names the
-//! file, the condition or page (1-based, as a person counts them) and the key.
+//! The study file (TOML): the study and its design (within, between or mixed subjects),
+//! its conditions (each an arena template of matches made on demand), its pages in order
+//! (a practice page plays a template of its own) and its screen-out page, read and
+//! checked. Every problem names the file, the condition or page (1-based, as a person
+//! counts them) and the key.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -23,6 +25,18 @@ struct StudyFile {
     conditions: Vec<ConditionFile>,
     #[serde(default, rename = "page")]
     pages: Vec<PageFile>,
+    screen_out: Option<ScreenOutFile>,
+}
+
+/// `[screen_out]`: what a participant who failed a pass mark sees.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ScreenOutFile {
+    title: Option<String>,
+    text: Option<String>,
+    file: Option<PathBuf>,
+    completion_code: Option<String>,
+    redirect: Option<String>,
 }
 
 #[derive(Deserialize)]
@@ -37,11 +51,15 @@ struct StudySection {
     time_limit_s: Option<u64>,
     max_running: Option<usize>,
     partner_timeout_s: Option<u64>,
+    assignment: Option<String>,
+    balance: Option<String>,
+    dropout_after_s: Option<u64>,
+    full_text: Option<String>,
     min_screen: Option<[u32; 2]>,
     allow_touch_only: Option<bool>,
 }
 
-#[derive(Deserialize)]
+#[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 struct ConditionFile {
     name: String,
@@ -62,9 +80,13 @@ struct ConditionFile {
     seed: Option<u64>,
     max_running: Option<usize>,
     min_active_ticks: Option<u64>,
+    between: Option<String>,
+    quota: Option<u64>,
 }
 
 /// One `[[page]]`; `kind` says which keys it takes.
+// Read once at the start, a page at a time: a practice's many keys cost nothing worth boxing.
+#[allow(clippy::large_enum_variant)]
 #[derive(Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 enum PageFile {
@@ -87,11 +109,35 @@ enum PageFile {
         text: Option<String>,
         file: Option<PathBuf>,
     },
+    Practice {
+        id: Option<String>,
+        title: Option<String>,
+        text: Option<String>,
+        file: Option<PathBuf>,
+        map: Option<String>,
+        teammates: Option<usize>,
+        strategy: Option<String>,
+        time_limit_s: Option<u64>,
+        tick_hz: Option<u32>,
+        mode: Option<String>,
+        kinds: Option<Vec<String>>,
+        free_text: Option<bool>,
+        view: Option<String>,
+        briefing: Option<String>,
+        briefing_file: Option<PathBuf>,
+        seed: Option<u64>,
+        min_active_ticks: Option<u64>,
+        pass: Option<String>,
+        pass_sequence: Option<u32>,
+        attempts: Option<u32>,
+    },
     Questionnaire {
         id: Option<String>,
         title: Option<String>,
         text: Option<String>,
         file: Option<PathBuf>,
+        pass: Option<usize>,
+        attempts: Option<u32>,
         #[serde(default, rename = "item")]
         items: Vec<ItemFile>,
     },
@@ -119,6 +165,7 @@ enum ItemFile {
         text: String,
         options: Vec<String>,
         required: Option<bool>,
+        correct: Option<String>,
     },
     Text {
         id: String,
@@ -138,6 +185,72 @@ pub enum Order {
     Counterbalanced,
     /// A shuffle seeded by the study's seed and the participant's id.
     Random,
+}
+
+/// How conditions are given to participants.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Assignment {
+    /// Every participant plays every condition (in their order).
+    Within,
+    /// Every participant plays one condition, on all their trial pages.
+    Between,
+    /// Every participant plays the conditions of one group (the conditions' `between`
+    /// value), in their order.
+    Mixed,
+}
+
+impl Assignment {
+    /// Its word in the file.
+    pub fn name(self) -> &'static str {
+        match self {
+            Assignment::Within => "within",
+            Assignment::Between => "between",
+            Assignment::Mixed => "mixed",
+        }
+    }
+}
+
+/// What assignments are balanced over.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Balance {
+    /// The n-th arrival (from 0) takes slot n: balanced over arrivals.
+    Arrivals,
+    /// An arrival takes the lowest slot no completer or active participant holds:
+    /// balanced over completers and those still going.
+    Completers,
+}
+
+/// A group of conditions one participant plays (within: all; between: one each; mixed:
+/// those of one `between` value).
+#[derive(Clone, Debug)]
+pub struct Group {
+    /// Its name (the condition's, under between; the `between` value, under mixed;
+    /// `all`, under within).
+    pub name: String,
+    /// Its conditions (indices), in the file's order.
+    pub conditions: Vec<usize>,
+}
+
+/// What passes a practice round.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PracticePass {
+    /// The whole sequence delivered.
+    Completed,
+    /// At least this many blocks of the sequence delivered.
+    Sequence(u32),
+}
+
+/// What a participant who fails a pass mark sees.
+#[derive(Clone, Debug)]
+pub struct ScreenOut {
+    /// Title.
+    pub title: String,
+    /// Text, as HTML, with `{participant}` and `{code}` to fill.
+    pub html: String,
+    /// Its completion code.
+    pub completion_code: Option<String>,
+    /// Where to send them, with `{participant}` and `{code}` to fill.
+    pub redirect: Option<String>,
 }
 
 impl Order {
@@ -162,10 +275,25 @@ pub struct Study {
     pub seed: u64,
     /// How orders of the conditions are chosen.
     pub order: Order,
+    /// How conditions are given to participants.
+    pub assignment: Assignment,
+    /// What assignments are balanced over.
+    pub balance: Balance,
+    /// A participant not yet done whose last record is older than this (ms) has dropped
+    /// out: their slot goes to the next arrival.
+    pub dropout_after_ms: u64,
+    /// What an arrival is told when every group is at a condition's quota.
+    pub full_text: String,
     /// The conditions, in the file's order.
     pub conditions: Vec<Condition>,
+    /// The groups: one is assigned to each participant.
+    pub groups: Vec<Group>,
+    /// The practice rounds' templates, in page order.
+    pub practices: Vec<Condition>,
     /// The pages, in order: a participant's steps.
     pub pages: Vec<Page>,
+    /// What a participant who fails a pass mark sees.
+    pub screen_out: ScreenOut,
     /// The device a participant needs; others are turned away before consent.
     pub screen: ScreenRequirement,
     /// The file's text, as it was read.
@@ -228,6 +356,10 @@ pub struct Condition {
     /// and moved in at least this many ticks (the match's ticks less the robot's idle
     /// ticks); otherwise it is given again.
     pub min_active_ticks: u64,
+    /// Under mixed assignment, its group.
+    pub between: Option<String>,
+    /// At most this many participants (completers and those still going) play it.
+    pub quota: Option<u64>,
 }
 
 /// A questionnaire item.
@@ -241,6 +373,8 @@ pub struct Item {
     pub required: bool,
     /// What it asks for (the API shows it as it is).
     pub kind: QuestionKind,
+    /// The correct answer (a choice's option), for a pass mark.
+    pub correct: Option<String>,
 }
 
 /// One page of the flow.
@@ -275,6 +409,19 @@ pub enum Page {
         /// Text shown before the condition's briefing, as HTML.
         html: Option<String>,
     },
+    /// A practice round: a match of its own template, outside the conditions.
+    Practice {
+        /// Title.
+        title: String,
+        /// Text shown before its briefing, as HTML.
+        html: Option<String>,
+        /// Its template ([`Study::practices`]).
+        practice: usize,
+        /// What passes it (none: any played match).
+        pass: Option<PracticePass>,
+        /// How many times it may be failed and played again, this one included.
+        attempts: u32,
+    },
     /// Questions.
     Questionnaire {
         /// Its id (the answers' `questionnaire`).
@@ -285,6 +432,10 @@ pub enum Page {
         html: Option<String>,
         /// The items.
         items: Vec<Item>,
+        /// At least this many items with a `correct` answer must be answered so.
+        pass: Option<usize>,
+        /// How many times it may be answered, this one included, while failing.
+        attempts: u32,
     },
     /// The end: a completion code and/or a redirect.
     Final {
@@ -306,6 +457,7 @@ impl Page {
             Page::Consent { .. } => "consent",
             Page::Instructions { .. } => "instructions",
             Page::Trial { .. } => "trial",
+            Page::Practice { .. } => "practice",
             Page::Questionnaire { .. } => "questionnaire",
             Page::Final { .. } => "final",
         }
@@ -360,10 +512,50 @@ pub fn parse(text: &str, path: &Path, maps: MapLoader<'_>) -> Result<Study, Stri
         }
         conditions.push(condition);
     }
+    let assignment = match s.assignment.as_deref() {
+        None | Some("within") => Assignment::Within,
+        Some("between") => Assignment::Between,
+        Some("mixed") => Assignment::Mixed,
+        Some(other) => {
+            return Err(format!(
+                "study: assignment = '{other}': expected \"within\", \"between\" or \"mixed\""
+            ));
+        }
+    };
+    let balance = match s.balance.as_deref() {
+        // Within subjects balanced over arrivals, as studies always were.
+        None if assignment == Assignment::Within => Balance::Arrivals,
+        None | Some("completers") => Balance::Completers,
+        Some("arrivals") => Balance::Arrivals,
+        Some(other) => {
+            return Err(format!("study: balance = '{other}': expected \"arrivals\" or \"completers\""));
+        }
+    };
+    let groups = groups(&conditions, assignment)?;
+    let mut practices: Vec<Condition> = Vec::new();
     let mut pages = Vec::new();
     let count = file.pages.len();
     for (i, p) in file.pages.into_iter().enumerate() {
-        let page = page(p, base, i).map_err(|e| format!("page {}: {e}", i + 1))?;
+        let made = page(p, base, i, &defaults, maps).map_err(|e| format!("page {}: {e}", i + 1))?;
+        let page = match made {
+            Made::Page(page) => *page,
+            Made::Practice(page, practice) => {
+                let taken = conditions.iter().chain(&practices).any(|c| c.name == practice.name);
+                if taken {
+                    return Err(format!(
+                        "page {} (practice): id = '{}' is taken by a condition or another practice",
+                        i + 1,
+                        practice.name
+                    ));
+                }
+                let mut page = *page;
+                if let Page::Practice { practice: at, .. } = &mut page {
+                    *at = practices.len();
+                }
+                practices.push(*practice);
+                page
+            }
+        };
         let at = format!("page {} ({})", i + 1, page.kind());
         match &page {
             Page::Consent { .. } if i != 0 => return Err(format!("{at}: consent must be the first page")),
@@ -376,14 +568,23 @@ pub fn parse(text: &str, path: &Path, maps: MapLoader<'_>) -> Result<Study, Stri
         return Err("the last [[page]] must be kind = \"final\" (the completion code or redirect)".into());
     }
     let trials = pages.iter().filter(|p| matches!(p, Page::Trial { .. })).count();
-    if trials == 0 || trials % conditions.len() != 0 {
-        return Err(format!(
-            "{} and {}: give one trial page per condition (or two, three, ... each: the order \
-             then repeats)",
-            plural(trials, "trial page"),
-            plural(conditions.len(), "condition")
-        ));
+    for group in &groups {
+        let k = group.conditions.len();
+        if trials == 0 || trials % k != 0 {
+            let of = match assignment {
+                Assignment::Within => String::new(),
+                _ => format!(" in group '{}'", group.name),
+            };
+            return Err(format!(
+                "{} and {}{of}: give one trial page per condition (or two, three, ... each: the order \
+                 then repeats)",
+                plural(trials, "trial page"),
+                plural(k, "condition")
+            ));
+        }
     }
+    let screen_out = screen_out(file.screen_out, base)?;
+    let dropout_after_s = s.dropout_after_s.unwrap_or(30 * 60);
     let [min_width, min_height] = s.min_screen.unwrap_or(DEFAULT_MIN_SCREEN);
     if min_width < SMALLEST_SCREEN[0] || min_height < SMALLEST_SCREEN[1] {
         return Err(format!(
@@ -399,8 +600,19 @@ pub fn parse(text: &str, path: &Path, maps: MapLoader<'_>) -> Result<Study, Stri
         title: s.title.unwrap_or_else(|| "Study".into()),
         seed: defaults.seed,
         order,
+        assignment,
+        balance,
+        dropout_after_ms: dropout_after_s.saturating_mul(1000),
+        full_text: s.full_text.unwrap_or_else(|| {
+            "This study has all the participants it needs, so it cannot take you. Thank you for your \
+             interest."
+                .into()
+        }),
         conditions,
+        groups,
+        practices,
         pages,
+        screen_out,
         screen,
         text: text.to_string(),
     };
@@ -506,7 +718,86 @@ fn condition(c: ConditionFile, base: &Path, d: &Defaults, maps: MapLoader<'_>) -
         // A robot that never moved was not played (a player who left at once keeps their
         // seat, idle, to the end); a study of talking alone sets 0.
         min_active_ticks: c.min_active_ticks.unwrap_or(1),
+        between: c.between,
+        quota: c.quota,
     })
+}
+
+/// The groups of `conditions` one participant each is given, checked for `assignment`.
+fn groups(conditions: &[Condition], assignment: Assignment) -> Result<Vec<Group>, String> {
+    let all = (0..conditions.len()).collect::<Vec<_>>();
+    for (i, c) in conditions.iter().enumerate() {
+        let at = format!("condition {} '{}'", i + 1, c.name);
+        match (&c.between, assignment) {
+            (Some(group), Assignment::Mixed) => check_word(&format!("{at}: between"), group)?,
+            (None, Assignment::Mixed) => {
+                return Err(format!(
+                    "{at}: between: under assignment = \"mixed\" every condition names its group"
+                ));
+            }
+            (Some(_), _) => {
+                return Err(format!("{at}: between: only under assignment = \"mixed\""));
+            }
+            (None, _) => {}
+        }
+        if c.quota == Some(0) {
+            return Err(format!("{at}: quota = 0: a condition nobody may play"));
+        }
+    }
+    Ok(match assignment {
+        Assignment::Within => vec![Group { name: "all".into(), conditions: all }],
+        Assignment::Between => conditions
+            .iter()
+            .enumerate()
+            .map(|(i, c)| Group { name: c.name.clone(), conditions: vec![i] })
+            .collect(),
+        Assignment::Mixed => {
+            let mut groups: Vec<Group> = Vec::new();
+            for (i, c) in conditions.iter().enumerate() {
+                let name = c.between.clone().unwrap_or_default();
+                match groups.iter_mut().find(|g| g.name == name) {
+                    Some(group) => group.conditions.push(i),
+                    None => groups.push(Group { name, conditions: vec![i] }),
+                }
+            }
+            groups
+        }
+    })
+}
+
+/// `[screen_out]`, checked (a default one if the file has none).
+fn screen_out(file: Option<ScreenOutFile>, base: &Path) -> Result<ScreenOut, String> {
+    let file = file.unwrap_or(ScreenOutFile {
+        title: None,
+        text: None,
+        file: None,
+        completion_code: None,
+        redirect: None,
+    });
+    check_redirect(file.redirect.as_deref()).map_err(|e| format!("screen_out: {e}"))?;
+    Ok(ScreenOut {
+        title: file.title.unwrap_or_else(|| "Thank you".into()),
+        html: markdown(file.text, file.file, base, "screen_out")
+            .map_err(|e| format!("screen_out: {e}"))?
+            .unwrap_or_else(|| to_html("You cannot go on with this study. Thank you for your time.")),
+        completion_code: file.completion_code,
+        redirect: file.redirect,
+    })
+}
+
+fn check_redirect(url: Option<&str>) -> Result<(), String> {
+    match url {
+        Some(url) if !(url.starts_with("https://") || url.starts_with("http://")) => {
+            Err(format!("redirect = '{url}': expected an http(s) URL"))
+        }
+        _ => Ok(()),
+    }
+}
+
+/// A page as read: a practice page comes with its template.
+enum Made {
+    Page(Box<Page>),
+    Practice(Box<Page>, Box<Condition>),
 }
 
 /// Markdown given inline (`key`) or in a file (`key_file`/`file`), as HTML.
@@ -529,10 +820,78 @@ fn markdown(
     }
 }
 
-fn page(p: PageFile, base: &Path, index: usize) -> Result<Page, String> {
+fn page(p: PageFile, base: &Path, index: usize, d: &Defaults, maps: MapLoader<'_>) -> Result<Made, String> {
     let text =
         |text, file, kind: &str| markdown(text, file, base, kind).map_err(|e| format!("({kind}): {e}"));
-    Ok(match p {
+    let page = match p {
+        PageFile::Practice {
+            id,
+            title,
+            text: t,
+            file,
+            map,
+            teammates,
+            strategy,
+            time_limit_s,
+            tick_hz,
+            mode,
+            kinds,
+            free_text,
+            view,
+            briefing,
+            briefing_file,
+            seed,
+            min_active_ticks,
+            pass,
+            pass_sequence,
+            attempts,
+        } => {
+            let id = id.unwrap_or_else(|| format!("practice{}", index + 1));
+            check_word("(practice): id", &id)?;
+            let pass = match (pass.as_deref(), pass_sequence) {
+                (Some(_), Some(_)) => return Err("(practice): give pass or pass_sequence, not both".into()),
+                (Some("completed"), None) => Some(PracticePass::Completed),
+                (Some(other), None) => {
+                    return Err(format!("(practice): pass = '{other}': expected \"completed\""));
+                }
+                (None, Some(0)) => return Err("(practice): pass_sequence = 0: nobody could fail".into()),
+                (None, Some(n)) => Some(PracticePass::Sequence(n)),
+                (None, None) => None,
+            };
+            let practice = ConditionFile {
+                name: id.clone(),
+                map,
+                humans: Some(1),
+                teammates,
+                strategy,
+                time_limit_s,
+                tick_hz,
+                mode,
+                kinds,
+                free_text,
+                view,
+                briefing,
+                briefing_file,
+                seed,
+                min_active_ticks,
+                ..ConditionFile::default()
+            };
+            let practice =
+                condition(practice, base, d, maps).map_err(|e| format!("(practice '{id}'): {e}"))?;
+            let page = Page::Practice {
+                title: title.unwrap_or_else(|| "Practice".into()),
+                html: text(t, file, "practice")?,
+                // Its index is set by the caller, which keeps the list.
+                practice: 0,
+                pass,
+                attempts: attempts_of(attempts, "practice")?,
+            };
+            return Ok(Made::Practice(Box::new(page), Box::new(practice)));
+        }
+        other => other,
+    };
+    Ok(Made::Page(Box::new(match page {
+        PageFile::Practice { .. } => unreachable!("taken above"),
         PageFile::Consent { title, text: t, file, agree, decline, declined_title, declined_text } => {
             Page::Consent {
                 title: title.unwrap_or_else(|| "Consent".into()),
@@ -552,7 +911,7 @@ fn page(p: PageFile, base: &Path, index: usize) -> Result<Page, String> {
             html: text(t, file, "instructions")?.ok_or("(instructions): give the text as text or file")?,
         },
         PageFile::Trial { title, text: t, file } => Page::Trial { title, html: text(t, file, "trial")? },
-        PageFile::Questionnaire { id, title, text: t, file, items } => {
+        PageFile::Questionnaire { id, title, text: t, file, items, pass, attempts } => {
             let id = id.unwrap_or_else(|| format!("page{}", index + 1));
             check_word("(questionnaire): id", &id)?;
             if items.is_empty() {
@@ -566,19 +925,32 @@ fn page(p: PageFile, base: &Path, index: usize) -> Result<Page, String> {
                 }
                 checked.push(item);
             }
+            let scored = checked.iter().filter(|i| i.correct.is_some()).count();
+            match pass {
+                Some(0) => return Err(format!("(questionnaire '{id}'): pass = 0: nobody could fail")),
+                Some(n) if n > scored => {
+                    return Err(format!(
+                        "(questionnaire '{id}'): pass = {n} but only {scored} of its items give a correct answer"
+                    ));
+                }
+                None if attempts.is_some() => {
+                    return Err(format!(
+                        "(questionnaire '{id}'): attempts: only with a pass mark (pass = N)"
+                    ));
+                }
+                _ => {}
+            }
             Page::Questionnaire {
                 title: title.unwrap_or_else(|| "Questions".into()),
                 html: text(t, file, "questionnaire")?,
+                attempts: attempts_of(attempts, &format!("questionnaire '{id}'"))?,
                 id,
                 items: checked,
+                pass,
             }
         }
         PageFile::Final { title, text: t, file, completion_code, redirect } => {
-            if let Some(url) = &redirect {
-                if !(url.starts_with("https://") || url.starts_with("http://")) {
-                    return Err(format!("(final): redirect = '{url}': expected an http(s) URL"));
-                }
-            }
+            check_redirect(redirect.as_deref()).map_err(|e| format!("(final): {e}"))?;
             Page::Final {
                 title: title.unwrap_or_else(|| "Thank you".into()),
                 html: text(t, file, "final")?.unwrap_or_else(|| to_html("Thank you for taking part.")),
@@ -586,10 +958,19 @@ fn page(p: PageFile, base: &Path, index: usize) -> Result<Page, String> {
                 redirect,
             }
         }
-    })
+    })))
+}
+
+fn attempts_of(attempts: Option<u32>, page: &str) -> Result<u32, String> {
+    match attempts {
+        Some(0) => Err(format!("({page}): attempts = 0: at least one")),
+        Some(n) => Ok(n),
+        None => Ok(1),
+    }
 }
 
 fn item(item: ItemFile) -> Result<Item, String> {
+    let mut correct = None;
     let (id, text, required, kind) = match item {
         ItemFile::Likert { id, text, scale, labels, required } => {
             let scale = scale.unwrap_or(7);
@@ -603,10 +984,16 @@ fn item(item: ItemFile) -> Result<Item, String> {
             };
             (id, text, required, QuestionKind::Likert { scale, labels })
         }
-        ItemFile::Choice { id, text, options, required } => {
+        ItemFile::Choice { id, text, options, required, correct: right } => {
             if options.len() < 2 {
                 return Err(format!("item '{id}': options: give at least 2"));
             }
+            if let Some(right) = &right {
+                if !options.contains(right) {
+                    return Err(format!("item '{id}': correct = '{right}': not one of its options"));
+                }
+            }
+            correct = right;
             (id, text, required, QuestionKind::Choice { options })
         }
         ItemFile::Text { id, text, multiline, required } => {
@@ -614,7 +1001,7 @@ fn item(item: ItemFile) -> Result<Item, String> {
         }
     };
     check_word("item id", &id)?;
-    Ok(Item { id, text, required: required.unwrap_or(true), kind })
+    Ok(Item { id, text, required: required.unwrap_or(true), kind, correct })
 }
 
 impl Study {
@@ -622,7 +1009,7 @@ impl Study {
     /// participants ask (`hello.template`), labelled with the study and the condition,
     /// replays kept.
     pub fn templates(&self) -> Vec<Template> {
-        self.conditions.iter().map(|c| self.template(c)).collect()
+        self.conditions.iter().chain(&self.practices).map(|c| self.template(c)).collect()
     }
 
     fn template(&self, c: &Condition) -> Template {

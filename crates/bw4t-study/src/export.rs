@@ -50,6 +50,9 @@ struct Trial {
     ended_ms: Option<u64>,
     result: Option<Value>,
     incomplete: Option<String>,
+    practice: bool,
+    /// A practice with a pass mark: passed or not.
+    passed: Option<bool>,
 }
 
 const EVENT_COLUMNS: &[&str] =
@@ -82,9 +85,20 @@ const TRIAL_COLUMNS: &[&str] = &[
     "disconnections",
     "absent_s",
     "pauses",
+    "practice",
+    "passed",
 ];
-const ANSWER_COLUMNS: &[&str] =
-    &["participant", "step", "page", "questionnaire", "after_condition", "item", "value", "server_ms"];
+const ANSWER_COLUMNS: &[&str] = &[
+    "participant",
+    "step",
+    "page",
+    "questionnaire",
+    "after_condition",
+    "item",
+    "value",
+    "server_ms",
+    "passed",
+];
 const PARTICIPANT_COLUMNS: &[&str] = &[
     "participant",
     "number",
@@ -97,6 +111,10 @@ const PARTICIPANT_COLUMNS: &[&str] = &[
     "trials_complete",
     "trials_incomplete",
     "params",
+    "slot",
+    "group",
+    "screened_out",
+    "screen_out_reason",
 ];
 
 /// Exports the study data in `dir` into `out` (made if missing).
@@ -127,6 +145,9 @@ pub fn export(dir: &Path, out: &Path) -> Result<ExportSummary, String> {
     for (id, lines) in &logs {
         let mut state: Option<Participant> = None;
         let mut created = (0u64, Vec::new(), Value::Null);
+        // The slot and group, when assigned otherwise than by the arrival number alone.
+        let mut assigned: Option<(u64, String)> = None;
+        let mut screened_out = String::new();
         let mut trials: Vec<Trial> = Vec::new();
         // The condition of the latest trial, for the answers after it.
         let mut last_condition = String::new();
@@ -156,8 +177,10 @@ pub fn export(dir: &Path, out: &Path) -> Result<ExportSummary, String> {
                         ],
                     );
                 }
-                Record::TrialStarted { step, trial, condition, r#match, match_id } => {
-                    last_condition.clone_from(condition);
+                Record::TrialStarted { step, trial, condition, r#match, match_id, practice } => {
+                    if !practice {
+                        last_condition.clone_from(condition);
+                    }
                     trials.push(Trial {
                         step: *step,
                         trial: *trial,
@@ -165,20 +188,35 @@ pub fn export(dir: &Path, out: &Path) -> Result<ExportSummary, String> {
                         r#match: r#match.clone(),
                         match_id: match_id.clone(),
                         started_ms: Some(line.server_ms),
+                        practice: *practice,
                         ..Trial::default()
                     });
                 }
-                Record::TrialEnded { step, trial, condition, match_id, result } => {
-                    last_condition.clone_from(condition);
+                Record::TrialEnded { step, trial, condition, match_id, result, practice } => {
+                    if !practice {
+                        last_condition.clone_from(condition);
+                    }
                     let t = attempt(&mut trials, *step, *trial, condition, match_id);
                     t.ended_ms = Some(line.server_ms);
                     t.result = Some(result.clone());
+                    t.practice = *practice;
                 }
-                Record::TrialIncomplete { step, trial, condition, match_id, reason } => {
-                    attempt(&mut trials, *step, *trial, condition, match_id).incomplete =
-                        Some(reason.clone());
+                Record::TrialIncomplete { step, trial, condition, match_id, reason, practice } => {
+                    let t = attempt(&mut trials, *step, *trial, condition, match_id);
+                    t.incomplete = Some(reason.clone());
+                    t.practice = *practice;
                 }
-                Record::Answer { step, page, questionnaire, answers: given } if page != "trial" => {
+                Record::Assigned { slot, group } => assigned = Some((*slot, group.clone())),
+                Record::ScreenedOut { reason, .. } => screened_out.clone_from(reason),
+                Record::Answer { step, page, answers: given, passed, .. } if page == "practice" => {
+                    if let Some(match_id) = given.get("match_id").and_then(Value::as_str) {
+                        let t = trials.iter_mut().rfind(|t| t.step == *step && t.match_id == match_id);
+                        if let Some(t) = t {
+                            t.passed = *passed;
+                        }
+                    }
+                }
+                Record::Answer { step, page, questionnaire, answers: given, passed } if page != "trial" => {
                     if let Some(fields) = given.as_object() {
                         for (item, value) in fields {
                             summary.answers += 1;
@@ -193,6 +231,7 @@ pub fn export(dir: &Path, out: &Path) -> Result<ExportSummary, String> {
                                     item.clone(),
                                     cell(value),
                                     line.server_ms.to_string(),
+                                    passed.map(|p| p.to_string()).unwrap_or_default(),
                                 ],
                             );
                         }
@@ -205,7 +244,8 @@ pub fn export(dir: &Path, out: &Path) -> Result<ExportSummary, String> {
             }
         }
         let Some(state) = state else { continue };
-        let mut complete = 0;
+        // Trials (practice rounds apart): complete, and not.
+        let (mut complete, mut unfinished) = (0, 0);
         for t in &mut trials {
             if t.result.is_none() && t.incomplete.is_none() {
                 t.incomplete = Some("no end recorded (the server was killed or the participant left)".into());
@@ -219,7 +259,11 @@ pub fn export(dir: &Path, out: &Path) -> Result<ExportSummary, String> {
             }
             let r = t.result.clone().unwrap_or(Value::Null);
             let done = t.result.is_some();
-            complete += usize::from(done);
+            summary.incomplete += usize::from(!done);
+            if !t.practice {
+                complete += usize::from(done);
+                unfinished += usize::from(!done);
+            }
             if let Some(reason) = t.incomplete.as_ref().filter(|_| !done) {
                 incomplete.push(json!({
                     "participant": id, "step": t.step, "trial": t.trial, "condition": t.condition,
@@ -259,12 +303,15 @@ pub fn export(dir: &Path, out: &Path) -> Result<ExportSummary, String> {
                     field("disconnections"),
                     field("absent_s"),
                     field("pauses"),
+                    t.practice.to_string(),
+                    t.passed.map(|p| p.to_string()).unwrap_or_default(),
                 ],
             );
         }
         summary.trials += trials.len();
-        summary.incomplete += trials.len() - complete;
-        let finished = pages > 0 && state.step + 1 == pages && !state.declined;
+        let finished = pages > 0 && state.step + 1 == pages && !state.declined && !state.screened_out;
+        // Without an assignment record: the arrival number's slot of the only group.
+        let (slot, group) = assigned.unwrap_or_else(|| (created.0, String::new()));
         row(
             &mut people,
             &[
@@ -277,8 +324,12 @@ pub fn export(dir: &Path, out: &Path) -> Result<ExportSummary, String> {
                 state.declined.to_string(),
                 finished.to_string(),
                 complete.to_string(),
-                (trials.len() - complete).to_string(),
+                unfinished.to_string(),
                 created.2.to_string(),
+                slot.to_string(),
+                group,
+                state.screened_out.to_string(),
+                screened_out,
             ],
         );
     }

@@ -1,12 +1,13 @@
 //! One participant's way through the study: their records (kept by `store.rs`), the state
 //! those records make (replayed in order, so a restarted server continues where they were),
-//! their order of the conditions, and the page each step shows.
+//! their order of their group's conditions, the seed of each match they play, and the page
+//! each step shows.
 
 use bw4t_protocol::{ParticipantState, StudyPage, TrialHello, TrialLanguage};
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
-use super::config::{Order, Page, Study};
+use super::config::{Condition, Order, Page, Study};
 
 /// One of a participant's records (besides `seq` and `server_ms`, which every one has).
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -22,22 +23,55 @@ pub(crate) enum Record {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         secret_sha256: Option<String>,
     },
+    /// Their assignment, right after `created` (left out when it is the arrival number's
+    /// slot of the only group): the slot, which fixes their group, their order's row and
+    /// their matches' seeds, and the group's name.
+    Assigned { slot: u64, group: String },
     /// They came back with the link (a reload or a new browser).
     Resumed { params: Value },
-    /// A step answered: the step's page kind (and questionnaire id) and the answers.
+    /// A step answered: the step's page kind (and questionnaire id) and the answers; for a
+    /// page with a pass mark, whether they passed (failed: the step is not done).
     Answer {
         step: usize,
         page: String,
         #[serde(default, skip_serializing_if = "Option::is_none")]
         questionnaire: Option<String>,
         answers: Value,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        passed: Option<bool>,
     },
-    /// A trial's match started (the page's word, right after `welcome`).
-    TrialStarted { step: usize, trial: usize, condition: String, r#match: String, match_id: String },
+    /// A trial's (or practice's) match started (the page's word, right after `welcome`).
+    TrialStarted {
+        step: usize,
+        trial: usize,
+        condition: String,
+        r#match: String,
+        match_id: String,
+        #[serde(default, skip_serializing_if = "is_false")]
+        practice: bool,
+    },
     /// A trial's match ended: its result (as recorded when the trial was answered).
-    TrialEnded { step: usize, trial: usize, condition: String, match_id: String, result: Value },
+    TrialEnded {
+        step: usize,
+        trial: usize,
+        condition: String,
+        match_id: String,
+        result: Value,
+        #[serde(default, skip_serializing_if = "is_false")]
+        practice: bool,
+    },
     /// A trial's match was lost (the server stopped under it); the trial is given again.
-    TrialIncomplete { step: usize, trial: usize, condition: String, match_id: String, reason: String },
+    TrialIncomplete {
+        step: usize,
+        trial: usize,
+        condition: String,
+        match_id: String,
+        reason: String,
+        #[serde(default, skip_serializing_if = "is_false")]
+        practice: bool,
+    },
+    /// They failed a pass mark with no attempt left: the study ends for them.
+    ScreenedOut { step: usize, reason: String },
     /// Events the page sent.
     Event { event: Value },
 }
@@ -51,6 +85,12 @@ pub(crate) struct Participant {
     pub order: Vec<usize>,
     pub step: usize,
     pub declined: bool,
+    /// Their slot (the arrival number, unless assigned otherwise).
+    pub slot: u64,
+    /// They failed a pass mark with no attempt left.
+    pub screened_out: bool,
+    /// Attempts failed at the current step.
+    pub failed: u32,
     /// The trial match started at the current step and not yet answered: (name, id).
     pub playing: Option<(String, String)>,
     /// Match ids already answered for a trial.
@@ -75,6 +115,9 @@ impl Participant {
             order,
             step: 0,
             declined: false,
+            slot: number,
+            screened_out: false,
+            failed: 0,
             playing: None,
             used_matches: Vec::new(),
             started_ms: now,
@@ -96,11 +139,16 @@ impl Participant {
                 self.event_bytes += event_size(event);
             }
             Record::Resumed { .. } => {}
-            Record::Answer { step, page, answers, .. } if *step == self.step => {
+            Record::Assigned { slot, .. } => self.slot = *slot,
+            Record::ScreenedOut { .. } => self.screened_out = true,
+            Record::Answer { step, page, answers, passed, .. } if *step == self.step => {
                 if page == "consent" && answers.get("consent") == Some(&Value::Bool(false)) {
                     self.declined = true;
+                } else if *passed == Some(false) {
+                    self.failed += 1;
                 } else {
                     self.step += 1;
+                    self.failed = 0;
                 }
                 self.playing = None;
             }
@@ -125,7 +173,38 @@ impl Participant {
 
     /// Whether they reached the final page.
     pub(crate) fn completed(&self, study: &Study) -> bool {
-        !self.declined && matches!(study.pages.get(self.step), Some(Page::Final { .. }))
+        !self.declined && !self.screened_out && matches!(study.pages.get(self.step), Some(Page::Final { .. }))
+    }
+
+    /// Whether the study has ended for them before its final page.
+    pub(crate) fn stopped(&self) -> bool {
+        self.declined || self.screened_out
+    }
+
+    /// Whether they hold their slot at `now_ms`: they completed, or are still going (not
+    /// stopped, and a record of theirs is younger than the study's `dropout_after_s`).
+    pub(crate) fn holds_slot(&self, study: &Study, now_ms: u64) -> bool {
+        self.completed(study)
+            || (!self.stopped() && now_ms.saturating_sub(self.last_ms) <= study.dropout_after_ms)
+    }
+
+    /// What step `step` plays, if it is a trial or a practice page.
+    pub(crate) fn played_at<'s>(&self, study: &'s Study, step: usize) -> Option<Played<'s>> {
+        match study.pages.get(step)? {
+            Page::Trial { .. } => {
+                let (trial, c) = self.trial_at(study, step)?;
+                let condition = &study.conditions[c];
+                let seed = layout_seed(condition.seed, self.slot, trial as u64);
+                Some(Played { condition, trial, practice: false, seed })
+            }
+            Page::Practice { practice, .. } => {
+                let condition = &study.practices[*practice];
+                // Positions past every trial's: a practice's layout is its own.
+                let seed = layout_seed(condition.seed, self.slot, PRACTICE_POSITIONS + step as u64);
+                Some(Played { condition, trial: 0, practice: true, seed })
+            }
+            _ => None,
+        }
     }
 
     /// The trial at `step` (1-based) and its condition's index, if `step` is a trial page.
@@ -148,6 +227,11 @@ impl Participant {
     }
 
     fn page(&self, study: &Study) -> Option<StudyPage> {
+        if self.screened_out {
+            let s = &study.screen_out;
+            let (html, completion_code, redirect) = self.filled(&s.html, &s.completion_code, &s.redirect);
+            return Some(StudyPage::ScreenedOut { title: s.title.clone(), html, completion_code, redirect });
+        }
         let page = match study.pages.get(self.step)? {
             Page::Consent { declined_title, declined_html, .. } if self.declined => {
                 StudyPage::Declined { title: declined_title.clone(), html: declined_html.clone() }
@@ -161,7 +245,7 @@ impl Participant {
             Page::Instructions { title, html } => {
                 StudyPage::Instructions { title: title.clone(), html: html.clone() }
             }
-            Page::Questionnaire { id, title, html, items } => StudyPage::Questionnaire {
+            Page::Questionnaire { id, title, html, items, .. } => StudyPage::Questionnaire {
                 id: id.clone(),
                 title: title.clone(),
                 html: html.clone(),
@@ -198,22 +282,85 @@ impl Participant {
                     humans: condition.humans,
                 }
             }
-            Page::Final { title, html, completion_code, redirect } => {
-                let code = completion_code.clone().unwrap_or_default();
-                let fill = |text: &str| text.replace("{participant}", &self.id).replace("{code}", &code);
-                StudyPage::Final {
+            Page::Practice { title, html, attempts, .. } => {
+                let played = self.played_at(study, self.step)?;
+                let practice = played.condition;
+                let html: Vec<&str> =
+                    html.iter().chain(practice.briefing_html.iter()).map(String::as_str).collect();
+                StudyPage::Practice {
+                    trial: self.failed as usize + 1,
+                    trials: *attempts as usize,
+                    condition: practice.name.clone(),
                     title: title.clone(),
-                    html: fill(html),
-                    completion_code: completion_code.clone(),
-                    redirect: redirect.as_deref().map(|url| {
-                        url.replace("{participant}", &url_encode(&self.id))
-                            .replace("{code}", &url_encode(&code))
-                    }),
+                    html: (!html.is_empty()).then(|| html.concat()),
+                    hello: TrialHello {
+                        template: practice.name.clone(),
+                        name: self.player_name(),
+                        seat: None,
+                        watch_token: None,
+                    },
+                    view: practice.view.clone(),
+                    language: TrialLanguage {
+                        kinds: practice.language.allowed_kinds(),
+                        free_text: practice.language.free_text,
+                    },
+                    time_limit_s: practice.time_limit_s,
+                    humans: practice.humans,
                 }
+            }
+            Page::Final { title, html, completion_code, redirect } => {
+                let (html, completion_code, redirect) = self.filled(html, completion_code, redirect);
+                StudyPage::Final { title: title.clone(), html, completion_code, redirect }
             }
         };
         Some(page)
     }
+
+    /// An end page's text, code and redirect with the participant's id and the code in.
+    fn filled(
+        &self,
+        html: &str,
+        completion_code: &Option<String>,
+        redirect: &Option<String>,
+    ) -> (String, Option<String>, Option<String>) {
+        let code = completion_code.clone().unwrap_or_default();
+        let html = html.replace("{participant}", &self.id).replace("{code}", &code);
+        let redirect = redirect.as_deref().map(|url| {
+            url.replace("{participant}", &url_encode(&self.id)).replace("{code}", &url_encode(&code))
+        });
+        (html, completion_code.clone(), redirect)
+    }
+}
+
+/// What a trial or practice page plays: its condition (or practice), the trial's number
+/// (0 for a practice), and the seed its match plays.
+pub(crate) struct Played<'s> {
+    pub condition: &'s Condition,
+    pub trial: usize,
+    pub practice: bool,
+    pub seed: u64,
+}
+
+/// Where a practice's positions start (a trial's position is its number).
+const PRACTICE_POSITIONS: u64 = 1 << 32;
+
+/// The seed of the match at trial position `position` of the participant in `slot`: the
+/// condition's seed plus a hash of both, so the same slot and position always play the same
+/// layout, whatever other matches ran before.
+pub(crate) fn layout_seed(base: u64, slot: u64, position: u64) -> u64 {
+    base.wrapping_add(splitmix(splitmix(slot) ^ position))
+}
+
+/// One splitmix64 step: a good 64-bit mix.
+fn splitmix(x: u64) -> u64 {
+    let mut z = x.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+fn is_false(b: &bool) -> bool {
+    !*b
 }
 
 /// An event's size in the budget: its bytes as compact JSON.
@@ -231,13 +378,21 @@ fn url_encode(text: &str) -> String {
         .collect()
 }
 
-/// The conditions' order (indices) for the `number`-th participant (from 0) with `id`.
-pub(crate) fn order_for(study: &Study, number: u64, id: &str) -> Vec<usize> {
-    let k = study.conditions.len();
-    let mut order: Vec<usize> = (0..k).collect();
+/// The group (index) of slot `slot`: the groups in turn.
+pub(crate) fn group_of(study: &Study, slot: u64) -> usize {
+    (slot % study.groups.len() as u64) as usize
+}
+
+/// The order (condition indices) of the participant with `id` in slot `slot`: their
+/// group's conditions, in the row of a Latin square the slot's turn in its group gives
+/// (counterbalanced), as in the file (fixed), or shuffled by the id (random).
+pub(crate) fn order_for(study: &Study, slot: u64, id: &str) -> Vec<usize> {
+    let mut order = study.groups[group_of(study, slot)].conditions.clone();
+    let k = order.len();
+    let turn = slot / study.groups.len() as u64;
     match study.order {
         Order::Fixed => {}
-        Order::Counterbalanced => order.rotate_left((number % k as u64) as usize),
+        Order::Counterbalanced => order.rotate_left((turn % k as u64) as usize),
         Order::Random => {
             // FNV-1a of the seed and the id, then splitmix64 draws for a Fisher-Yates shuffle.
             let mut h: u64 = 0xcbf2_9ce4_8422_2325;

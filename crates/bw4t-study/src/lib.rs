@@ -1,6 +1,8 @@
 //! Studies of people teaming with agents: a study file (`config.rs`) of conditions, each
 //! an arena template, and pages every participant goes through in order (consent,
-//! instructions, trials in a counterbalanced order, questionnaires, a final page).
+//! instructions, practice rounds, trials in a counterbalanced order, questionnaires, a
+//! final page). Each participant takes a slot (`assign.rs`): their group of conditions
+//! (within, between or mixed subjects), their order and their matches' seeds.
 //!
 //! Each participant's every step and event is a record (`flow.rs`) in the study's SQLite
 //! database, `DIR/study.sqlite3` (`store.rs`): one connection for the whole server, each
@@ -13,6 +15,7 @@
 
 mod answers;
 mod api;
+mod assign;
 mod config;
 mod credential;
 mod download;
@@ -29,7 +32,10 @@ use std::sync::{Arc, Mutex, MutexGuard};
 
 use serde_json::{Value, json};
 
-pub use config::{Condition, Item, MapLoader, Order, Page, Study, load, parse};
+pub use config::{
+    Assignment, Balance, Condition, Group, Item, MapLoader, Order, Page, PracticePass, ScreenOut, Study,
+    load, parse,
+};
 pub use export::{ExportSummary, export};
 
 use bw4t_server::{Answering, Arena, Reply, Routes, WebRequest};
@@ -171,8 +177,14 @@ impl StudyServer {
                     .iter()
                     .filter_map(|c| self.inner.study.conditions.iter().position(|k| &k.name == c))
                     .collect::<Vec<_>>();
-                if order.len() != self.inner.study.conditions.len() {
-                    return Err(std::io::Error::other("its conditions are not this study's"));
+                let group = self.inner.study.groups.iter().find(|g| g.conditions.contains(&order[0]));
+                let theirs = group.is_some_and(|g| {
+                    let mut sorted = order.clone();
+                    sorted.sort_unstable();
+                    sorted == g.conditions
+                });
+                if order.is_empty() || !theirs {
+                    return Err(std::io::Error::other("its conditions are not a group of this study's"));
                 }
                 state = Some(Participant::new(participant, *number, order, ms));
             }
@@ -206,39 +218,67 @@ impl StudyServer {
     }
 
     fn incomplete(&self, p: &Participant, step: usize, match_id: &str, reason: &str) -> Record {
-        let (trial, c) = p.trial_at(&self.inner.study, step).unwrap_or((0, 0));
+        let played = p.played_at(&self.inner.study, step);
         Record::TrialIncomplete {
             step,
-            trial,
-            condition: self.inner.study.conditions[c].name.clone(),
+            trial: played.as_ref().map_or(0, |p| p.trial),
+            condition: played.as_ref().map_or_else(String::new, |p| p.condition.name.clone()),
             match_id: match_id.to_string(),
             reason: reason.to_string(),
+            practice: played.is_some_and(|p| p.practice),
         }
     }
 
-    /// The records of a trial answered with its ended match.
+    /// The records of a trial (or practice) answered with its ended match: a practice
+    /// with a pass mark is passed or failed by its result, and failed with no attempt
+    /// left, screens the participant out.
     fn trial_end_records(&self, p: &Participant, step: usize, match_id: &str, result: Value) -> Vec<Record> {
-        let (trial, c) = p.trial_at(&self.inner.study, step).unwrap_or((0, 0));
-        let condition = self.inner.study.conditions[c].name.clone();
-        vec![
-            Record::TrialEnded { step, trial, condition, match_id: match_id.to_string(), result },
+        let study = &self.inner.study;
+        let Some(played) = p.played_at(study, step) else { return Vec::new() };
+        let (condition, trial, practice) = (played.condition.name.clone(), played.trial, played.practice);
+        let passed = match &study.pages[step] {
+            Page::Practice { pass: Some(PracticePass::Completed), .. } => {
+                Some(result["completed"] == json!(true))
+            }
+            Page::Practice { pass: Some(PracticePass::Sequence(n)), .. } => {
+                Some(result["sequence_index"].as_u64().unwrap_or(0) >= u64::from(*n))
+            }
+            _ => None,
+        };
+        let mut records = vec![
+            Record::TrialEnded {
+                step,
+                trial,
+                condition: condition.clone(),
+                match_id: match_id.to_string(),
+                result,
+                practice,
+            },
             Record::Answer {
                 step,
-                page: "trial".into(),
+                page: if practice { "practice" } else { "trial" }.into(),
                 questionnaire: None,
                 answers: json!({"match_id": match_id}),
+                passed,
             },
-        ]
+        ];
+        if let (Some(false), Page::Practice { attempts, .. }) = (passed, &study.pages[step]) {
+            if p.failed + 1 >= *attempts {
+                let reason = format!("failed practice '{condition}' {} of {attempts} times", p.failed + 1);
+                records.push(Record::ScreenedOut { step, reason });
+            }
+        }
+        records
     }
 
     /// The finished match `match_id` of the participant's current trial, checked: of
     /// the trial's condition, with the participant among its players.
     fn ended_trial(&self, p: &Participant, match_id: &str) -> Result<Ended, TrialRefusal> {
         let study = &self.inner.study;
-        let Some((_, c)) = p.trial_at(study, p.step) else {
+        let Some(played) = p.played_at(study, p.step) else {
             return Err(TrialRefusal::Bad("this step is not a trial".into()));
         };
-        let condition = &study.conditions[c].name;
+        let condition = &played.condition.name;
         let results = self.inner.arena.results();
         let Some(row) = results.rows().into_iter().find(|r| r.key == match_id) else {
             return Err(TrialRefusal::Unknown);
@@ -272,7 +312,7 @@ impl StudyServer {
         // trial is given again.
         let ticks = result["ticks"].as_u64().unwrap_or(0);
         let active = ticks.saturating_sub(robot["idle_ticks"].as_u64().unwrap_or(ticks));
-        let least = study.conditions[c].min_active_ticks;
+        let least = played.condition.min_active_ticks;
         let failed = if result["end_reason"] == json!("interrupted") {
             Some("the match was stopped before its end by the operator or the server".to_string())
         } else if robot["present"] == json!(false) {
@@ -286,7 +326,7 @@ impl StudyServer {
         };
         let mut kept = trial_result(&result);
         // The participant's own absences: drops of their connection and the time away.
-        let tick_hz = f64::from(study.conditions[c].tick_hz);
+        let tick_hz = f64::from(played.condition.tick_hz);
         kept["disconnections"] = robot["disconnections"].as_u64().unwrap_or(0).into();
         kept["absent_s"] = (robot["absent_ticks"].as_u64().unwrap_or(0) as f64 / tick_hz).into();
         kept["pauses"] = result["pauses"].as_u64().unwrap_or(0).into();

@@ -404,6 +404,7 @@ mod tests {
                 page: "consent".into(),
                 questionnaire: None,
                 answers: json!({"consent": true}),
+                passed: None,
             },
             Record::Event { event: json!({"kind": "key", "key": "ü", "tick": null}) },
         ];

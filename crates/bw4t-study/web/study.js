@@ -415,6 +415,9 @@ const RENDERERS = {
   trial: renderTrial,
   final: renderFinal,
   declined: renderDeclined,
+  // A practice round plays as a trial does; a screen-out ends as the final page does.
+  practice: renderTrial,
+  screened_out: renderFinal,
 };
 
 /** Shows the participant's state: its page, and the progress. */

@@ -32,7 +32,7 @@ use crate::events::{Control, Event};
 use crate::lateness::TickLateness;
 
 use self::core::{Core, Make, MakeFrom, Refusal, Rules, Seek};
-use self::invitations::Invitations;
+use self::invitations::{Invitation, Invitations};
 use self::lobby::StatusAsked;
 use self::shell::{Command, Published, Shell};
 
@@ -65,7 +65,8 @@ pub struct Template {
     /// Its name (`hello.template`).
     pub name: String,
     /// What its matches play: `setup.map` is the first map, `setup.seed` the first
-    /// match's seed (the n-th match made gets `seed + n`), and `setup.seats` every seat,
+    /// match's seed (the n-th match made gets `seed + n`, unless made for a player whose seat token
+    /// carries a seed: [`Arena::invite_seeded`]), and `setup.seats` every seat,
     /// built-in ones first and open ones after.
     pub setup: MatchSetup,
     /// How its matches are run.
@@ -227,7 +228,12 @@ impl Arena {
         let starting =
             config.templates.iter().flat_map(|t| t.names.iter().map(|n| (t.name.clone(), n.clone())));
         for (template, name) in starting {
-            shell.make_now(Make { name: Some(name), template: Some(template), from: MakeFrom::Template })?;
+            shell.make_now(Make {
+                name: Some(name),
+                template: Some(template),
+                from: MakeFrom::Template,
+                seed: None,
+            })?;
         }
         tokio::spawn(shell.run(commands_rx));
         let invitations = Invitations::default();
@@ -243,6 +249,7 @@ impl Arena {
             name: Some(spec.config.name.clone()),
             template: None,
             from: MakeFrom::Given { open_seats },
+            seed: None,
         };
         self.make(make, spec).await
     }
@@ -267,25 +274,36 @@ impl Arena {
     /// each time asked, new after a restart): the `hello.seat` that seats them in a
     /// template that seats only invited players.
     pub fn invite(&self, template: &str, name: &str) -> Result<String, ArenaError> {
+        self.invite_seeded(template, name, None)
+    }
+
+    /// [`Arena::invite`] for a seat whose match plays `seed` (if given): a match made for
+    /// the player's hello (or made while they are first in its queue) plays that seed
+    /// instead of the template's next; one they join because it has a free seat plays
+    /// the seed it was made with. Each seed is its own seat token.
+    pub fn invite_seeded(&self, template: &str, name: &str, seed: Option<u64>) -> Result<String, ArenaError> {
         if !self.inner.config.templates.iter().any(|t| t.name == template) {
             return Err(ArenaError::UnknownTemplate(template.to_string()));
         }
-        Ok(self.inner.invitations.grant(template, name))
+        Ok(self.inner.invitations.grant(template, name, seed))
     }
 
     /// Where `hello` goes.
     pub(crate) async fn route(&self, hello: &Hello) -> Result<Routed, Refusal> {
-        let invited = match &hello.seat {
-            None => None,
-            Some(token) => Some(self.invited(hello, token)?),
+        let (invited, seed) = match &hello.seat {
+            None => (None, None),
+            Some(token) => {
+                let invitation = self.invited(hello, token)?;
+                (Some(invitation.template), invitation.seed)
+            }
         };
         let (reply, routed) = oneshot::channel();
-        let _ = self.inner.commands.send(Command::Hello { seek: Seek::of(hello, invited), reply });
+        let _ = self.inner.commands.send(Command::Hello { seek: Seek::of(hello, invited, seed), reply });
         routed.await.unwrap_or_else(|_| Err((ErrorCode::ServerStopping, "the server is stopping".into())))
     }
 
-    /// The template `hello`'s seat token invites its player to, checked against its name.
-    fn invited(&self, hello: &Hello, token: &str) -> Result<String, Refusal> {
+    /// What `hello`'s seat token invites its player to, checked against its name.
+    fn invited(&self, hello: &Hello, token: &str) -> Result<Invitation, Refusal> {
         let refuse = |why: String| Err((ErrorCode::BadToken, why));
         let Some(invitation) = self.inner.invitations.of(token) else {
             return refuse(
@@ -300,7 +318,7 @@ impl Arena {
         if hello.name.as_deref() != Some(invitation.name.as_str()) {
             return refuse(format!("hello.seat: this seat token is for player '{}'", invitation.name));
         }
-        Ok(invitation.template)
+        Ok(invitation)
     }
 
     /// Runs `look` on the arena's task; `None` if the task is gone.
@@ -458,6 +476,7 @@ impl Arena {
             name: request.name,
             template: Some(template.name.clone()),
             from: MakeFrom::Given { open_seats: robots - builtin },
+            seed: None,
         };
         self.make(make, MatchSpec { setup, config, replay: None, gone_seats: None }).await
     }

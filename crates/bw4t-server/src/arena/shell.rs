@@ -310,9 +310,14 @@ impl Shell {
         let config = self.config.clone();
         let template = template.and_then(|name| config.templates.iter().find(|t| t.name == name));
         let spec = match recipe {
-            Recipe::Template { n, map, .. } => {
+            Recipe::Template { n, map, seed } => {
                 let template = template.ok_or_else(|| ArenaError::UnknownTemplate(name.into()))?;
-                spec_of_template(template, n, map)?
+                let mut spec = spec_of_template(template, n, map)?;
+                if let Some(seed) = seed {
+                    // Made for an invited player whose seat carries its seed.
+                    spec.setup.seed = seed;
+                }
+                spec
             }
             Recipe::Given(ticket) => self
                 .specs

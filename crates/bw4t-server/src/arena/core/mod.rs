@@ -79,6 +79,9 @@ pub(crate) struct Make {
     pub template: Option<String>,
     /// Where its settings come from.
     pub from: MakeFrom,
+    /// The seed it plays instead of its template's next (made for an invited player whose
+    /// seat token carries one); only for [`MakeFrom::Template`].
+    pub seed: Option<u64>,
 }
 
 /// Where a match's settings come from.
@@ -112,12 +115,15 @@ pub(crate) struct Launch {
 /// How the shell makes a match's settings.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub(crate) enum Recipe {
-    /// From its template: the template's seed plus `n`, on the template's map at `map`.
+    /// From its template: the template's seed plus `n` (or `seed`, if given), on the
+    /// template's map at `map`.
     Template {
         /// How many of the template's matches were made before this one.
         n: u64,
         /// Which of the template's maps it plays.
         map: usize,
+        /// The seed it plays instead of the template's seed plus `n`.
+        seed: Option<u64>,
     },
     /// The settings the shell keeps under this ticket.
     Given(Ticket),
@@ -296,6 +302,8 @@ pub(crate) struct LiveMatch<M> {
     goes_on: bool,
     /// What waits for it to be made.
     purpose: Option<Purpose>,
+    /// The seed it was made to play instead of its template's next (a player's).
+    seed: Option<u64>,
     /// When it was made.
     made_at: Instant,
 }
@@ -337,8 +345,9 @@ struct TemplateState {
     made: u64,
     /// Its matches live now (those being made included).
     running: usize,
-    /// Players waiting for a seat, oldest first, with the place each was last told.
-    queue: VecDeque<(Ticket, usize)>,
+    /// Players waiting for a seat, oldest first, with the place each was last told and
+    /// the seed their seat token carries (a match made for them plays it).
+    queue: VecDeque<(Ticket, usize, Option<u64>)>,
 }
 
 /// The arena's decision state.
@@ -440,7 +449,7 @@ impl<M: Clone> Core<M> {
             Event::Shutdown => {
                 self.stopping = true;
                 for template in self.templates.values_mut() {
-                    out.extend(template.queue.drain(..).map(|(waiter, _)| Action::Dismiss { waiter }));
+                    out.extend(template.queue.drain(..).map(|(waiter, ..)| Action::Dismiss { waiter }));
                 }
                 out.push(Action::StopAll);
             }
@@ -499,7 +508,7 @@ impl<M: Clone> Core<M> {
                 };
                 // `Next` walks the list by the match name's runs; otherwise every match plays the first map.
                 let map = if rules.on_end == OnEnd::Next { (run as usize - 1) % rules.maps } else { 0 };
-                (Recipe::Template { n, map }, rules.open_seats)
+                (Recipe::Template { n, map, seed: make.seed }, rules.open_seats)
             }
         };
         self.runs.insert(name.clone(), run);
@@ -517,6 +526,7 @@ impl<M: Clone> Core<M> {
             open_seats,
             goes_on,
             purpose: Some(purpose),
+            seed: make.seed,
             made_at: now,
         };
         self.live.insert(name.clone(), live);
@@ -590,7 +600,7 @@ impl<M: Clone> Core<M> {
         match (live.purpose, live.template) {
             (Some(Purpose::Answer(ticket)), _) => out.push(Action::Answer { ticket, answer: Err(error) }),
             (Some(Purpose::Hello(ticket)), Some(template)) => {
-                let routing = self.enqueue(ticket, &template);
+                let routing = self.enqueue(ticket, &template, live.seed);
                 out.push(Action::Route { ticket, routing });
             }
             // The queue waits for a seat another way (a claim given back, a match's end).
@@ -659,6 +669,7 @@ impl<M: Clone> Core<M> {
                 name: Some(name.to_string()),
                 template: Some(template.clone()),
                 from: MakeFrom::Template,
+                seed: None,
             };
             // The queue is served once the new run is made (its seats first).
             if self.make(now, again, true, Purpose::Restart, out).is_ok() {
@@ -696,6 +707,6 @@ impl<M: Clone> Core<M> {
     /// The players waiting in `template`'s queue, oldest first.
     #[cfg(test)]
     pub(crate) fn queued(&self, template: &str) -> Vec<Ticket> {
-        self.templates.get(template).map(|t| t.queue.iter().map(|(w, _)| *w).collect()).unwrap_or_default()
+        self.templates.get(template).map(|t| t.queue.iter().map(|(w, ..)| *w).collect()).unwrap_or_default()
     }
 }

@@ -29,17 +29,20 @@ pub(crate) struct Seek {
     pub session: bool,
     /// The template its seat token was granted for (checked by the arena's handle).
     pub invited: Option<String>,
+    /// The seed its seat token carries: a match made for it plays that seed.
+    pub seed: Option<u64>,
 }
 
 impl Seek {
-    /// What `hello` asks for, its seat token being one granted for `invited`.
-    pub(crate) fn of(hello: &Hello, invited: Option<String>) -> Seek {
+    /// What `hello` asks for, its seat token being one granted for `invited` with `seed`.
+    pub(crate) fn of(hello: &Hello, invited: Option<String>, seed: Option<u64>) -> Seek {
         Seek {
             match_name: hello.match_name.clone(),
             template: hello.template.clone(),
             role: hello.role,
             session: hello.session.is_some(),
             invited,
+            seed,
         }
     }
 
@@ -177,13 +180,19 @@ impl<M: Clone> Core<M> {
             return Some(routing);
         }
         if self.may_make(template) {
-            let make = Make { name: None, template: Some(template.to_string()), from: MakeFrom::Template };
+            // The match plays the seed of the player whose hello made it, if theirs has one.
+            let make = Make {
+                name: None,
+                template: Some(template.to_string()),
+                from: MakeFrom::Template,
+                seed: seek.seed,
+            };
             // A name the operator took meanwhile: the player waits in line instead.
             if self.make(now, make, true, Purpose::Hello(ticket), out).is_ok() {
                 return None;
             }
         }
-        Some(self.enqueue(ticket, template))
+        Some(self.enqueue(ticket, template, seek.seed))
     }
 
     /// A waiting match of `template` with a seat neither taken nor claimed.
@@ -209,12 +218,12 @@ impl<M: Clone> Core<M> {
         Some(Routing::Match { handle, name: name.to_string(), id: live.id.clone(), claim: true })
     }
 
-    /// Puts a player at the end of `template`'s queue.
-    pub(super) fn enqueue(&mut self, ticket: Ticket, template: &str) -> Routing<M> {
+    /// Puts a player (whose seat token carries `seed`) at the end of `template`'s queue.
+    pub(super) fn enqueue(&mut self, ticket: Ticket, template: &str, seed: Option<u64>) -> Routing<M> {
         match self.templates.get_mut(template) {
             Some(t) => {
                 let place = t.queue.len() + 1;
-                t.queue.push_back((ticket, place));
+                t.queue.push_back((ticket, place, seed));
                 Routing::Queued { place }
             }
             None => Routing::Refused((ErrorCode::UnknownTemplate, format!("no template named '{template}'"))),
@@ -233,7 +242,7 @@ impl<M: Clone> Core<M> {
     /// Takes a player out of its queue; those behind it move up.
     pub(super) fn leave_queue(&mut self, waiter: Ticket, out: &mut Vec<Action<M>>) {
         let found = self.templates.iter_mut().find_map(|(name, t)| {
-            let at = t.queue.iter().position(|(w, _)| *w == waiter)?;
+            let at = t.queue.iter().position(|(w, ..)| *w == waiter)?;
             t.queue.remove(at);
             Some(name.clone())
         });
@@ -252,7 +261,7 @@ impl<M: Clone> Core<M> {
             }
             if let Some(name) = self.free_seat(template) {
                 let Some(Routing::Match { handle, name, id, .. }) = self.claim(&name) else { break };
-                let Some((waiter, _)) = self.templates.get_mut(template).and_then(|t| t.queue.pop_front())
+                let Some((waiter, ..)) = self.templates.get_mut(template).and_then(|t| t.queue.pop_front())
                 else {
                     break;
                 };
@@ -262,8 +271,10 @@ impl<M: Clone> Core<M> {
             let being_made =
                 self.live.values().any(|l| l.handle.is_none() && l.template.as_deref() == Some(template));
             if self.may_make(template) && !being_made {
+                // Made for the player first in line: it plays their seed.
+                let seed = self.templates.get(template).and_then(|t| t.queue.front()).and_then(|q| q.2);
                 let make =
-                    Make { name: None, template: Some(template.to_string()), from: MakeFrom::Template };
+                    Make { name: None, template: Some(template.to_string()), from: MakeFrom::Template, seed };
                 let _ = self.make(now, make, true, Purpose::Queue, out);
             }
             break;
@@ -274,7 +285,7 @@ impl<M: Clone> Core<M> {
     /// Tells each queued player of `template` whose place changed its new place.
     fn tell_places(&mut self, template: &str, out: &mut Vec<Action<M>>) {
         let Some(t) = self.templates.get_mut(template) else { return };
-        for (at, (waiter, told)) in t.queue.iter_mut().enumerate() {
+        for (at, (waiter, told, _)) in t.queue.iter_mut().enumerate() {
             if *told != at + 1 {
                 *told = at + 1;
                 out.push(Action::Place { waiter: *waiter, place: at + 1 });

@@ -38,6 +38,7 @@ fn on_demand(name: &str, max: usize, open_seats: usize) -> Rules {
 
 fn facts_of(launch: &Launch) -> Facts {
     let seed = match launch.recipe {
+        Recipe::Template { seed: Some(seed), .. } => seed,
         Recipe::Template { n, .. } => 5 + n,
         Recipe::Given(_) => 99,
     };
@@ -74,11 +75,19 @@ fn player_by_template(template: &str) -> Seek {
         role: Role::Agent,
         session: false,
         invited: None,
+        seed: None,
     }
 }
 
 fn player_in(name: &str) -> Seek {
-    Seek { match_name: Some(name.into()), template: None, role: Role::Agent, session: false, invited: None }
+    Seek {
+        match_name: Some(name.into()),
+        template: None,
+        role: Role::Agent,
+        session: false,
+        invited: None,
+        seed: None,
+    }
 }
 
 fn spectator_of(name: &str) -> Seek {
@@ -88,11 +97,12 @@ fn spectator_of(name: &str) -> Seek {
         role: Role::Spectator,
         session: false,
         invited: None,
+        seed: None,
     }
 }
 
 fn no_name() -> Seek {
-    Seek { match_name: None, template: None, role: Role::Agent, session: false, invited: None }
+    Seek { match_name: None, template: None, role: Role::Agent, session: false, invited: None, seed: None }
 }
 
 /// One line per action, so a test compares what the core did with what it should.
@@ -100,8 +110,9 @@ fn said(actions: &[Action<String>]) -> Vec<String> {
     actions
         .iter()
         .map(|action| match action {
-            Action::Spawn(Launch { id, recipe: Recipe::Template { n, map }, .. }) => {
-                format!("spawn {id} n{n} map{map}")
+            Action::Spawn(Launch { id, recipe: Recipe::Template { n, map, seed }, .. }) => {
+                let seed = seed.map_or(String::new(), |s| format!(" seed {s}"));
+                format!("spawn {id} n{n} map{map}{seed}")
             }
             Action::Spawn(Launch { id, recipe: Recipe::Given(_), .. }) => format!("spawn {id} given"),
             Action::Route { ticket, routing: Routing::Match { handle, claim, .. } } => {
@@ -197,6 +208,7 @@ impl Sim {
                 name: Some(name.to_string()),
                 template: Some(template.to_string()),
                 from: MakeFrom::Template,
+                seed: None,
             };
             out.extend(said(&self.feed(Event::Make { ticket, make })));
         }
@@ -385,7 +397,12 @@ fn shutdown_lets_the_line_go_stops_every_match_and_makes_no_more() {
     assert_eq!(sim.core.queued("open"), Vec::<Ticket>::new());
     assert_eq!(sim.hello(player_in("ladder")).1, ["refuse 5 server_stopping"]);
     let ticket = sim.ticket();
-    let make = Make { name: Some("late".into()), template: None, from: MakeFrom::Given { open_seats: 1 } };
+    let make = Make {
+        name: Some("late".into()),
+        template: None,
+        from: MakeFrom::Given { open_seats: 1 },
+        seed: None,
+    };
     assert_eq!(said(&sim.feed(Event::Make { ticket, make })), ["answer 6 error the server is stopping"]);
     // The ladder ends for good; a queued player's late departure changes nothing.
     assert_eq!(sim.end("ladder", "ladder.1"), ["record ladder.1 index 1 seed 5"]);
@@ -401,7 +418,8 @@ fn a_taken_name_and_an_unknown_template_are_refused() {
     let make = |sim: &mut Sim, name: Option<&str>, template: Option<&str>| {
         let ticket = sim.ticket();
         let from = MakeFrom::Given { open_seats: 1 };
-        let make = Make { name: name.map(str::to_string), template: template.map(str::to_string), from };
+        let make =
+            Make { name: name.map(str::to_string), template: template.map(str::to_string), from, seed: None };
         said(&sim.feed(Event::Make { ticket, make }))
     };
     assert_eq!(make(&mut sim, Some("base"), None), ["answer 2 error a match named 'base' is running"]);
@@ -431,7 +449,12 @@ fn a_match_that_cannot_be_made_is_forgotten_and_its_player_waits_in_line() {
     assert_eq!(said(&sim.raw(failed)), ["route 1 queued 1"]);
     assert_eq!(sim.core.live_count(), 0);
     // A request's match that cannot be made is answered so, and its run number is not used up.
-    let make = || Make { name: Some("solo".into()), template: None, from: MakeFrom::Given { open_seats: 1 } };
+    let make = || Make {
+        name: Some("solo".into()),
+        template: None,
+        from: MakeFrom::Given { open_seats: 1 },
+        seed: None,
+    };
     assert_eq!(said(&sim.raw(Event::Make { ticket: 2, make: make() })), ["spawn solo.1 given"]);
     let failed =
         Event::SpawnFailed { name: "solo".into(), id: "solo.1".into(), error: ArenaError::Bad("no".into()) };
@@ -514,4 +537,35 @@ fn an_invited_only_template_seats_only_players_invited_to_it() {
         sim.hello(player_by_template("open")).1,
         ["spawn open-1.1 n0 map0", "route 7 to open-1.1 claimed"]
     );
+}
+
+#[test]
+fn a_match_made_for_an_invited_player_plays_the_seed_their_seat_carries() {
+    let condition = Rules { invited_only: true, ..on_demand("talking", 1, 2) };
+    let mut sim = Sim::new(vec![condition]);
+    let seeded = |seed: u64| Seek {
+        invited: Some("talking".into()),
+        seed: Some(seed),
+        ..player_by_template("talking")
+    };
+    // The hello that makes the match gives its seed; the second player joins its free seat.
+    assert_eq!(
+        sim.hello(seeded(41)).1,
+        ["spawn talking-1.1 n0 map0 seed 41", "route 1 to talking-1.1 claimed"]
+    );
+    assert_eq!(sim.hello(seeded(42)).1, ["route 2 to talking-1.1 claimed"]);
+    // The template may run one match: the next player waits, and the match made for the
+    // queue (once the first ends) plays the seed of the player first in line, though the
+    // template has made a match before (no seed + n).
+    assert_eq!(sim.hello(seeded(43)).1, ["route 3 queued 1"]);
+    let ended = sim.end("talking-1", "talking-1.1");
+    assert_eq!(ended[..2], ["record talking-1.1 index 1 seed 41", "spawn talking-2.1 n1 map0 seed 43"]);
+    // A player joining its free seat plays the seed it was made with.
+    let plain = Seek { invited: Some("talking".into()), ..player_by_template("talking") };
+    assert_eq!(sim.hello(plain).1, ["route 4 to talking-2.1 claimed"]);
+    // Without a seed, a match plays the template's next, as before.
+    let mut sim = Sim::new(vec![Rules { invited_only: true, ..on_demand("talking", 1, 1) }]);
+    let plain = Seek { invited: Some("talking".into()), ..player_by_template("talking") };
+    assert_eq!(sim.hello(plain).1, ["spawn talking-1.1 n0 map0", "route 1 to talking-1.1 claimed"]);
+    assert_eq!(sim.end("talking-1", "talking-1.1"), ["record talking-1.1 index 1 seed 5"]);
 }
