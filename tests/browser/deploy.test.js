@@ -172,7 +172,8 @@ async function answer(page, step) {
 async function trial(page, step) {
   await onPage(page, 'trial', step);
   const frame = await (await page.waitForSelector('#trial-frame')).contentFrame();
-  await frame.waitForSelector('#status[data-status="connected"]', { timeout: 20_000 });
+  // The participant's view shows no status words: the connection's state is an attribute.
+  await frame.waitForSelector('#status[data-status="connected"]', { state: 'attached', timeout: 20_000 });
   // The study file's time limit was shortened to a few seconds (below).
   await page.waitForSelector('#trial-continue', { timeout: 40_000 });
   await page.click('#trial-continue');
