@@ -438,6 +438,8 @@ async fn a_participant_goes_through_the_whole_study_and_the_export_has_every_row
         name: "P1".into(),
         seat: Some(alice_seat.clone()),
         watch_token: None,
+        match_name: None,
+        session: None,
     };
     assert_eq!(hello, &first, "the first to arrive starts with alpha");
     assert!(alice_seat.len() == 32 && alice_seat.bytes().all(|b| b.is_ascii_hexdigit()), "{alice_seat}");
@@ -1601,5 +1603,48 @@ fn a_dry_run_takes_scripted_participants_through_the_example_study_and_exports_t
     let again = crate::util::bw4t_within(&args, std::time::Duration::from_secs(30));
     assert!(!again.status.success());
     assert!(String::from_utf8_lossy(&again.stderr).contains("not empty"), "{again:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn any_page_of_the_participant_takes_their_robot_back_and_the_first_is_told() {
+    let dir = temp_dir("second-page");
+    // A realtime match of ten minutes: it is surely still running while pages come and go.
+    let long = SHORT
+        .replace("mode = \"lockstep\"", "mode = \"realtime\"")
+        .replace("time_limit_s = 1", "time_limit_s = 600");
+    let rig = StudyRig::start(&dir, &long).await;
+    rig.call("POST", "/api/study/participants", Some(json!({"params": {"pid": "hana"}}))).await;
+    let state = rig.answer("hana", 0, json!({"consent": true})).await;
+    let Some(StudyPage::Trial { hello, .. }) = &state.page else { panic!("a trial: {state:?}") };
+    let (seat, name) = (hello.seat.clone(), hello.name.clone());
+    let mut first = AutoPlayer::join_with(rig.addr, player_fields(hello)).await;
+    let welcome = first.welcome.clone();
+    let session = welcome.session.clone().expect("a session");
+    let started = json!({"step": 1, "match": welcome.match_info.name, "match_id": welcome.match_info.id,
+                         "session": session});
+    let (status, answer) = rig.call("POST", "/api/study/participants/hana/trial", Some(started)).await;
+    assert_eq!(status, 200, "{answer}");
+    // Her state now says where her robot is: a reload, or a page in a new tab, goes back to it.
+    let (_, state) = rig.call("GET", "/api/study/participants/hana", None).await;
+    let state: ParticipantState = read(&state);
+    let Some(StudyPage::Trial { hello, .. }) = &state.page else { panic!("a trial: {state:?}") };
+    assert_eq!(hello.match_name.as_deref(), Some(welcome.match_info.name.as_str()));
+    assert_eq!(hello.session.as_deref(), Some(session.as_str()));
+    let back = json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": name, "seat": seat,
+                      "match": hello.match_name, "session": hello.session});
+    let (_second, again) = welcomed(rig.addr, back).await;
+    assert_eq!(again.robot, welcome.robot, "the same robot");
+    // The page it was taken from is told so (and leaves the robot alone).
+    first.wait("replaced", |s| s.errors.iter().any(|e| e == "replaced").then_some(())).await;
+    // Somebody without her session gets no robot of hers.
+    let stranger = json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": name, "seat": seat,
+                          "match": welcome.match_info.name, "session": "0123456789abcdef0123456789abcdef"});
+    let mut outsider = Client::connect(rig.addr).await;
+    outsider.send(stranger).await;
+    assert_eq!(outsider.error_code().await, "bad_session");
+    let (status, _) = rig.operator("POST", &format!("/api/matches/{}/stop", welcome.match_info.name)).await;
+    assert_eq!(status, 200);
+    rig.shutdown().await;
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -250,3 +250,57 @@ test('a small window gets the screen-out page, and no participant is made', { ti
   assert.deepEqual(await participants(server), ['SMALL1']);
   assert.deepEqual(small.errors, [], 'no errors on the page');
 });
+
+/** The trial's frame of a page already at the trial, once connected. */
+async function connectedFrame(page) {
+  await page.waitForSelector('body[data-kind="trial"]');
+  const frame = await (await page.waitForSelector('#trial-frame')).contentFrame();
+  await frame.waitForSelector('body[data-participant="true"] #status[data-status="connected"]', { state: 'attached', timeout: 20_000 });
+  return frame;
+}
+
+test('the robot follows the participant, not the tab: a second tab takes it over, a closed tab comes back to it, the absence is recorded', { timeout: 150_000 }, async (t) => {
+  const data = tempDir('study-tabs');
+  t.after(() => fs.rmSync(data, { recursive: true, force: true }));
+  const server = await startBw4t(['study', STUDY, '--data', data, '--http', '0', '--port', '0', '--operator-token', TOKEN]);
+  t.after(() => stop(server.proc));
+  const b = await openBrowser({ width: 1280, height: 720 });
+  t.after(() => b.close());
+  const id = 'tabs1';
+  const link = new URL(`/study?participant=${id}`, server.url).href;
+  const first = await toTrial(b.page, server.url, id);
+  const me = await first.evaluate(() => document.querySelector('#me').textContent);
+  // The server has the trial's start (and the robot's session) once the page has said it.
+  const started = async () => {
+    const response = await fetch(new URL('/api/study/participants', server.url), { headers: { Authorization: `Bearer ${TOKEN}` } });
+    return (await response.json()).participants.find((p) => p.participant === id)?.match_id;
+  };
+  const deadline = Date.now() + 10_000;
+  while (!(await started())) {
+    assert.ok(Date.now() < deadline, 'the trial start is recorded');
+    await b.page.waitForTimeout(100);
+  }
+  // A second tab of the same browser: the same robot; the first tab steps aside, saying why.
+  const second = await b.context.newPage();
+  await second.goto(link);
+  const secondFrame = await connectedFrame(second);
+  assert.equal(await secondFrame.evaluate(() => document.querySelector('#me').textContent), me);
+  await b.page.waitForSelector('#trial-elsewhere');
+  assert.match(await b.page.innerText('#trial-elsewhere'), /another tab or window/);
+  // That tab is closed, and the participant comes back in a new one: the same robot again.
+  await second.close();
+  const third = await b.context.newPage();
+  await third.goto(link);
+  const thirdFrame = await connectedFrame(third);
+  assert.equal(await thirdFrame.evaluate(() => document.querySelector('#me').textContent), me);
+  await screenshot(third, 'participant-back');
+  // The trial plays to its end in the tab that is left, and counts.
+  await third.waitForSelector('#trial-continue', { timeout: 60_000 });
+  await third.waitForFunction(() => window.bw4tStudy.pending() === 0, null, { timeout: 10_000 });
+  await stop(server.proc);
+  const out = path.join(data, 'export');
+  await runBw4t(['study', 'export', data, '--out', out]);
+  const trial = readCsv(path.join(out, 'trials.csv')).find((r) => r.participant === id);
+  assert.equal(trial.complete, 'true', JSON.stringify(trial));
+  assert.ok(Number(trial.disconnections) >= 1 && Number(trial.absent_s) > 0, `the absence is recorded: ${JSON.stringify(trial)}`);
+});

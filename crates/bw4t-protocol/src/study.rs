@@ -172,6 +172,12 @@ pub struct TrialHello {
     /// the overview beside the player's own view.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub watch_token: Option<String>,
+    /// The trial's match under way (the page said it started), to go back into.
+    #[serde(default, rename = "match", skip_serializing_if = "Option::is_none")]
+    pub match_name: Option<String>,
+    /// The session of the participant's robot in it (`hello.session`), to take it back.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub session: Option<String>,
 }
 
 /// The messages a trial's player may send.

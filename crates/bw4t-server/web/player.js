@@ -151,7 +151,9 @@ function onPlayerEvent(event, message) {
     case 'welcome':
       player.name = message.name;
       player.robot = message.robot;
-      report('welcome', { name: message.name, robot: message.robot, match: message.match });
+      // The session goes to the study page (which keeps it with the trial, so any page of
+      // the participant's takes the robot back); the page does not log it.
+      report('welcome', { name: message.name, robot: message.robot, match: message.match, session: message.session });
       setMessagePolicy(message.match.language);
       if (page.lobby && message.match.name) {
         // The match (maybe chosen by a template) is now this page's: a reload comes back to

@@ -239,6 +239,11 @@ impl StudyServer {
                 let template = arena.config().templates.iter().find(|t| t.name == hello.template);
                 hello.watch_token = template.and_then(|t| t.config.spectator_token.clone());
             }
+            // A trial under way: any page of theirs (a reload, a new tab) takes the robot back.
+            if let (Some((name, _)), Some(session)) = (&p.playing, &p.playing_session) {
+                hello.match_name = Some(name.clone());
+                hello.session = Some(session.clone());
+            }
         }
         state
     }
@@ -516,9 +521,20 @@ impl StudyServer {
                 );
             }
             if slot.state.playing.as_ref().is_some_and(|(_, playing)| playing == match_id) {
-                // Said again (a page that retried): it is recorded already.
+                // Said again (a page that retried, or took the robot back): recorded already.
                 return reply(StatusCode::OK, &self.state_of(&slot.state));
             }
+            let session = match body.get("session") {
+                None | Some(Value::Null) => None,
+                Some(Value::String(s))
+                    if (1..=64).contains(&s.len()) && s.bytes().all(|b| b.is_ascii_hexdigit()) =>
+                {
+                    Some(s.clone())
+                }
+                Some(_) => {
+                    return error(StatusCode::BAD_REQUEST, "session: expected the welcome's session token");
+                }
+            };
             let record = Record::TrialStarted {
                 step,
                 trial: played.trial,
@@ -526,6 +542,7 @@ impl StudyServer {
                 r#match: name.to_string(),
                 match_id: match_id.to_string(),
                 practice: played.practice,
+                session,
             };
             match self.append(slot, &[record]) {
                 Ok(()) => reply(StatusCode::OK, &self.state_of(&slot.state)),

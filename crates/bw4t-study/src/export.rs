@@ -177,7 +177,7 @@ pub fn export(dir: &Path, out: &Path) -> Result<ExportSummary, String> {
                         ],
                     );
                 }
-                Record::TrialStarted { step, trial, condition, r#match, match_id, practice } => {
+                Record::TrialStarted { step, trial, condition, r#match, match_id, practice, .. } => {
                     if !practice {
                         last_condition.clone_from(condition);
                     }

@@ -49,6 +49,10 @@ pub(crate) enum Record {
         match_id: String,
         #[serde(default, skip_serializing_if = "is_false")]
         practice: bool,
+        /// The protocol session of the participant's robot (`welcome.session`): any page
+        /// of theirs takes the robot back with it.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        session: Option<String>,
     },
     /// A trial's match ended: its result (as recorded when the trial was answered).
     TrialEnded {
@@ -93,6 +97,8 @@ pub(crate) struct Participant {
     pub failed: u32,
     /// The trial match started at the current step and not yet answered: (name, id).
     pub playing: Option<(String, String)>,
+    /// The protocol session of their robot in that match, if the page said it.
+    pub playing_session: Option<String>,
     /// Match ids already answered for a trial.
     pub used_matches: Vec<String>,
     pub started_ms: u64,
@@ -119,6 +125,7 @@ impl Participant {
             screened_out: false,
             failed: 0,
             playing: None,
+            playing_session: None,
             used_matches: Vec::new(),
             started_ms: now,
             last_ms: now,
@@ -153,8 +160,9 @@ impl Participant {
                 self.playing = None;
             }
             Record::Answer { .. } => {}
-            Record::TrialStarted { step, r#match, match_id, .. } if *step == self.step => {
+            Record::TrialStarted { step, r#match, match_id, session, .. } if *step == self.step => {
                 self.playing = Some((r#match.clone(), match_id.clone()));
+                self.playing_session.clone_from(session);
             }
             Record::TrialEnded { match_id, .. } => self.used_matches.push(match_id.clone()),
             Record::TrialIncomplete { match_id, .. } => {
@@ -272,6 +280,8 @@ impl Participant {
                         name: self.player_name(),
                         seat: None,
                         watch_token: None,
+                        match_name: None,
+                        session: None,
                     },
                     view: condition.view.clone(),
                     language: TrialLanguage {
@@ -298,6 +308,8 @@ impl Participant {
                         name: self.player_name(),
                         seat: None,
                         watch_token: None,
+                        match_name: None,
+                        session: None,
                     },
                     view: practice.view.clone(),
                     language: TrialLanguage {

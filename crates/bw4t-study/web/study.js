@@ -295,15 +295,19 @@ function renderQuestionnaire(p) {
 /** A trial: the briefing, and the player view of the condition in a frame, joined with
  * the hello the state gives. */
 function renderTrial(p) {
+  // A trial under way: the state names its match and the robot's session (any page of the
+  // participant's, a reload or a new tab, takes the robot back with them).
   const hello = { ...(p.hello || {}) };
-  // Reloaded during this trial: back into its match (the frame has the session for it).
-  let kept = null;
-  try {
-    kept = JSON.parse(localStorage.getItem(trialKey()) || 'null');
-  } catch {
-    kept = null;
+  if (!hello.match) {
+    // Reloaded before the server heard of the match: back into it from what this browser kept.
+    let kept = null;
+    try {
+      kept = JSON.parse(localStorage.getItem(trialKey()) || 'null');
+    } catch {
+      kept = null;
+    }
+    if (kept && kept.step === study.state.step && kept.match) hello.match = kept.match;
   }
-  if (kept && kept.step === study.state.step && kept.match) hello.match = kept.match;
   const view = p.view === 'overview' ? '&view=overview' : '';
   const src = `/?embed=study${view}&hello=${encodeURIComponent(JSON.stringify(hello))}`;
   const frame = el('iframe', { id: 'trial-frame', src, title: 'the task', allow: 'fullscreen' });
@@ -370,15 +374,25 @@ async function onViewEvent(event) {
   const trial = study.trial;
   if (!trial || trial.step !== study.state?.step) return;
   if (event.tick !== null && event.tick !== undefined) study.tick = event.tick;
-  if (VIEW_EVENTS.has(event.kind)) study.queue.push({ ...event, step: trial.step });
+  // The robot's session is a credential: it goes to the server with the trial, not into the log.
+  const { session, ...logged } = event;
+  if (VIEW_EVENTS.has(event.kind)) study.queue.push({ ...logged, step: trial.step });
   if (event.kind === 'welcome') {
     trial.matchId = event.match?.id ?? null;
     trial.matchName = event.match?.name ?? null;
     localStorage.setItem(trialKey(), JSON.stringify({ step: trial.step, match: trial.matchName }));
     // Back in the match after a reload: its start is recorded already.
     if (trial.rejoining && trial.rejoining === trial.matchName) return;
-    const result = await api('POST', participantPath('/trial'), { step: trial.step, ...trialMatch(trial) });
+    const started = { step: trial.step, ...trialMatch(trial), ...(session ? { session } : {}) };
+    const result = await api('POST', participantPath('/trial'), started);
     if (!result.ok) console.warn('bw4t study: trial start not recorded', result.status, result.body);
+  } else if (event.kind === 'error' && event.code === 'replaced') {
+    // Another page of the participant's took the robot: this one steps aside.
+    trial.finishing = true;
+    const over = $('#trial-over');
+    over.hidden = false;
+    over.replaceChildren(el('p', { id: 'trial-elsewhere' }, 'This task goes on in another tab or window. You can close this one.'));
+    trial.frame.remove();
   } else if (event.kind === 'match_over' || (event.kind === 'bye' && trial.matchName)) {
     finishTrial();
   } else if (event.kind === 'error' && event.fatal && (trial.matchName || trial.rejoining)) {
