@@ -4,7 +4,7 @@
 
 use std::sync::{Arc, Mutex};
 
-use bw4t_agents::{Agent, CLAIM_LAPSE_TICKS, MatchSetup, Observation, Seat, Strategy};
+use bw4t_agents::{Agent, MatchSetup, Observation, Seat, Strategy, WORD_CLAIM_LAPSE_TICKS};
 use bw4t_map::{Colour, Map};
 use bw4t_protocol::{EndReason, Knowledge, Said};
 use bw4t_runner::play_headless;
@@ -325,8 +325,9 @@ fn a_robot_sent_to_a_room_goes_there_and_reports_it() {
     }
 }
 
-/// A player says it will get the first colour and never does: the team leaves position 0
-/// to it until the claim lapses, then delivers it and completes.
+/// A player says it will get the first colour and never does (a participant who claims a
+/// colour and then does nothing): the team leaves position 0 to it until the claim lapses,
+/// then delivers it and completes within a study trial's time.
 #[test]
 fn a_forgotten_will_get_lapses_and_the_team_completes() {
     let lines = |_: &[String], sequence: &[Colour]| {
@@ -335,6 +336,8 @@ fn a_forgotten_will_get_lapses_and_the_team_completes() {
     for seed in 0..2 {
         let (reason, ticks, sent, _) = play_with_talker(seed, lines);
         assert_eq!(reason, "completed", "seed {seed}: after {ticks} ticks");
+        // Within a study's trial of 300 s at 10 ticks a second (examples/study).
+        assert!(ticks <= 3_000, "seed {seed}: completed only after {ticks} ticks");
         let first_claim = sent
             .iter()
             .find(|s| {
@@ -342,9 +345,9 @@ fn a_forgotten_will_get_lapses_and_the_team_completes() {
             })
             .expect("somebody claims position 0 at last");
         assert!(
-            first_claim.tick > CLAIM_LAPSE_TICKS,
+            first_claim.tick > WORD_CLAIM_LAPSE_TICKS,
             "seed {seed}: {first_claim:?} before the asker's claim lapsed"
         );
-        assert!(first_claim.tick < CLAIM_LAPSE_TICKS + 1_000, "seed {seed}: {first_claim:?} long after");
+        assert!(first_claim.tick < WORD_CLAIM_LAPSE_TICKS + 1_000, "seed {seed}: {first_claim:?} long after");
     }
 }

@@ -11,7 +11,7 @@ mod view;
 use bw4t_sim::{Action, OrderOutcome, PerceptDelta};
 
 pub use baseline::Baseline;
-pub use coop::{CLAIM_LAPSE_TICKS, Cooperative, STALL_TICKS};
+pub use coop::{CLAIM_LAPSE_TICKS, Cooperative, STALL_TICKS, WORD_CLAIM_LAPSE_TICKS};
 pub use drive::{Driver, Team};
 pub use setup::{AgentFactory, MatchSetup, Player, Seat, SetupError, bot_name, named_seats};
 

@@ -47,7 +47,8 @@
 //! `dont_know` only when the asker and itself are the only players (in a larger team it
 //! stays silent rather than add to a flood of answers).
 //!
-//! A claim of another player lapses after [`CLAIM_LAPSE_TICKS`] ticks in which the sequence
+//! A claim of another player lapses after [`CLAIM_LAPSE_TICKS`] ticks (a claim by word
+//! alone, `will_get` or `have`, after [`WORD_CLAIM_LAPSE_TICKS`]) in which the sequence
 //! did not advance and the claimer did not renew it (people forget), or when the claimer
 //! says `could_not`, leaves, or the position is delivered. A room announced with
 //! `going_to` is left to its explorer for as long, unless a report on it comes first.
@@ -105,6 +106,12 @@ use says::Heard;
 /// default 20 ticks a second (an agent is not told the match's rate).
 pub const CLAIM_LAPSE_TICKS: u64 = 2_400;
 
+/// Ticks after which a claim made by word alone (`will_get COLOUR`, `have COLOUR`: a
+/// person's, through the message menu) lapses the same way: 45 seconds at the default
+/// rate, 90 at a study's 10 ticks a second, longer than a person takes to fetch a block,
+/// short enough that one who says it and then does nothing leaves the team time to finish.
+pub const WORD_CLAIM_LAPSE_TICKS: u64 = 900;
+
 /// Ticks the next position may stay unclaimed, with nobody announcing a room to look
 /// into, before robots with claims on later positions give them up to fetch it themselves
 /// (a player counted as free who does not fetch it, or a claim that lapsed, would
@@ -139,6 +146,8 @@ struct Claim {
     from: Option<String>,
     /// The tick it was made.
     since: u64,
+    /// Ticks without progress or renewal after which it lapses (another player's).
+    lapse: u64,
 }
 
 /// How much of the language a cooperative player uses.
@@ -303,6 +312,9 @@ impl Cooperative {
                     .find(|p| v.sequence[*p] == colour && self.claims.get(p).is_none_or(|c| c.who == from));
                 if let Some(pos) = open {
                     self.resolve_claim(from, pos, colour, None);
+                    if let Some(claim) = self.claims.get_mut(&pos).filter(|c| c.who == from) {
+                        claim.lapse = WORD_CLAIM_LAPSE_TICKS;
+                    }
                 }
             }
             Heard::CouldNot => self.claims.retain(|_, c| c.who != from),
@@ -430,8 +442,16 @@ impl Cooperative {
                 self.task = Task::Idle;
             }
         }
-        self.claims
-            .insert(pos, Claim { who: from.to_string(), colour, from: source.clone(), since: self.tick });
+        self.claims.insert(
+            pos,
+            Claim {
+                who: from.to_string(),
+                colour,
+                from: source.clone(),
+                since: self.tick,
+                lapse: CLAIM_LAPSE_TICKS,
+            },
+        );
         // More players going for a room's blocks of a colour than it holds: those whose
         // names come last look elsewhere (a block in hand is kept; whoever goes for one
         // will find it gone).
@@ -462,7 +482,10 @@ impl Cooperative {
             Some(room) => says::getting_for(colour, room, pos),
             None => says::bringing(colour, pos),
         };
-        self.claims.insert(pos, Claim { who: self.name.clone(), colour, from, since: self.tick });
+        self.claims.insert(
+            pos,
+            Claim { who: self.name.clone(), colour, from, since: self.tick, lapse: CLAIM_LAPSE_TICKS },
+        );
         self.say(said);
     }
 
@@ -787,11 +810,13 @@ impl Cooperative {
         }
         let present: BTreeSet<&String> = v.players.iter().chain([&self.name]).collect();
         let (me, now, advanced) = (&self.name, self.tick, self.index_since.1);
-        let lapsed = |who: &String, since: u64| {
-            who != me && now.saturating_sub(since.max(advanced)) > CLAIM_LAPSE_TICKS
+        let lapsed = |who: &String, since: u64, lapse: u64| {
+            who != me && now.saturating_sub(since.max(advanced)) > lapse
         };
-        self.claims.retain(|p, c| present.contains(&c.who) && *p >= v.index && !lapsed(&c.who, c.since));
-        self.exploring.retain(|_, (who, since)| present.contains(who) && !lapsed(who, *since));
+        self.claims
+            .retain(|p, c| present.contains(&c.who) && *p >= v.index && !lapsed(&c.who, c.since, c.lapse));
+        self.exploring
+            .retain(|_, (who, since)| present.contains(who) && !lapsed(who, *since, CLAIM_LAPSE_TICKS));
     }
 
     /// Notices a stall: the next position unclaimed, nobody looking into a room, for
@@ -817,9 +842,14 @@ impl Cooperative {
             .claims
             .values()
             .filter(|c| c.who != self.name)
-            .map(|c| c.since)
-            .chain(self.exploring.values().filter(|(who, _)| *who != self.name).map(|(_, since)| *since))
-            .map(|since| since.max(advanced) + CLAIM_LAPSE_TICKS + 1);
+            .map(|c| (c.since, c.lapse))
+            .chain(
+                self.exploring
+                    .values()
+                    .filter(|(who, _)| *who != self.name)
+                    .map(|(_, since)| (*since, CLAIM_LAPSE_TICKS)),
+            )
+            .map(|(since, lapse)| since.max(advanced) + lapse + 1);
         let stall = self.open_since.filter(|_| !self.urgent).map(|since| since + STALL_TICKS);
         lapses.chain(stall).filter(|t| *t > self.tick).min()
     }

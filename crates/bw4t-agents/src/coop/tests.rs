@@ -7,7 +7,7 @@ use bw4t_map::Colour::{self, Blue, Green, Red, White, Yellow};
 use bw4t_protocol::Said;
 use bw4t_sim::{Action, MoveState, OrderOutcome, Percept, PerceptDelta, Receiver};
 
-use super::{CLAIM_LAPSE_TICKS, Cooperative, STALL_TICKS};
+use super::{Cooperative, STALL_TICKS, WORD_CLAIM_LAPSE_TICKS};
 use crate::{Agent, Observation, OrderDone};
 
 const PLACES: [&str; 7] = ["RoomA1", "RoomA2", "RoomB1", "RoomB2", "DropZone", "FrontDropZone", "LeftHallA"];
@@ -405,11 +405,11 @@ fn will_get_is_respected_until_it_lapses() {
 
     // Halfway, it arrives in the room it explores, and explores the next.
     let room = goes_to(&first).expect("explores");
-    bench.tick += CLAIM_LAPSE_TICKS / 2;
+    bench.tick += WORD_CLAIM_LAPSE_TICKS / 2;
     let actions = bench.arrive(&room, "LeftHallA", vec![]);
     assert_eq!(claims(&actions), vec![], "not yet lapsed: {actions:?}");
     let next = goes_to(&actions).expect("explores on");
-    bench.tick += CLAIM_LAPSE_TICKS / 2 + 1;
+    bench.tick += WORD_CLAIM_LAPSE_TICKS / 2 + 1;
     let actions = bench.arrive(&next, &room, vec![]);
     assert_eq!(claims(&actions), vec![("Red".to_string(), 0)], "lapsed: {actions:?}");
 }
