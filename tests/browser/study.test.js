@@ -233,6 +233,25 @@ test('two participants go through a study; its export holds every input with its
     assert.notDeepEqual(aliceOrder, bobOrder, 'counterbalanced: the two start with different conditions');
     await admin.waitForSelector('#participants tr[data-participant="ALICE1"][data-completed="true"]');
     await admin.waitForSelector('#participants tr[data-participant="BOB2"][data-completed="true"]');
+    // The counts: each condition given to all three, completed by two; one declined.
+    await admin.waitForFunction(() => /2 completed/.test(document.querySelector('#dash-states').textContent));
+    assert.match(await admin.innerText('#dash-states'), /3 participants: .*1 declined/);
+    for (const row of await admin.locator('#dash-summary tbody tr').all()) {
+      const cells = await row.locator('td').allInnerTexts();
+      assert.deepEqual([cells[1], cells[3]], ['3', '2'], `condition ${cells[0]}: assigned, completed`);
+    }
+    // The filter keeps the rows that match.
+    await admin.fill('#dash-filter', 'bob2');
+    await admin.waitForSelector('#participants tr[data-participant="ALICE1"]', { state: 'hidden' });
+    assert.ok(await admin.isVisible('#participants tr[data-participant="BOB2"]'));
+    await admin.fill('#dash-filter', '');
+    // The export, made and saved from the dashboard.
+    await admin.click('#dash-export');
+    await admin.waitForSelector('.export-file[data-file="trials.csv"]');
+    const [download] = await Promise.all([admin.waitForEvent('download'), admin.click('.export-file[data-file="trials.csv"]')]);
+    assert.match(download.suggestedFilename(), /trials\.csv$/);
+    const saved = fs.readFileSync(await download.path(), 'utf8');
+    assert.ok(saved.startsWith('participant,step,trial,') && saved.includes('ALICE1') && saved.includes('BOB2'), saved.slice(0, 200));
     for (const b of browsers) assert.deepEqual(b.errors, [], 'no errors on the pages');
   } finally {
     await screenshot(alice.page, 'study-alice');

@@ -298,6 +298,9 @@ pub struct ParticipantRow {
     /// The id of the trial's match they started and have not answered with.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub match_id: Option<String>,
+    /// The conditions they are given, in their order (one, between subjects).
+    #[serde(default)]
+    pub conditions: Vec<String>,
 }
 
 #[cfg(test)]
@@ -336,6 +339,7 @@ mod tests {
             condition: Some("alpha".into()),
             match_name: None,
             match_id: Some("m.1".into()),
+            conditions: vec!["alpha".into(), "beta".into()],
         };
         let json = serde_json::to_value(&row).expect("json");
         assert!(json.get("match").is_none() && json["match_id"] == "m.1", "{json}");

@@ -627,6 +627,7 @@ impl StudyServer {
                     condition: p.played_at(study, p.step).map(|played| played.condition.name.clone()),
                     match_name: p.playing.as_ref().map(|(name, _)| name.clone()),
                     match_id: p.playing.as_ref().map(|(_, id)| id.clone()),
+                    conditions: p.order.iter().map(|c| study.conditions[*c].name.clone()).collect(),
                 }
             };
             // A match that has ended is no longer live.

@@ -2,7 +2,9 @@
 // `?token=`, kept for this tab), the participants and how far each is (GET /api/study/participants, every POLL_MS),
 // and for each live trial its match (its tick, and whether it is paused, from
 // GET /api/matches): watch it (the page's overview as the operator, in a
-// new tab), pause, resume or abort it (POST /api/matches/NAME/pause|resume|stop).
+// new tab), pause, resume or abort it (POST /api/matches/NAME/pause|resume|stop). Above
+// the table: how many participants are in each state and each condition; a filter over
+// the rows; and the export (POST /api/study/export, then each CSV file to save).
 
 import { $, el, setText } from './dom.js';
 import { OPERATOR_TOKEN_KEY } from './connection.js';
@@ -10,6 +12,7 @@ import { OPERATOR_TOKEN_KEY } from './connection.js';
 const POLL_MS = 2000;
 
 const dash = {
+  conditions: [], // the study's, from GET /api/study
   timer: null,
   polls: 0,
   rows: new Map(), // participant -> <tr>
@@ -26,7 +29,11 @@ function showError(text) {
 
 /** A request with the operator token; the JSON answer, or throws with the API's error. */
 async function api(method, path) {
-  const response = await fetch(path, { method, cache: 'no-store', headers: { Authorization: `Bearer ${token()}` } });
+  const headers = { Authorization: `Bearer ${token()}` };
+  // The study's POSTs take JSON only (so no other site can send them).
+  const body = method === 'POST' ? '{}' : undefined;
+  if (body) headers['Content-Type'] = 'application/json';
+  const response = await fetch(path, { method, cache: 'no-store', headers, body });
   let answer = null;
   try {
     answer = await response.json();
@@ -37,8 +44,71 @@ async function api(method, path) {
   return answer;
 }
 
-/** A time (ms since the epoch) as the time of day. */
-const clock = (ms) => (ms ? new Date(ms).toLocaleTimeString() : '');
+/** A time (ms since the epoch) as its date and time of day. */
+const clock = (ms) => (ms ? new Date(ms).toLocaleString() : '');
+
+/** The states a participant can be in, as the summary counts them. */
+function stateOf(p) {
+  if (p.completed) return 'completed';
+  if (p.page_kind === 'declined') return 'declined';
+  if (p.page_kind === 'screened_out') return 'screened out';
+  if (p.match) return 'in a trial';
+  return 'under way';
+}
+
+/** The counts above the table: each condition's, and each state's. */
+function showSummary(list, conditions) {
+  const rows = conditions.map((c) => {
+    const assigned = list.filter((p) => (p.conditions || []).includes(c));
+    const playing = list.filter((p) => p.condition === c && p.match).length;
+    const completed = assigned.filter((p) => p.completed).length;
+    return el('tr', { dataset: { condition: c } }, ...[c, assigned.length, playing, completed].map((v) => el('td', {}, String(v))));
+  });
+  $('#dash-summary tbody').replaceChildren(...rows);
+  const counts = new Map();
+  for (const p of list) counts.set(stateOf(p), (counts.get(stateOf(p)) || 0) + 1);
+  const said = [...counts].map(([state, n]) => `${n} ${state}`).join(' · ');
+  setText($('#dash-states'), `${list.length} participants${said ? `: ${said}` : ''}`);
+}
+
+/** Shows only the rows whose text has the filter's words. */
+function applyFilter() {
+  const words = $('#dash-filter').value.trim().toLowerCase().split(/\s+/).filter(Boolean);
+  for (const row of dash.rows.values()) {
+    const text = row.textContent.toLowerCase();
+    row.hidden = !words.every((w) => text.includes(w));
+  }
+}
+
+/** Exports now, then offers each CSV file to save (fetched with the token). */
+async function exportNow() {
+  const files = $('#dash-files');
+  setText(files, 'exporting…');
+  try {
+    const made = await api('POST', '/api/study/export');
+    const links = made.files.map((file) =>
+      el('a', { href: '#', class: 'export-file', dataset: { file }, onclick: (event) => { event.preventDefault(); save(file); } }, file),
+    );
+    files.replaceChildren(`${made.participants} participants, ${made.trials} trials: `, ...links.flatMap((a, i) => (i ? [' ', a] : [a])));
+    showError('');
+  } catch (err) {
+    setText(files, '');
+    showError(`export: ${err.message}`);
+  }
+}
+
+/** Saves one file of the export. */
+async function save(file) {
+  const response = await fetch(`/api/study/export/${encodeURIComponent(file)}`, { cache: 'no-store', headers: { Authorization: `Bearer ${token()}` } });
+  if (!response.ok) return showError(`${file}: HTTP ${response.status}`);
+  const url = URL.createObjectURL(await response.blob());
+  const name = /filename="([^"]+)"/.exec(response.headers.get('Content-Disposition') || '')?.[1] || file;
+  const link = el('a', { href: url, download: name });
+  document.body.append(link);
+  link.click();
+  link.remove();
+  URL.revokeObjectURL(url);
+}
 
 /** Pauses, resumes or stops a match, then polls at once. */
 async function control(match, verb) {
@@ -124,6 +194,8 @@ async function poll() {
     const list = Array.isArray(matches) ? matches : matches?.matches || [];
     dash.matches = new Map(list.map((m) => [m.name, m]));
     showParticipants(answer.participants || []);
+    showSummary(answer.participants || [], dash.conditions);
+    applyFilter();
     dash.polls += 1;
     const status = $('#dash-status');
     status.dataset.polls = String(dash.polls);
@@ -170,8 +242,11 @@ function start() {
       if (!s) return;
       setText($('#study-title'), `${s.title || s.name} · dashboard`);
       setText($('#dash-conditions'), `conditions: ${(s.conditions || []).join(', ')}`);
+      dash.conditions = s.conditions || [];
     })
     .catch(() => {});
+  $('#dash-filter').addEventListener('input', applyFilter);
+  $('#dash-export').addEventListener('click', exportNow);
   showTokenForm();
   poll();
 }
