@@ -855,7 +855,7 @@ async fn a_killed_server_loses_nothing_acknowledged_and_a_restart_continues_from
 
 #[test]
 fn bad_study_files_are_refused_naming_the_problem() {
-    let cases: [(&str, &str, &str, &[&str]); 9] = [
+    let cases: [(&str, &str, &str, &[&str]); 10] = [
         ("an unknown key", "name = \"alpha\"\n", "name = \"alpha\"\ncolour = \"red\"\n", &["colour"]),
         (
             "an unknown strategy",
@@ -899,6 +899,12 @@ fn bad_study_files_are_refused_naming_the_problem() {
             "[[page]]\nkind = \"final\"",
             "[[page]]\nkind = \"final\"\n[[page]]\nkind = \"instructions\"\ntext = \"x\"\n[[page]]\nkind = \"final\"",
             &["final must be the last page"],
+        ),
+        (
+            "a negative bonus",
+            "[[condition]]\nname = \"alpha\"",
+            "[bonus]\nper_own_block = -0.5\n\n[[condition]]\nname = \"alpha\"",
+            &["bonus: per_own_block = -0.5", "0 or more"],
         ),
     ];
     parse(STUDY).expect("the good file loads");
@@ -1599,6 +1605,28 @@ fn a_dry_run_takes_scripted_participants_through_the_example_study_and_exports_t
         assert_eq!(played, ["silent", "talking"], "{}", p["participant"]);
     }
     assert!(trials.iter().all(|t| data.join("export").join(&t["replay"]).is_file()), "{trials:?}");
+    // Each one's own figures and bonus are their trials' (the example's [bonus]: 0.10 per
+    // own block, 0.05 per team block, at most 1.50).
+    for p in participants.iter().filter(|p| p["completed"] == "true") {
+        let sum = |column: &str| -> u64 {
+            trials
+                .iter()
+                .filter(|t| t["participant"] == p["participant"])
+                .map(|t| t[column].parse::<u64>().expect(column))
+                .sum()
+        };
+        let (own, team) = (sum("own_deliveries"), sum("good_drops"));
+        assert_eq!(
+            (p["own_deliveries"].parse::<u64>().ok(), p["team_deliveries"].parse::<u64>().ok()),
+            (Some(own), Some(team))
+        );
+        let bonus = (0.10 * own as f64 + 0.05 * team as f64).min(1.50);
+        assert_eq!(p["bonus"], format!("{bonus:.2}"), "{p:?}");
+    }
+    assert!(
+        participants.iter().any(|p| p["own_deliveries"].parse::<u64>().unwrap_or(0) > 0),
+        "{participants:?}"
+    );
     // A second dry run into the same directory is refused, naming it.
     let again = crate::util::bw4t_within(&args, std::time::Duration::from_secs(30));
     assert!(!again.status.success());

@@ -26,6 +26,7 @@ struct StudyFile {
     #[serde(default, rename = "page")]
     pages: Vec<PageFile>,
     screen_out: Option<ScreenOutFile>,
+    bonus: Option<super::bonus::Bonus>,
 }
 
 /// `[screen_out]`: what a participant who failed a pass mark sees.
@@ -584,6 +585,9 @@ pub fn parse(text: &str, path: &Path, maps: MapLoader<'_>) -> Result<Study, Stri
         }
     }
     let screen_out = screen_out(file.screen_out, base)?;
+    if let Some(bonus) = &file.bonus {
+        bonus.check()?;
+    }
     let dropout_after_s = s.dropout_after_s.unwrap_or(30 * 60);
     let [min_width, min_height] = s.min_screen.unwrap_or(DEFAULT_MIN_SCREEN);
     if min_width < SMALLEST_SCREEN[0] || min_height < SMALLEST_SCREEN[1] {

@@ -87,6 +87,9 @@ const TRIAL_COLUMNS: &[&str] = &[
     "pauses",
     "practice",
     "passed",
+    "own_deliveries",
+    "own_messages",
+    "own_idle_s",
 ];
 const ANSWER_COLUMNS: &[&str] = &[
     "participant",
@@ -115,7 +118,21 @@ const PARTICIPANT_COLUMNS: &[&str] = &[
     "group",
     "screened_out",
     "screen_out_reason",
+    "own_deliveries",
+    "own_messages",
+    "idle_s",
+    "team_deliveries",
+    "bonus",
 ];
+
+/// What a participant's complete trials add up to.
+#[derive(Default)]
+struct Performance {
+    own_deliveries: u64,
+    own_messages: u64,
+    idle_s: f64,
+    team_deliveries: u64,
+}
 
 /// Exports the study data in `dir` into `out` (made if missing).
 pub fn export(dir: &Path, out: &Path) -> Result<ExportSummary, String> {
@@ -131,6 +148,7 @@ pub fn export(dir: &Path, out: &Path) -> Result<ExportSummary, String> {
         .flatten()
         .filter_map(|c| c.get("name").and_then(toml::Value::as_str).map(str::to_string))
         .collect();
+    let bonus = crate::bonus::Bonus::of(&study);
     let study_name =
         study.get("study").and_then(|s| s.get("name")).and_then(toml::Value::as_str).unwrap_or("");
     let logs = read(dir).map_err(|e| e.to_string())?;
@@ -244,8 +262,9 @@ pub fn export(dir: &Path, out: &Path) -> Result<ExportSummary, String> {
             }
         }
         let Some(state) = state else { continue };
-        // Trials (practice rounds apart): complete, and not.
+        // Trials (practice rounds apart): complete, and not; what the complete ones add up to.
         let (mut complete, mut unfinished) = (0, 0);
+        let mut performance = Performance::default();
         for t in &mut trials {
             if t.result.is_none() && t.incomplete.is_none() {
                 t.incomplete = Some("no end recorded (the server was killed or the participant left)".into());
@@ -305,8 +324,18 @@ pub fn export(dir: &Path, out: &Path) -> Result<ExportSummary, String> {
                     field("pauses"),
                     t.practice.to_string(),
                     t.passed.map(|p| p.to_string()).unwrap_or_default(),
+                    field("own_deliveries"),
+                    field("own_messages"),
+                    field("own_idle_s"),
                 ],
             );
+            if done && !t.practice {
+                let figure = |key: &str| r.get(key).and_then(Value::as_f64).unwrap_or(0.0);
+                performance.own_deliveries += figure("own_deliveries") as u64;
+                performance.own_messages += figure("own_messages") as u64;
+                performance.idle_s += figure("own_idle_s");
+                performance.team_deliveries += figure("good_drops") as u64;
+            }
         }
         summary.trials += trials.len();
         let finished = pages > 0 && state.step + 1 == pages && !state.declined && !state.screened_out;
@@ -330,6 +359,13 @@ pub fn export(dir: &Path, out: &Path) -> Result<ExportSummary, String> {
                 group,
                 state.screened_out.to_string(),
                 screened_out,
+                performance.own_deliveries.to_string(),
+                performance.own_messages.to_string(),
+                format!("{}", (performance.idle_s * 10.0).round() / 10.0),
+                performance.team_deliveries.to_string(),
+                bonus.as_ref().map_or(String::new(), |b| {
+                    format!("{:.2}", b.amount(performance.own_deliveries, performance.team_deliveries))
+                }),
             ],
         );
     }

@@ -16,6 +16,7 @@
 mod answers;
 mod api;
 mod assign;
+mod bonus;
 mod config;
 mod credential;
 mod download;
@@ -330,6 +331,10 @@ impl StudyServer {
         kept["disconnections"] = robot["disconnections"].as_u64().unwrap_or(0).into();
         kept["absent_s"] = (robot["absent_ticks"].as_u64().unwrap_or(0) as f64 / tick_hz).into();
         kept["pauses"] = result["pauses"].as_u64().unwrap_or(0).into();
+        // What the participant did themselves (their share of the team's figures).
+        kept["own_deliveries"] = robot["good_drops"].as_u64().unwrap_or(0).into();
+        kept["own_messages"] = robot["messages_sent"].as_u64().unwrap_or(0).into();
+        kept["own_idle_s"] = (robot["idle_ticks"].as_u64().unwrap_or(0) as f64 / tick_hz).into();
         Ok(Ended { result: kept, failed })
     }
 
