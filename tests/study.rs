@@ -1676,3 +1676,30 @@ async fn any_page_of_the_participant_takes_their_robot_back_and_the_first_is_tol
     rig.shutdown().await;
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn one_who_declines_gets_the_platforms_code_for_it() {
+    let dir = temp_dir("declined-code");
+    let with_code = SHORT.replace(
+        "text = \"Agree?\"",
+        "text = \"Agree?\"\ndeclined_code = \"NOCONSENT\"\ndeclined_redirect = \"https://x.invalid/done?cc={code}&p={participant}\"",
+    );
+    let rig = StudyRig::start(&dir, &with_code).await;
+    rig.call("POST", "/api/study/participants", Some(json!({"params": {"pid": "ida"}}))).await;
+    let body = json!({"step": 0, "answers": {"consent": false}});
+    let (status, state) = rig.call("POST", "/api/study/participants/ida/answer", Some(body)).await;
+    assert_eq!(status, 200, "{state}");
+    let state: ParticipantState = read(&state);
+    let Some(StudyPage::Declined { completion_code, redirect, .. }) = &state.page else {
+        panic!("declined: {state:?}")
+    };
+    assert_eq!(completion_code.as_deref(), Some("NOCONSENT"));
+    assert_eq!(redirect.as_deref(), Some("https://x.invalid/done?cc=NOCONSENT&p=ida"));
+    rig.shutdown().await;
+    // A way back that is not a web address is refused when the file is read.
+    let bad =
+        SHORT.replace("text = \"Agree?\"", "text = \"Agree?\"\ndeclined_redirect = \"javascript:alert(1)\"");
+    let error = parse(&bad).err().expect("refused");
+    assert!(error.contains("declined_redirect") && error.contains("http(s)"), "{error}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -229,7 +229,7 @@ test('the participant view fits the window, names nothing of the study and logs 
   );
 });
 
-test('a small window gets the screen-out page, and no participant is made', { timeout: 60_000 }, async (t) => {
+test('a small window gets the screen-out page and a preview makes no participant; the bare link in a new window is a new one', { timeout: 60_000 }, async (t) => {
   const data = tempDir('study-small');
   t.after(() => fs.rmSync(data, { recursive: true, force: true }));
   const server = await startBw4t(['study', STUDY, '--data', data, '--http', '0', '--port', '0', '--operator-token', TOKEN]);
@@ -248,6 +248,31 @@ test('a small window gets the screen-out page, and no participant is made', { ti
   await small.page.click('#screen-again');
   await small.page.waitForSelector('body[data-kind="consent"]');
   assert.deepEqual(await participants(server), ['SMALL1']);
+  // An MTurk preview shows what the study is and makes nobody.
+  const large = async () => {
+    const page = await small.context.newPage();
+    await page.setViewportSize({ width: 1280, height: 720 });
+    return page;
+  };
+  const preview = await large();
+  await preview.goto(new URL('/study?assignmentId=ASSIGNMENT_ID_NOT_AVAILABLE&hitId=H1&workerId=W9', server.url).href);
+  await preview.waitForSelector('body[data-kind="preview"]');
+  assert.match(await preview.innerText('#study-page'), /preview/);
+  assert.deepEqual(await participants(server), ['SMALL1'], 'a preview makes no participant');
+  // The next person at this computer opens the bare link in a new window: a new participant,
+  // not the last one's session.
+  const first = await large();
+  await first.goto(new URL('/study', server.url).href);
+  await first.waitForSelector('body[data-kind="consent"]');
+  const next = await large();
+  await next.goto(new URL('/study', server.url).href);
+  await next.waitForSelector('body[data-kind="consent"]');
+  const made = await participants(server);
+  assert.equal(new Set(made).size, 3, `two anonymous arrivals are two participants: ${made}`);
+  // A reload keeps its own participant.
+  await next.reload();
+  await next.waitForSelector('body[data-kind="consent"]');
+  assert.equal((await participants(server)).length, 3, 'a reload is no new participant');
   assert.deepEqual(small.errors, [], 'no errors on the page');
 });
 

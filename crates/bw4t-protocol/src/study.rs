@@ -66,6 +66,12 @@ pub enum StudyPage {
         title: String,
         /// Text, as HTML.
         html: String,
+        /// The platform's code for those who declined (absent if none).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        completion_code: Option<String>,
+        /// Where to send them, filled in (absent if nowhere).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        redirect: Option<String>,
     },
     /// Text to read.
     Instructions {

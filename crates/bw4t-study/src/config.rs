@@ -99,6 +99,8 @@ enum PageFile {
         decline: Option<String>,
         declined_title: Option<String>,
         declined_text: Option<String>,
+        declined_code: Option<String>,
+        declined_redirect: Option<String>,
     },
     Instructions {
         title: Option<String>,
@@ -395,6 +397,10 @@ pub enum Page {
         declined_title: String,
         /// The text after declining, as HTML.
         declined_html: String,
+        /// The platform's code for those who declined (e.g. Prolific's "no consent").
+        declined_code: Option<String>,
+        /// Where to send them after declining.
+        declined_redirect: Option<String>,
     },
     /// Text to read.
     Instructions {
@@ -896,7 +902,18 @@ fn page(p: PageFile, base: &Path, index: usize, d: &Defaults, maps: MapLoader<'_
     };
     Ok(Made::Page(Box::new(match page {
         PageFile::Practice { .. } => unreachable!("taken above"),
-        PageFile::Consent { title, text: t, file, agree, decline, declined_title, declined_text } => {
+        PageFile::Consent {
+            title,
+            text: t,
+            file,
+            agree,
+            decline,
+            declined_title,
+            declined_text,
+            declined_code,
+            declined_redirect,
+        } => {
+            check_redirect(declined_redirect.as_deref()).map_err(|e| format!("(consent): declined_{e}"))?;
             Page::Consent {
                 title: title.unwrap_or_else(|| "Consent".into()),
                 html: text(t, file, "consent")?.ok_or("(consent): give the consent form as text or file")?,
@@ -908,6 +925,8 @@ fn page(p: PageFile, base: &Path, index: usize, d: &Defaults, maps: MapLoader<'_
                         .as_deref()
                         .unwrap_or("You did not consent, so the study ends here. You may close this page."),
                 ),
+                declined_code,
+                declined_redirect,
             }
         }
         PageFile::Instructions { title, text: t, file } => Page::Instructions {

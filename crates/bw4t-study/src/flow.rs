@@ -241,8 +241,12 @@ impl Participant {
             return Some(StudyPage::ScreenedOut { title: s.title.clone(), html, completion_code, redirect });
         }
         let page = match study.pages.get(self.step)? {
-            Page::Consent { declined_title, declined_html, .. } if self.declined => {
-                StudyPage::Declined { title: declined_title.clone(), html: declined_html.clone() }
+            Page::Consent { declined_title, declined_html, declined_code, declined_redirect, .. }
+                if self.declined =>
+            {
+                let (html, completion_code, redirect) =
+                    self.filled(declined_html, declined_code, declined_redirect);
+                StudyPage::Declined { title: declined_title.clone(), html, completion_code, redirect }
             }
             Page::Consent { title, html, agree, decline, .. } => StudyPage::Consent {
                 title: title.clone(),

@@ -4,7 +4,10 @@
 //
 // The participant's id comes from the address (PROLIFIC_PID, participant, pid, workerId or
 // PARTICIPANT_ID, the first present; the server makes one up without), is kept in the
-// address as `?participant=ID` and in localStorage, so a reload continues where it was.
+// address as `?participant=ID` and in this tab's sessionStorage, so a reload continues
+// where it was (and the next person at a shared lab computer, opening the bare link in a
+// new window, starts as a new participant). An MTurk preview (`assignmentId` =
+// ASSIGNMENT_ID_NOT_AVAILABLE) shows what the study is, making no participant.
 // The arrival sets the participant's credential, an HttpOnly cookie that every same-origin
 // request here carries; the id alone is not enough to act as them.
 // A trial embeds the player view (`/?embed=study&hello=JSON`, embed.js), which reports its
@@ -418,8 +421,9 @@ function renderFinal(p) {
   return parts;
 }
 
+/** Declined: the text, and the platform's code and way back if the study gives them. */
 function renderDeclined(p) {
-  return [el('h2', {}, p.title || 'Thank you'), html(p.html)];
+  return renderFinal(p);
 }
 
 const RENDERERS = {
@@ -487,12 +491,23 @@ function renderScreenOut(screenNeeds, shortfall) {
 
 // ---- start ----
 
+/** An MTurk preview: what the study is, and that accepting the task starts it; no
+ * participant is made. */
+function renderPreview(info) {
+  document.body.dataset.kind = 'preview';
+  const title = info?.title || info?.name || 'Study';
+  $('#study-page').replaceChildren(
+    el('h2', {}, title),
+    el('p', {}, 'This is a preview. Accept the task to take part: the study starts with a consent form.'),
+  );
+}
+
 async function start() {
   const query = new URLSearchParams(location.search);
   const params = Object.fromEntries(query);
   if (!ID_PARAMS.some((key) => query.get(key))) {
     // A reload without the id in the address (or a new tab): the one this browser has.
-    const stored = localStorage.getItem(STORE_KEY);
+    const stored = sessionStorage.getItem(STORE_KEY);
     if (stored) params.participant = stored;
   }
   let info = null;
@@ -509,6 +524,7 @@ async function start() {
     const shortfall = deviceShortfall(info.screen);
     if (shortfall) return renderScreenOut(info.screen, shortfall);
   }
+  if (query.get('assignmentId') === 'ASSIGNMENT_ID_NOT_AVAILABLE') return renderPreview(info);
   let result;
   try {
     result = await api('POST', '/api/study/participants', { params });
@@ -517,7 +533,7 @@ async function start() {
   }
   if (!result.ok) return showError(result.body?.error || `The study could not start (HTTP ${result.status}).`);
   study.id = result.body.participant;
-  localStorage.setItem(STORE_KEY, study.id);
+  sessionStorage.setItem(STORE_KEY, study.id);
   history.replaceState(null, '', `/study?participant=${encodeURIComponent(study.id)}`);
   document.body.dataset.participant = study.id;
 
