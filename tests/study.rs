@@ -1699,7 +1699,7 @@ async fn one_who_declines_gets_the_platforms_code_for_it() {
     // A way back that is not a web address is refused when the file is read.
     let bad =
         SHORT.replace("text = \"Agree?\"", "text = \"Agree?\"\ndeclined_redirect = \"javascript:alert(1)\"");
-    let error = parse(&bad).err().expect("refused");
+    let error = parse(&bad).expect_err("refused");
     assert!(error.contains("declined_redirect") && error.contains("http(s)"), "{error}");
     let _ = std::fs::remove_dir_all(&dir);
 }
