@@ -547,6 +547,7 @@ async fn a_participant_goes_through_the_whole_study_and_the_export_has_every_row
         id: "teamwork".into(),
         text: "We worked well together.".into(),
         required: true,
+        show_if: None,
         kind: QuestionKind::Likert { scale: 7, labels: ["no".into(), "yes".into()] },
     };
     assert_eq!(items[0], teamwork);

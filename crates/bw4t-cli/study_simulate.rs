@@ -159,7 +159,8 @@ async fn play_trial(
 }
 
 /// An answer to every item: a Likert point, an option, a short text (an optional text
-/// left out now and then), each drawn from `rng`.
+/// left out now and then), the smallest number taken, every row of a matrix, each drawn
+/// from `rng` (an item hidden by its `show_if` is answered too: the study ignores it).
 fn answer_all(items: &[QuestionItem], rng: &mut SeededRng) -> Value {
     let mut answers = Map::new();
     for item in items {
@@ -168,6 +169,19 @@ fn answer_all(items: &[QuestionItem], rng: &mut SeededRng) -> Value {
             QuestionKind::Choice { options } => json!(options[rng.index(options.len())]),
             QuestionKind::Text { .. } if !item.required && rng.below(2) == 0 => continue,
             QuestionKind::Text { .. } => json!("A simulated answer."),
+            // The smallest number taken (whole when the item asks for one), else 0.
+            QuestionKind::Number { min, max, .. } => json!(min.unwrap_or(max.map_or(0.0, |m| m.min(0.0)))),
+            QuestionKind::Matrix { rows, scale, options, .. } => {
+                let mut grid = Map::new();
+                for row in rows {
+                    let value = match (scale, options) {
+                        (_, Some(options)) => json!(options[rng.index(options.len())]),
+                        (scale, None) => json!(1 + rng.below(u64::from(scale.unwrap_or(7)))),
+                    };
+                    grid.insert(row.key.clone(), value);
+                }
+                Value::Object(grid)
+            }
         };
         answers.insert(item.id.clone(), value);
     }
