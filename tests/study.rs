@@ -964,6 +964,21 @@ fn the_example_study_loads() {
     );
     assert!(between.templates().iter().any(|t| t.name == "warm-up" && t.invited_only));
     assert_eq!(between.screen_out.completion_code.as_deref(), Some("SCREENED1"));
+
+    // Its questionnaires variant: numbers, a conditional item, a grid, shuffled pages.
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/study/questionnaires.toml");
+    let questions = study::load(&path, &maps).unwrap_or_else(|e| panic!("{e}"));
+    let kinds: Vec<String> = questions
+        .pages
+        .iter()
+        .filter_map(|p| match p {
+            study::Page::Questionnaire { items, .. } => Some(items),
+            _ => None,
+        })
+        .flatten()
+        .map(|i| serde_json::to_value(&i.kind).expect("json")["kind"].as_str().unwrap_or("").to_string())
+        .collect();
+    assert_eq!(kinds, ["number", "choice", "number", "text", "matrix", "likert", "text"]);
 }
 
 /// One condition for two people and two built-in teammates; a person whose partner does
