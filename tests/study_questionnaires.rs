@@ -114,22 +114,68 @@ fn questionnaire_keys_are_read_and_bad_ones_are_refused_naming_page_item_and_key
     assert_eq!(kinds[4], &QuestionKind::Text { multiline: false, maxlength: Some(20) });
 
     let cases: [(&str, &str, &str, &[&str]); 12] = [
-        ("min above max", "max = 99", "max = 9", &["page 1: (questionnaire 'about')", "item 'age'", "min = 18 is above max = 9"]),
+        (
+            "min above max",
+            "max = 99",
+            "max = 9",
+            &["page 1: (questionnaire 'about')", "item 'age'", "min = 18 is above max = 9"],
+        ),
         ("a fraction on an integer item", "min = 18", "min = 17.5", &["item 'age'", "min = 17.5", "whole"]),
         ("an empty unit", "unit = \"years\"", "unit = \" \"", &["item 'age'", "unit"]),
-        ("a matrix without rows", "rows = [\"Mental demand\", \"Physical demand\", \"Frustration\"]", "rows = []", &["item 'tlx'", "rows"]),
-        ("a row twice", "\"Physical demand\", \"Frustration\"]", "\"Frustration\", \"Frustration\"]", &["item 'tlx'", "rows", "row 3 'Frustration' is there twice"]),
-        ("options and a scale", "scale = 5\n", "scale = 5\noptions = [\"a\", \"b\"]\n", &["item 'tlx'", "options or a scale"]),
-        ("shuffle_rows off a matrix", "unit = \"years\"", "unit = \"years\"\nshuffle_rows = true", &["shuffle_rows"]),
-        ("show_if naming a later item", "equals = \"yes\" }", "equals = \"yes\" }\n[[page.item]]\nkind = \"text\"\nid = \"why\"\ntext = \"Why?\"\nshow_if = { item = \"late\", equals = \"x\" }\n[[page.item]]\nkind = \"text\"\nid = \"late\"\ntext = \"?\"", &["item 'why'", "show_if", "item = 'late'", "not an earlier item"]),
-        ("show_if with an answer never given", "equals = \"yes\" }", "equals = \"often\" }", &["item 'hours'", "show_if", "equals = \"often\"", "'yes', 'no'"]),
-        ("show_if with equals and in", "equals = \"yes\" }", "equals = \"yes\", in = [\"no\"] }", &["item 'hours'", "show_if", "not both"]),
+        (
+            "a matrix without rows",
+            "rows = [\"Mental demand\", \"Physical demand\", \"Frustration\"]",
+            "rows = []",
+            &["item 'tlx'", "rows"],
+        ),
+        (
+            "a row twice",
+            "\"Physical demand\", \"Frustration\"]",
+            "\"Frustration\", \"Frustration\"]",
+            &["item 'tlx'", "rows", "row 3 'Frustration' is there twice"],
+        ),
+        (
+            "options and a scale",
+            "scale = 5\n",
+            "scale = 5\noptions = [\"a\", \"b\"]\n",
+            &["item 'tlx'", "options or a scale"],
+        ),
+        (
+            "shuffle_rows off a matrix",
+            "unit = \"years\"",
+            "unit = \"years\"\nshuffle_rows = true",
+            &["shuffle_rows"],
+        ),
+        (
+            "show_if naming a later item",
+            "equals = \"yes\" }",
+            "equals = \"yes\" }\n[[page.item]]\nkind = \"text\"\nid = \"why\"\ntext = \"Why?\"\nshow_if = { item = \"late\", equals = \"x\" }\n[[page.item]]\nkind = \"text\"\nid = \"late\"\ntext = \"?\"",
+            &["item 'why'", "show_if", "item = 'late'", "not an earlier item"],
+        ),
+        (
+            "show_if with an answer never given",
+            "equals = \"yes\" }",
+            "equals = \"often\" }",
+            &["item 'hours'", "show_if", "equals = \"often\"", "'yes', 'no'"],
+        ),
+        (
+            "show_if with equals and in",
+            "equals = \"yes\" }",
+            "equals = \"yes\", in = [\"no\"] }",
+            &["item 'hours'", "show_if", "not both"],
+        ),
         ("show_if on a matrix", "item = \"gamer\"", "item = \"tlx\"", &["item 'hours'", "show_if", "matrix"]),
-        ("a maxlength past the server's", "maxlength = 20", "maxlength = 20000", &["item 'note'", "maxlength = 20000", "10000"]),
+        (
+            "a maxlength past the server's",
+            "maxlength = 20",
+            "maxlength = 20000",
+            &["item 'note'", "maxlength = 20000", "10000"],
+        ),
     ];
     for (what, from, to, needles) in cases {
         assert!(QUESTIONS.contains(from), "{what}: the test's file has '{from}'");
-        let error = parse(&QUESTIONS.replacen(from, to, 1)).err().unwrap_or_else(|| panic!("{what}: accepted"));
+        let error =
+            parse(&QUESTIONS.replacen(from, to, 1)).err().unwrap_or_else(|| panic!("{what}: accepted"));
         for needle in needles {
             assert!(error.contains(needle), "{what}: '{error}' should name '{needle}'");
         }
@@ -169,7 +215,8 @@ async fn the_server_checks_numbers_matrices_show_if_and_maxlength_and_exports_a_
     let hours = shown.iter().find(|i| i.id == "hours").expect("hours");
     assert_eq!(serde_json::to_value(&hours.show_if).expect("json"), json!({"item": "gamer", "in": ["yes"]}));
 
-    let full = json!({"age": 30, "gamer": "yes", "hours": 6, "tlx": {"1": 4, "2": 2, "3": 5}, "note": "fine"});
+    let full =
+        json!({"age": 30, "gamer": "yes", "hours": 6, "tlx": {"1": 4, "2": 2, "3": 5}, "note": "fine"});
     let with = |key: &str, value: Value| {
         let mut answers = full.clone();
         match value {
@@ -201,7 +248,8 @@ async fn the_server_checks_numbers_matrices_show_if_and_maxlength_and_exports_a_
         }
     }
     // Not a gamer: hours is hidden, so not required, and an answer to it is ignored.
-    let answers = json!({"age": 30, "gamer": "no", "hours": 500, "tlx": {"1": 4, "2": 2, "3": 5}, "note": " fine "});
+    let answers =
+        json!({"age": 30, "gamer": "no", "hours": 500, "tlx": {"1": 4, "2": 2, "3": 5}, "note": " fine "});
     let state = rig.answer("ann", 0, answers).await;
     assert_eq!(state.step, 1);
     // A gamer's hours count; a fraction is a number.
@@ -211,7 +259,10 @@ async fn the_server_checks_numbers_matrices_show_if_and_maxlength_and_exports_a_
     // Ann's record keeps what she answered and the order she was shown.
     let records = stored(&dir, "ann");
     let (_, _, answer) = records.iter().find(|(_, kind, _)| kind == "answer").expect("the answer record");
-    assert_eq!(answer["answers"], json!({"age": 30, "gamer": "no", "tlx": {"1": 4, "2": 2, "3": 5}, "note": "fine"}));
+    assert_eq!(
+        answer["answers"],
+        json!({"age": 30, "gamer": "no", "tlx": {"1": 4, "2": 2, "3": 5}, "note": "fine"})
+    );
     assert_eq!(answer["shown"]["items"], json!(ids(&shown)));
     assert_eq!(answer["shown"]["rows"]["tlx"], json!(row_keys(&shown, "tlx")));
     rig.shutdown().await;
@@ -241,8 +292,11 @@ async fn the_server_checks_numbers_matrices_show_if_and_maxlength_and_exports_a_
             ("tlx.3", "5", row_place("3").as_str()),
         ]
     );
-    let bo_hours: Vec<&str> =
-        rows.iter().filter(|r| r["participant"] == "bo" && r["item"] == "hours").map(|r| r["value"].as_str()).collect();
+    let bo_hours: Vec<&str> = rows
+        .iter()
+        .filter(|r| r["participant"] == "bo" && r["item"] == "hours")
+        .map(|r| r["value"].as_str())
+        .collect();
     assert_eq!(bo_hours, ["6.5"]);
     let _ = std::fs::remove_dir_all(&dir);
 }

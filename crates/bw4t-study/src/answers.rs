@@ -27,15 +27,22 @@ pub(crate) struct Shown {
 /// The order the participant `participant` is shown the questionnaire `page` in, drawn
 /// from the study's `seed` and their id (`None` when nothing on it shuffles: the file's
 /// order). A shuffled page moves an item with `show_if` along with the item it depends on.
-pub(crate) fn shown(seed: u64, participant: &str, page: &str, items: &[Item], shuffled: bool) -> Option<Shown> {
+pub(crate) fn shown(
+    seed: u64,
+    participant: &str,
+    page: &str,
+    items: &[Item],
+    shuffled: bool,
+) -> Option<Shown> {
     if !shuffled && !items.iter().any(|i| i.shuffle_rows) {
         return None;
     }
     let mut blocks: Vec<Vec<&Item>> = Vec::new();
     for item in items {
-        let leader = item.show_if.as_ref().and_then(|rule| {
-            blocks.iter().position(|b| b.iter().any(|earlier| earlier.id == rule.item))
-        });
+        let leader = item
+            .show_if
+            .as_ref()
+            .and_then(|rule| blocks.iter().position(|b| b.iter().any(|earlier| earlier.id == rule.item)));
         match leader {
             Some(at) => blocks[at].push(item),
             None => blocks.push(vec![item]),

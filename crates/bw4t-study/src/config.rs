@@ -10,11 +10,9 @@ use std::time::Duration;
 
 use bw4t_agents::Strategy;
 use bw4t_map::Map;
-use bw4t_protocol::{
-    MatrixRow, MessagePolicy, Mode, QuestionKind, ScreenRequirement, ShowIf, StudyInfo,
-};
-use serde_json::Value;
+use bw4t_protocol::{MatrixRow, MessagePolicy, Mode, QuestionKind, ScreenRequirement, ShowIf, StudyInfo};
 use serde::Deserialize;
+use serde_json::Value;
 
 use super::markdown::to_html;
 use super::values::{MAX_TEXT, value_of};
@@ -1049,9 +1047,13 @@ fn item(item: ItemFile, earlier: &[Item]) -> Result<Item, String> {
             let integer = integer.unwrap_or(false);
             for (key, end) in [("min", min), ("max", max)] {
                 match end {
-                    Some(n) if !n.is_finite() => return Err(format!("item '{id}': {key} = {n}: not a number")),
+                    Some(n) if !n.is_finite() => {
+                        return Err(format!("item '{id}': {key} = {n}: not a number"));
+                    }
                     Some(n) if integer && n.fract() != 0.0 => {
-                        return Err(format!("item '{id}': {key} = {n}: an integer item's ends are whole numbers"));
+                        return Err(format!(
+                            "item '{id}': {key} = {n}: an integer item's ends are whole numbers"
+                        ));
                     }
                     _ => {}
                 }
@@ -1066,7 +1068,17 @@ fn item(item: ItemFile, earlier: &[Item]) -> Result<Item, String> {
             }
             (id, text, required, QuestionKind::Number { min, max, integer, unit }, show_if)
         }
-        ItemFile::Matrix { id, text, rows, scale, labels, options, shuffle_rows: shuffled, required, show_if } => {
+        ItemFile::Matrix {
+            id,
+            text,
+            rows,
+            scale,
+            labels,
+            options,
+            shuffle_rows: shuffled,
+            required,
+            show_if,
+        } => {
             if rows.is_empty() {
                 return Err(format!("item '{id}': rows: give at least 1 statement"));
             }
@@ -1144,7 +1156,9 @@ fn show_if(rule: ShowIfFile, earlier: &[Item]) -> Result<ShowIf, String> {
             match value_of(&target.id, &target.kind, &value) {
                 Ok(Some(_)) => Ok(value),
                 Ok(None) => Err(format!("{key} = {shown}: an empty answer is no answer")),
-                Err(why) => Err(format!("{key} = {shown}: item '{}' never has this answer ({why})", target.id)),
+                Err(why) => {
+                    Err(format!("{key} = {shown}: item '{}' never has this answer ({why})", target.id))
+                }
             }
         })
         .collect::<Result<Vec<Value>, String>>()

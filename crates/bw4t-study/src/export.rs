@@ -245,7 +245,9 @@ pub fn export(dir: &Path, out: &Path) -> Result<ExportSummary, String> {
                         }
                     }
                 }
-                Record::Answer { step, page, questionnaire, answers: given, passed, shown } if page != "trial" => {
+                Record::Answer { step, page, questionnaire, answers: given, passed, shown }
+                    if page != "trial" =>
+                {
                     for (item, value, position) in answer_rows(given, shown.as_ref()) {
                         summary.answers += 1;
                         row(

@@ -37,7 +37,9 @@ pub(crate) fn value_of(id: &str, kind: &QuestionKind, v: &Value) -> Result<Optio
         }
         QuestionKind::Matrix { rows, scale, options, .. } => {
             let Some(given) = v.as_object() else {
-                return Err(format!("{at}: expected an object of row keys (\"1\", \"2\", ...) and answers, got {v}"));
+                return Err(format!(
+                    "{at}: expected an object of row keys (\"1\", \"2\", ...) and answers, got {v}"
+                ));
             };
             if let Some(unknown) = given.keys().find(|k| !rows.iter().any(|r| &r.key == *k)) {
                 return Err(format!("{at}: no row '{unknown}' (its rows are \"1\" to \"{}\")", rows.len()));

@@ -416,7 +416,10 @@ function renderQuestionnaire(p) {
       if (answers[item.id] === undefined) delete answers[item.id];
     }
     if (firstWrong) {
-      showError('Please answer every question marked * as asked.');
+      // Missing answers, as always; else (a number out of range) the item says what it needs.
+      const notes = [...form.querySelectorAll('fieldset[aria-invalid="true"] .missing')].map((n) => n.textContent);
+      const missing = notes.every((note) => note === 'Please answer this.');
+      showError(missing ? 'Please answer every question marked *.' : 'Please check the questions marked in red.');
       form.querySelector(`fieldset[data-item="${CSS.escape(firstWrong.id)}"] :is(input, textarea)`)?.focus();
       return;
     }
