@@ -58,6 +58,9 @@ mod study;
 /// screen-out, quotas, balance over completers, seeds fixed per slot and trial.
 mod study_designs;
 
+/// Questionnaires: number and matrix items, show_if, maxlength, shuffled items and rows.
+mod study_questionnaires;
+
 /// `bw4t tournament`: files, statistics, resume, shards, failing agents.
 mod tournament;
 

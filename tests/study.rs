@@ -547,6 +547,7 @@ async fn a_participant_goes_through_the_whole_study_and_the_export_has_every_row
         id: "teamwork".into(),
         text: "We worked well together.".into(),
         required: true,
+        show_if: None,
         kind: QuestionKind::Likert { scale: 7, labels: ["no".into(), "yes".into()] },
     };
     assert_eq!(items[0], teamwork);
@@ -969,6 +970,21 @@ fn the_example_study_loads() {
     );
     assert!(between.templates().iter().any(|t| t.name == "warm-up" && t.invited_only));
     assert_eq!(between.screen_out.completion_code.as_deref(), Some("SCREENED1"));
+
+    // Its questionnaires variant: numbers, a conditional item, a grid, shuffled pages.
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/study/questionnaires.toml");
+    let questions = study::load(&path, &maps).unwrap_or_else(|e| panic!("{e}"));
+    let kinds: Vec<String> = questions
+        .pages
+        .iter()
+        .filter_map(|p| match p {
+            study::Page::Questionnaire { items, .. } => Some(items),
+            _ => None,
+        })
+        .flatten()
+        .map(|i| serde_json::to_value(&i.kind).expect("json")["kind"].as_str().unwrap_or("").to_string())
+        .collect();
+    assert_eq!(kinds, ["number", "choice", "number", "text", "matrix", "likert", "text"]);
 }
 
 /// One condition for two people and two built-in teammates; a person whose partner does
@@ -1588,7 +1604,10 @@ fn a_dry_run_takes_scripted_participants_through_the_example_study_and_exports_t
     let out = crate::util::bw4t_within(&args, std::time::Duration::from_secs(120));
     let said = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "{said}\n{}", String::from_utf8_lossy(&out.stderr));
-    assert!(said.contains("dry run: 9 completed, 1 declined consent, 18 trials played"), "{said}");
+    assert!(
+        said.contains("dry run: 9 completed, 1 declined consent, 0 screened out, 18 trials played"),
+        "{said}"
+    );
     let participants = csv_rows(&data.join("export/participants.csv"));
     let completed = participants.iter().filter(|p| p["completed"] == "true").count();
     assert_eq!((participants.len(), completed), (10, 9), "{participants:?}");
@@ -1701,5 +1720,34 @@ async fn one_who_declines_gets_the_platforms_code_for_it() {
         SHORT.replace("text = \"Agree?\"", "text = \"Agree?\"\ndeclined_redirect = \"javascript:alert(1)\"");
     let error = parse(&bad).expect_err("refused");
     assert!(error.contains("declined_redirect") && error.contains("http(s)"), "{error}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_dry_run_of_the_between_subjects_example_gives_each_completer_one_condition() {
+    let dir = temp_dir("dry-run-between");
+    let data = dir.join("data");
+    let example = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/study/between.toml");
+    let args = ["study", example, "--simulate", "8", "--data", data.to_str().expect("path"), "-q"];
+    let out = crate::util::bw4t_within(&args, std::time::Duration::from_secs(180));
+    let said = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{said}\n{}", String::from_utf8_lossy(&out.stderr));
+    let participants = csv_rows(&data.join("export/participants.csv"));
+    let trials = csv_rows(&data.join("export/trials.csv"));
+    let count = |column: &str, value: &str| participants.iter().filter(|p| p[column] == value).count();
+    let (completed, screened_out) = (count("completed", "true"), count("screened_out", "true"));
+    // Scripted answers to the comprehension check are drawn: some miss its pass mark.
+    let line = format!("dry run: {completed} completed, 0 declined consent, {screened_out} screened out");
+    assert!(said.contains(&line), "{said}");
+    assert_eq!(completed + screened_out, 8, "{participants:?}");
+    for p in participants.iter().filter(|p| p["completed"] == "true") {
+        let mut conditions: Vec<&str> = trials
+            .iter()
+            .filter(|t| t["participant"] == p["participant"] && t["practice"] == "false")
+            .map(|t| t["condition"].as_str())
+            .collect();
+        conditions.dedup();
+        assert_eq!(conditions, [p["group"].as_str()], "between subjects: one condition, the group's");
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -136,7 +136,7 @@ fn serve(args: &StudyArgs, file: &Path) -> Result<()> {
             );
         }
         // As fast as the scripted players answer, and no long wait for a partner.
-        for condition in &mut study.conditions {
+        for condition in study.conditions.iter_mut().chain(study.practices.iter_mut()) {
             condition.mode = bw4t_protocol::Mode::Lockstep;
             condition.partner_timeout_s = condition.partner_timeout_s.min(1);
         }
@@ -231,9 +231,10 @@ fn serve(args: &StudyArgs, file: &Path) -> Result<()> {
         return Ok(());
     };
     outln!(
-        "dry run: {} completed, {} declined consent, {} played",
+        "dry run: {} completed, {} declined consent, {} screened out, {} played",
         simulated.completed,
         simulated.declined,
+        simulated.screened_out,
         bw4t_runner::plural(simulated.trials, "trial")
     );
     run_export(&ExportArgs { dir: data.clone(), out: None })?;

@@ -29,9 +29,11 @@ pub(crate) struct Simulated {
     pub completed: usize,
     /// Declined consent.
     pub declined: usize,
+    /// Failed a pass mark (a practice round, a comprehension check) and were screened out.
+    pub screened_out: usize,
     /// Trials played.
     pub trials: usize,
-    /// Stopped elsewhere (a screen-out page, or an error), with why.
+    /// Could not go on (an error), with why.
     pub stopped: Vec<String>,
 }
 
@@ -50,6 +52,7 @@ pub(crate) async fn simulate(n: u32, web: SocketAddr, play: SocketAddr) -> Simul
                 match end {
                     End::Completed => simulated.completed += 1,
                     End::Declined => simulated.declined += 1,
+                    End::ScreenedOut => simulated.screened_out += 1,
                 }
             }
             Ok((k, Err(e))) => simulated.stopped.push(format!("sim-{k}: {e:#}")),
@@ -63,6 +66,7 @@ pub(crate) async fn simulate(n: u32, web: SocketAddr, play: SocketAddr) -> Simul
 enum End {
     Completed,
     Declined,
+    ScreenedOut,
 }
 
 struct Outcome {
@@ -99,7 +103,8 @@ async fn participant(k: u32, web: SocketAddr, play: SocketAddr) -> Result<Outcom
             StudyPage::Consent { .. } => json!({"consent": !k.is_multiple_of(10)}),
             StudyPage::Instructions { .. } => json!({}),
             StudyPage::Questionnaire { items, .. } => answer_all(&items, &mut rng),
-            StudyPage::ScreenedOut { .. } => bail!("screened out at step {step} (a pass mark failed)"),
+            // A study path like any other: the script's answers may miss a pass mark.
+            StudyPage::ScreenedOut { .. } => return Ok(Outcome { end: End::ScreenedOut, trials }),
             StudyPage::Trial { hello, .. } | StudyPage::Practice { hello, .. } => {
                 trials += usize::from(is_trial);
                 let options = SessionOptions {
@@ -159,7 +164,8 @@ async fn play_trial(
 }
 
 /// An answer to every item: a Likert point, an option, a short text (an optional text
-/// left out now and then), each drawn from `rng`.
+/// left out now and then), the smallest number taken, every row of a matrix, each drawn
+/// from `rng` (an item hidden by its `show_if` is answered too: the study ignores it).
 fn answer_all(items: &[QuestionItem], rng: &mut SeededRng) -> Value {
     let mut answers = Map::new();
     for item in items {
@@ -168,6 +174,19 @@ fn answer_all(items: &[QuestionItem], rng: &mut SeededRng) -> Value {
             QuestionKind::Choice { options } => json!(options[rng.index(options.len())]),
             QuestionKind::Text { .. } if !item.required && rng.below(2) == 0 => continue,
             QuestionKind::Text { .. } => json!("A simulated answer."),
+            // The smallest number taken (whole when the item asks for one), else 0.
+            QuestionKind::Number { min, max, .. } => json!(min.unwrap_or(max.map_or(0.0, |m| m.min(0.0)))),
+            QuestionKind::Matrix { rows, scale, options, .. } => {
+                let mut grid = Map::new();
+                for row in rows {
+                    let value = match (scale, options) {
+                        (_, Some(options)) => json!(options[rng.index(options.len())]),
+                        (scale, None) => json!(1 + rng.below(u64::from(scale.unwrap_or(7)))),
+                    };
+                    grid.insert(row.key.clone(), value);
+                }
+                Value::Object(grid)
+            }
         };
         answers.insert(item.id.clone(), value);
     }

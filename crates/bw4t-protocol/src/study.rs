@@ -202,11 +202,36 @@ pub struct QuestionItem {
     pub id: String,
     /// The question.
     pub text: String,
-    /// Whether it must be answered.
+    /// Whether it must be answered (when shown).
     pub required: bool,
+    /// Shown (and asked) only when an earlier item of the page has one of these answers
+    /// (absent: always shown).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub show_if: Option<ShowIf>,
     /// What it asks for.
     #[serde(flatten)]
     pub kind: QuestionKind,
+}
+
+/// When a [`QuestionItem`] is shown: an earlier item of the same page has one of `in`'s
+/// answers (numbers compare by value). Hidden, it is not asked and its answer is ignored.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct ShowIf {
+    /// The earlier item's id.
+    pub item: String,
+    /// The answers that show the item.
+    #[serde(rename = "in")]
+    pub any_of: Vec<serde_json::Value>,
+}
+
+/// One statement of a matrix item.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct MatrixRow {
+    /// Its key in the answer: its place in the study file's list, from 1 (`"1"`, `"2"`,
+    /// ...), whatever order it is shown in.
+    pub key: String,
+    /// The statement.
+    pub text: String,
 }
 
 /// What a [`QuestionItem`] asks for, named by `kind`.
@@ -229,6 +254,39 @@ pub enum QuestionKind {
     Text {
         /// Whether it has several lines.
         multiline: bool,
+        /// The most characters taken (absent: the server's own limit, 10,000).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        maxlength: Option<usize>,
+    },
+    /// A number from `min` to `max` (either end absent: open), whole if `integer`.
+    Number {
+        /// The smallest number taken.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        min: Option<f64>,
+        /// The largest number taken.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        max: Option<f64>,
+        /// Whether only whole numbers are taken.
+        integer: bool,
+        /// The unit shown after the field (`years`, `hours`).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        unit: Option<String>,
+    },
+    /// One question over several statements (a grid): each row takes a point of a shared
+    /// Likert scale (`scale`, `labels`) or one of shared `options`. The answer is an object
+    /// of row keys and values.
+    Matrix {
+        /// The statements, in the order shown.
+        rows: Vec<MatrixRow>,
+        /// Points on the scale (absent when the rows take `options`).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        scale: Option<u32>,
+        /// The scale's left and right ends' labels.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        labels: Option<[String; 2]>,
+        /// The options each row takes (absent on a scale).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        options: Option<Vec<String>>,
     },
 }
 
@@ -319,6 +377,7 @@ mod tests {
             id: "load".into(),
             text: "How hard?".into(),
             required: true,
+            show_if: None,
             kind: QuestionKind::Choice { options: vec!["easy".into(), "hard".into()] },
         };
         let json = serde_json::to_value(&item).expect("json");

@@ -398,6 +398,7 @@ impl StudyServer {
                         questionnaire: None,
                         answers: json!({"consent": consent}),
                         passed: None,
+                        shown: None,
                     }]
                 }
                 _ => return error(StatusCode::BAD_REQUEST, "consent: expected true or false"),
@@ -409,9 +410,10 @@ impl StudyServer {
                     questionnaire: None,
                     answers: json!({}),
                     passed: None,
+                    shown: None,
                 }]
             }
-            super::Page::Questionnaire { id: questionnaire, items, pass, attempts, .. } => {
+            super::Page::Questionnaire { id: questionnaire, items, pass, attempts, shuffle, .. } => {
                 match super::answers::check(items, &answers) {
                     Ok(checked) => {
                         let passed = pass.map(|pass| super::answers::correct(items, &checked) >= pass);
@@ -421,6 +423,13 @@ impl StudyServer {
                             questionnaire: Some(questionnaire.clone()),
                             answers: checked,
                             passed,
+                            shown: super::answers::shown(
+                                self.study().seed,
+                                &slot.state.id,
+                                questionnaire,
+                                items,
+                                *shuffle,
+                            ),
                         }];
                         let tries = slot.state.failed + 1;
                         if passed == Some(false) && tries >= *attempts {

@@ -10,10 +10,12 @@ use std::time::Duration;
 
 use bw4t_agents::Strategy;
 use bw4t_map::Map;
-use bw4t_protocol::{MessagePolicy, Mode, QuestionKind, ScreenRequirement, StudyInfo};
+use bw4t_protocol::{MatrixRow, MessagePolicy, Mode, QuestionKind, ScreenRequirement, ShowIf, StudyInfo};
 use serde::Deserialize;
+use serde_json::Value;
 
 use super::markdown::to_html;
+use super::values::{MAX_TEXT, value_of};
 use bw4t_server::{HostConfig, MatchSetup, OnEnd, Seat, Template};
 
 /// The file, as written.
@@ -141,6 +143,7 @@ enum PageFile {
         file: Option<PathBuf>,
         pass: Option<usize>,
         attempts: Option<u32>,
+        shuffle: Option<bool>,
         #[serde(default, rename = "item")]
         items: Vec<ItemFile>,
     },
@@ -162,6 +165,7 @@ enum ItemFile {
         scale: Option<u32>,
         labels: Option<Vec<String>>,
         required: Option<bool>,
+        show_if: Option<ShowIfFile>,
     },
     Choice {
         id: String,
@@ -169,13 +173,47 @@ enum ItemFile {
         options: Vec<String>,
         required: Option<bool>,
         correct: Option<String>,
+        show_if: Option<ShowIfFile>,
     },
     Text {
         id: String,
         text: String,
         multiline: Option<bool>,
+        maxlength: Option<usize>,
         required: Option<bool>,
+        show_if: Option<ShowIfFile>,
     },
+    Number {
+        id: String,
+        text: String,
+        min: Option<f64>,
+        max: Option<f64>,
+        integer: Option<bool>,
+        unit: Option<String>,
+        required: Option<bool>,
+        show_if: Option<ShowIfFile>,
+    },
+    Matrix {
+        id: String,
+        text: String,
+        rows: Vec<String>,
+        scale: Option<u32>,
+        labels: Option<Vec<String>>,
+        options: Option<Vec<String>>,
+        shuffle_rows: Option<bool>,
+        required: Option<bool>,
+        show_if: Option<ShowIfFile>,
+    },
+}
+
+/// An item's `show_if = { item = "ID", equals = VALUE }` (or `in = [...]`).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ShowIfFile {
+    item: String,
+    equals: Option<toml::Value>,
+    #[serde(rename = "in")]
+    any_of: Option<Vec<toml::Value>>,
 }
 
 /// How participants' orders of the conditions are chosen.
@@ -378,6 +416,10 @@ pub struct Item {
     pub kind: QuestionKind,
     /// The correct answer (a choice's option), for a pass mark.
     pub correct: Option<String>,
+    /// Shown (and asked) only when an earlier item of the page has one of these answers.
+    pub show_if: Option<ShowIf>,
+    /// A matrix whose rows each participant sees in an order of their own.
+    pub shuffle_rows: bool,
 }
 
 /// One page of the flow.
@@ -443,6 +485,9 @@ pub enum Page {
         pass: Option<usize>,
         /// How many times it may be answered, this one included, while failing.
         attempts: u32,
+        /// Whether each participant sees the items in an order of their own (an item with
+        /// `show_if` stays right after the item it depends on).
+        shuffle: bool,
     },
     /// The end: a completion code and/or a redirect.
     Final {
@@ -934,7 +979,7 @@ fn page(p: PageFile, base: &Path, index: usize, d: &Defaults, maps: MapLoader<'_
             html: text(t, file, "instructions")?.ok_or("(instructions): give the text as text or file")?,
         },
         PageFile::Trial { title, text: t, file } => Page::Trial { title, html: text(t, file, "trial")? },
-        PageFile::Questionnaire { id, title, text: t, file, items, pass, attempts } => {
+        PageFile::Questionnaire { id, title, text: t, file, items, pass, attempts, shuffle } => {
             let id = id.unwrap_or_else(|| format!("page{}", index + 1));
             check_word("(questionnaire): id", &id)?;
             if items.is_empty() {
@@ -942,7 +987,7 @@ fn page(p: PageFile, base: &Path, index: usize, d: &Defaults, maps: MapLoader<'_
             }
             let mut checked: Vec<Item> = Vec::new();
             for item in items {
-                let item = self::item(item).map_err(|e| format!("(questionnaire '{id}'): {e}"))?;
+                let item = self::item(item, &checked).map_err(|e| format!("(questionnaire '{id}'): {e}"))?;
                 if checked.iter().any(|other| other.id == item.id) {
                     return Err(format!("(questionnaire '{id}'): two items are named '{}'", item.id));
                 }
@@ -970,6 +1015,7 @@ fn page(p: PageFile, base: &Path, index: usize, d: &Defaults, maps: MapLoader<'_
                 id,
                 items: checked,
                 pass,
+                shuffle: shuffle.unwrap_or(false),
             }
         }
         PageFile::Final { title, text: t, file, completion_code, redirect } => {
@@ -992,22 +1038,16 @@ fn attempts_of(attempts: Option<u32>, page: &str) -> Result<u32, String> {
     }
 }
 
-fn item(item: ItemFile) -> Result<Item, String> {
+/// An item, checked; `earlier` are the page's items before it (what `show_if` may name).
+fn item(item: ItemFile, earlier: &[Item]) -> Result<Item, String> {
     let mut correct = None;
-    let (id, text, required, kind) = match item {
-        ItemFile::Likert { id, text, scale, labels, required } => {
-            let scale = scale.unwrap_or(7);
-            if !(2..=11).contains(&scale) {
-                return Err(format!("item '{id}': scale = {scale}: expected 2 to 11 points"));
-            }
-            let labels = match labels {
-                None => [String::new(), String::new()],
-                Some(labels) => <[String; 2]>::try_from(labels)
-                    .map_err(|l| format!("item '{id}': labels: give 2 (left and right), not {}", l.len()))?,
-            };
-            (id, text, required, QuestionKind::Likert { scale, labels })
+    let mut shuffle_rows = false;
+    let (id, text, required, kind, show_if) = match item {
+        ItemFile::Likert { id, text, scale, labels, required, show_if } => {
+            let (scale, labels) = likert(&id, scale, labels)?;
+            (id, text, required, QuestionKind::Likert { scale, labels }, show_if)
         }
-        ItemFile::Choice { id, text, options, required, correct: right } => {
+        ItemFile::Choice { id, text, options, required, correct: right, show_if } => {
             if options.len() < 2 {
                 return Err(format!("item '{id}': options: give at least 2"));
             }
@@ -1017,14 +1057,135 @@ fn item(item: ItemFile) -> Result<Item, String> {
                 }
             }
             correct = right;
-            (id, text, required, QuestionKind::Choice { options })
+            (id, text, required, QuestionKind::Choice { options }, show_if)
         }
-        ItemFile::Text { id, text, multiline, required } => {
-            (id, text, required, QuestionKind::Text { multiline: multiline.unwrap_or(false) })
+        ItemFile::Text { id, text, multiline, maxlength, required, show_if } => {
+            if let Some(n) = maxlength.filter(|n| !(1..=MAX_TEXT).contains(n)) {
+                return Err(format!("item '{id}': maxlength = {n}: expected 1 to {MAX_TEXT} characters"));
+            }
+            let kind = QuestionKind::Text { multiline: multiline.unwrap_or(false), maxlength };
+            (id, text, required, kind, show_if)
+        }
+        ItemFile::Number { id, text, min, max, integer, unit, required, show_if } => {
+            let integer = integer.unwrap_or(false);
+            for (key, end) in [("min", min), ("max", max)] {
+                match end {
+                    Some(n) if !n.is_finite() => {
+                        return Err(format!("item '{id}': {key} = {n}: not a number"));
+                    }
+                    Some(n) if integer && n.fract() != 0.0 => {
+                        return Err(format!(
+                            "item '{id}': {key} = {n}: an integer item's ends are whole numbers"
+                        ));
+                    }
+                    _ => {}
+                }
+            }
+            if let (Some(min), Some(max)) = (min, max) {
+                if min > max {
+                    return Err(format!("item '{id}': min = {min} is above max = {max}"));
+                }
+            }
+            if unit.as_deref().is_some_and(|u| u.trim().is_empty()) {
+                return Err(format!("item '{id}': unit = '': leave it out or name the unit"));
+            }
+            (id, text, required, QuestionKind::Number { min, max, integer, unit }, show_if)
+        }
+        ItemFile::Matrix {
+            id,
+            text,
+            rows,
+            scale,
+            labels,
+            options,
+            shuffle_rows: shuffled,
+            required,
+            show_if,
+        } => {
+            if rows.is_empty() {
+                return Err(format!("item '{id}': rows: give at least 1 statement"));
+            }
+            if let Some(blank) = rows.iter().position(|r| r.trim().is_empty()) {
+                return Err(format!("item '{id}': rows: row {} is empty", blank + 1));
+            }
+            if let Some((i, row)) = rows.iter().enumerate().find(|(i, r)| rows[..*i].contains(r)) {
+                return Err(format!("item '{id}': rows: row {} '{row}' is there twice", i + 1));
+            }
+            let (scale, labels, options) = match options {
+                Some(_) if scale.is_some() || labels.is_some() => {
+                    return Err(format!("item '{id}': give options or a scale (scale, labels), not both"));
+                }
+                Some(options) if options.len() < 2 => {
+                    return Err(format!("item '{id}': options: give at least 2"));
+                }
+                Some(options) => (None, None, Some(options)),
+                None => {
+                    let (scale, labels) = likert(&id, scale, labels)?;
+                    (Some(scale), Some(labels), None)
+                }
+            };
+            shuffle_rows = shuffled.unwrap_or(false);
+            let rows = rows
+                .into_iter()
+                .enumerate()
+                .map(|(i, text)| MatrixRow { key: (i + 1).to_string(), text })
+                .collect();
+            (id, text, required, QuestionKind::Matrix { rows, scale, labels, options }, show_if)
         }
     };
     check_word("item id", &id)?;
-    Ok(Item { id, text, required: required.unwrap_or(true), kind, correct })
+    let show_if = match show_if {
+        Some(rule) => Some(self::show_if(rule, earlier).map_err(|e| format!("item '{id}': show_if: {e}"))?),
+        None => None,
+    };
+    Ok(Item { id, text, required: required.unwrap_or(true), kind, correct, show_if, shuffle_rows })
+}
+
+/// A Likert scale's points (2 to 11, 7 if not given) and end labels (none if not given).
+fn likert(id: &str, scale: Option<u32>, labels: Option<Vec<String>>) -> Result<(u32, [String; 2]), String> {
+    let scale = scale.unwrap_or(7);
+    if !(2..=11).contains(&scale) {
+        return Err(format!("item '{id}': scale = {scale}: expected 2 to 11 points"));
+    }
+    let labels = match labels {
+        None => [String::new(), String::new()],
+        Some(labels) => <[String; 2]>::try_from(labels)
+            .map_err(|l| format!("item '{id}': labels: give 2 (left and right), not {}", l.len()))?,
+    };
+    Ok((scale, labels))
+}
+
+/// A `show_if`, checked: it names an earlier item of the page (not a matrix), and each of
+/// its answers is one that item takes.
+fn show_if(rule: ShowIfFile, earlier: &[Item]) -> Result<ShowIf, String> {
+    let Some(target) = earlier.iter().find(|i| i.id == rule.item) else {
+        return Err(format!("item = '{}': not an earlier item of this page", rule.item));
+    };
+    if matches!(target.kind, QuestionKind::Matrix { .. }) {
+        return Err(format!("item = '{}': a matrix's answer cannot be compared", rule.item));
+    }
+    let (key, any_of) = match (rule.equals, rule.any_of) {
+        (Some(_), Some(_)) => return Err("give equals or in, not both".into()),
+        (None, None) => return Err("give equals = VALUE or in = [VALUE, ...]".into()),
+        (None, Some(list)) if list.is_empty() => return Err("in = []: give at least one answer".into()),
+        (Some(one), None) => ("equals", vec![one]),
+        (None, Some(list)) => ("in", list),
+    };
+    any_of
+        .into_iter()
+        .map(|wanted| {
+            let shown = wanted.to_string();
+            let value = serde_json::to_value(wanted).map_err(|e| format!("{key} = {shown}: {e}"))?;
+            match value_of(&target.id, &target.kind, &value) {
+                Ok(Some(_)) => Ok(value),
+                Ok(None) => Err(format!("{key} = {shown}: an empty answer is no answer")),
+                Err(why) => {
+                    Err(format!("{key} = {shown}: item '{}' never has this answer ({why})", target.id))
+                }
+            }
+        })
+        .collect::<Result<Vec<Value>, String>>()
+        .map(|any_of| ShowIf { item: target.id.clone(), any_of })
 }
 
 impl Study {

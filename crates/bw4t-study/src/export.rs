@@ -16,6 +16,7 @@ use std::path::{Path, PathBuf};
 
 use serde_json::{Value, json};
 
+use super::answers::Shown;
 use super::flow::{Participant, Record};
 use super::store::{DATABASE, Store, Stored};
 
@@ -101,6 +102,7 @@ const ANSWER_COLUMNS: &[&str] = &[
     "value",
     "server_ms",
     "passed",
+    "position",
 ];
 const PARTICIPANT_COLUMNS: &[&str] = &[
     "participant",
@@ -132,6 +134,33 @@ struct Performance {
     own_messages: u64,
     idle_s: f64,
     team_deliveries: u64,
+}
+
+/// An answer's rows of answers.csv: each item's id, value and the place it was shown at
+/// (from 1, on a shuffled questionnaire: `shown`); a matrix gives one row per answered row,
+/// its item `ITEM.KEY` (the row's place in the file's list, from 1: an item id has no `.`),
+/// its place the row's in the grid.
+fn answer_rows<'a>(given: &'a Value, shown: Option<&Shown>) -> Vec<(String, &'a Value, Option<usize>)> {
+    let place = |list: &[String], key: &str| list.iter().position(|k| k == key).map(|at| at + 1);
+    let mut rows = Vec::new();
+    for (item, value) in given.as_object().into_iter().flatten() {
+        match value.as_object() {
+            Some(grid) => {
+                // Row 10 after row 9, not after row 1.
+                let mut grid: Vec<(&String, &Value)> = grid.iter().collect();
+                grid.sort_by_key(|(key, _)| (key.len(), key.as_str()));
+                for (key, value) in grid {
+                    let position = shown.map(|s| match s.rows.get(item) {
+                        Some(order) => place(order, key),
+                        None => key.parse().ok(),
+                    });
+                    rows.push((format!("{item}.{key}"), value, position.flatten()));
+                }
+            }
+            None => rows.push((item.clone(), value, shown.and_then(|s| place(&s.items, item)))),
+        }
+    }
+    rows
 }
 
 /// Exports the study data in `dir` into `out` (made if missing).
@@ -234,25 +263,26 @@ pub fn export(dir: &Path, out: &Path) -> Result<ExportSummary, String> {
                         }
                     }
                 }
-                Record::Answer { step, page, questionnaire, answers: given, passed } if page != "trial" => {
-                    if let Some(fields) = given.as_object() {
-                        for (item, value) in fields {
-                            summary.answers += 1;
-                            row(
-                                &mut answers,
-                                &[
-                                    id.clone(),
-                                    step.to_string(),
-                                    page.clone(),
-                                    questionnaire.clone().unwrap_or_default(),
-                                    last_condition.clone(),
-                                    item.clone(),
-                                    cell(value),
-                                    line.server_ms.to_string(),
-                                    passed.map(|p| p.to_string()).unwrap_or_default(),
-                                ],
-                            );
-                        }
+                Record::Answer { step, page, questionnaire, answers: given, passed, shown }
+                    if page != "trial" =>
+                {
+                    for (item, value, position) in answer_rows(given, shown.as_ref()) {
+                        summary.answers += 1;
+                        row(
+                            &mut answers,
+                            &[
+                                id.clone(),
+                                step.to_string(),
+                                page.clone(),
+                                questionnaire.clone().unwrap_or_default(),
+                                last_condition.clone(),
+                                item,
+                                cell(value),
+                                line.server_ms.to_string(),
+                                passed.map(|p| p.to_string()).unwrap_or_default(),
+                                position.map(|p| p.to_string()).unwrap_or_default(),
+                            ],
+                        );
                     }
                 }
                 Record::Answer { .. } | Record::Resumed { .. } => {}

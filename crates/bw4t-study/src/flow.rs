@@ -39,6 +39,9 @@ pub(crate) enum Record {
         answers: Value,
         #[serde(default, skip_serializing_if = "Option::is_none")]
         passed: Option<bool>,
+        /// A shuffled questionnaire: the order its items (and rows) were shown in.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        shown: Option<super::answers::Shown>,
     },
     /// A trial's (or practice's) match started (the page's word, right after `welcome`).
     TrialStarted {
@@ -257,11 +260,14 @@ impl Participant {
             Page::Instructions { title, html } => {
                 StudyPage::Instructions { title: title.clone(), html: html.clone() }
             }
-            Page::Questionnaire { id, title, html, items, .. } => StudyPage::Questionnaire {
+            Page::Questionnaire { id, title, html, items, shuffle, .. } => StudyPage::Questionnaire {
                 id: id.clone(),
                 title: title.clone(),
                 html: html.clone(),
-                items: items.iter().map(super::answers::item_reply).collect(),
+                items: super::answers::items_shown(
+                    items,
+                    super::answers::shown(study.seed, &self.id, id, items, *shuffle).as_ref(),
+                ),
             },
             Page::Trial { title, html } => {
                 let (trial, c) = self.trial_at(study, self.step)?;
@@ -409,21 +415,7 @@ pub(crate) fn order_for(study: &Study, slot: u64, id: &str) -> Vec<usize> {
     match study.order {
         Order::Fixed => {}
         Order::Counterbalanced => order.rotate_left((turn % k as u64) as usize),
-        Order::Random => {
-            // FNV-1a of the seed and the id, then splitmix64 draws for a Fisher-Yates shuffle.
-            let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-            for b in study.seed.to_le_bytes().iter().chain(id.as_bytes()) {
-                h = (h ^ u64::from(*b)).wrapping_mul(0x0000_0100_0000_01b3);
-            }
-            for i in (1..k).rev() {
-                h = h.wrapping_add(0x9e37_79b9_7f4a_7c15);
-                let mut z = h;
-                z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-                z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-                z ^= z >> 31;
-                order.swap(i, (z % (i as u64 + 1)) as usize);
-            }
-        }
+        Order::Random => super::shuffle::shuffle(&mut order, study.seed, &[id.as_bytes()]),
     }
     order
 }

@@ -24,7 +24,9 @@ mod export;
 mod flow;
 mod legacy;
 mod markdown;
+mod shuffle;
 mod store;
+mod values;
 mod web;
 
 use std::collections::BTreeMap;
@@ -261,6 +263,7 @@ impl StudyServer {
                 questionnaire: None,
                 answers: json!({"match_id": match_id}),
                 passed,
+                shown: None,
             },
         ];
         if let (Some(false), Page::Practice { attempts, .. }) = (passed, &study.pages[step]) {

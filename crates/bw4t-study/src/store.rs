@@ -405,6 +405,7 @@ mod tests {
                 questionnaire: None,
                 answers: json!({"consent": true}),
                 passed: None,
+                shown: None,
             },
             Record::Event { event: json!({"kind": "key", "key": "ü", "tick": null}) },
         ];

@@ -208,9 +208,53 @@ function renderInstructions(p) {
   return [el('h2', {}, p.title || 'Instructions'), html(p.html), el('div', { class: 'actions' }, button('continue', 'Continue', () => answer({})))];
 }
 
+// ---- questionnaires ----
+
+/** The server's limit on a text answer, in characters, when the item sets none. */
+const MAX_TEXT = 10_000;
+/** A text's character counter shows from this share of its limit. */
+const COUNTER_FROM = 0.8;
+/** Where a questionnaire's unsent answers are kept (this tab only), so a reload keeps them. */
+const draftKey = () => `bw4t-study-draft:${study.id}:${study.state.step}`;
+
+/** A radio input's name: the item's, and a matrix row's key after it. */
+const radioName = (item, rowKey) => (rowKey === undefined ? `item-${item.id}` : `item-${item.id}-${rowKey}`);
+
+/** The value of the checked radio button named `name` in `form`, or undefined. */
+function checkedValue(form, name) {
+  return form.querySelector(`input[name="${CSS.escape(name)}"]:checked`)?.value;
+}
+
+/** A number's range in words, as the server says it: "a whole number from 18 to 99". */
+function numberRange(item) {
+  const what = item.integer ? 'a whole number' : 'a number';
+  const [min, max] = [item.min ?? null, item.max ?? null];
+  if (min !== null && max !== null) return `${what} from ${min} to ${max}`;
+  if (min !== null) return `${what} of at least ${min}`;
+  if (max !== null) return `${what} of at most ${max}`;
+  return what;
+}
+
+/** A matrix: one row of radio buttons per statement, a column per scale point or option. */
+function renderMatrix(item) {
+  const choices = item.options ? item.options.map((o) => [o, o]) : Array.from({ length: item.scale || 7 }, (_, i) => [String(i + 1), String(i + 1)]);
+  const head = el('tr', {}, el('td', {}), ...choices.map(([, label]) => el('th', { scope: 'col' }, label)));
+  const body = item.rows.map((row) =>
+    el(
+      'tr',
+      { dataset: { row: row.key } },
+      el('th', { scope: 'row' }, row.text),
+      ...choices.map(([value, label]) => el('td', {}, el('input', { type: 'radio', name: radioName(item, row.key), value, 'aria-label': `${row.text}: ${label}` }))),
+    ),
+  );
+  const [left, right] = item.labels || ['', ''];
+  const ends = left || right ? el('div', { class: 'matrix-ends' }, el('span', {}, left), el('span', {}, right)) : '';
+  return [ends, el('div', { class: 'matrix-scroll' }, el('table', { class: 'matrix' }, el('thead', {}, head), el('tbody', {}, ...body)))];
+}
+
 /** One questionnaire item as a fieldset; its value is read back by `itemValue`. */
 function renderItem(item) {
-  const name = `item-${item.id}`;
+  const name = radioName(item);
   const legend = el('legend', {}, item.text, item.required ? el('span', { class: 'required', title: 'required' }, ' *') : '');
   const box = el('fieldset', { class: `item ${item.kind}`, dataset: { item: item.id, kind: item.kind } }, legend);
   if (item.kind === 'likert') {
@@ -226,70 +270,167 @@ function renderItem(item) {
     const list = el('div', { class: 'choice' });
     for (const option of item.options || []) list.append(el('label', {}, el('input', { type: 'radio', name, value: option }), ` ${option}`));
     box.append(list);
+  } else if (item.kind === 'matrix') {
+    box.append(...renderMatrix(item));
+  } else if (item.kind === 'number') {
+    const input = el('input', { type: 'number', name, step: item.integer ? '1' : 'any', inputmode: item.integer ? 'numeric' : 'decimal', 'aria-label': item.text });
+    if (item.min != null) input.min = String(item.min);
+    if (item.max != null) input.max = String(item.max);
+    box.append(el('div', { class: 'number' }, input, item.unit ? el('span', { class: 'unit' }, ` ${item.unit}`) : ''));
   } else {
+    const limit = item.maxlength || MAX_TEXT;
     const input = item.multiline ? el('textarea', { name, rows: '4' }) : el('input', { type: 'text', name });
     input.setAttribute('aria-label', item.text);
-    box.append(input);
+    input.maxLength = limit;
+    box.append(input, el('p', { class: 'counter', hidden: '', 'aria-live': 'polite' }));
   }
   box.append(el('p', { class: 'missing', hidden: '' }, 'Please answer this.'));
   return box;
 }
 
-/** An item's value in the form, or undefined when not answered. */
+/** A text item's counter: shown near its limit. */
+function updateCounter(box, item) {
+  const counter = box.querySelector('.counter');
+  if (!counter) return;
+  const limit = item.maxlength || MAX_TEXT;
+  const length = box.querySelector('input, textarea').value.length;
+  counter.hidden = length < limit * COUNTER_FROM;
+  setText(counter, `${length} of ${limit} characters`);
+}
+
+/** An item's value in the form, or undefined when not answered (a matrix: its answered
+ * rows, by key). */
 function itemValue(form, item) {
-  const name = `item-${item.id}`;
+  const name = radioName(item);
   if (item.kind === 'likert') {
-    const checked = form.querySelector(`input[name="${CSS.escape(name)}"]:checked`);
-    return checked ? Number(checked.value) : undefined;
+    const checked = checkedValue(form, name);
+    return checked === undefined ? undefined : Number(checked);
   }
-  if (item.kind === 'choice') {
-    const checked = form.querySelector(`input[name="${CSS.escape(name)}"]:checked`);
-    return checked ? checked.value : undefined;
+  if (item.kind === 'choice') return checkedValue(form, name);
+  if (item.kind === 'matrix') {
+    const rows = {};
+    for (const row of item.rows) {
+      const checked = checkedValue(form, radioName(item, row.key));
+      if (checked !== undefined) rows[row.key] = item.options ? checked : Number(checked);
+    }
+    return Object.keys(rows).length ? rows : undefined;
   }
-  const value = form.querySelector(`[name="${CSS.escape(name)}"]`).value.trim();
+  const input = form.querySelector(`[name="${CSS.escape(name)}"]`);
+  if (item.kind === 'number') return input.value === '' ? undefined : Number(input.value);
+  const value = input.value.trim();
   return value === '' ? undefined : value;
 }
 
-/** Marks an item as missing (or not). */
-function markMissing(form, itemId, missing) {
+/** Puts a (draft's) value back into the form. */
+function setItemValue(form, item, value) {
+  const check = (name, v) => {
+    const input = form.querySelector(`input[name="${CSS.escape(name)}"][value="${CSS.escape(String(v))}"]`);
+    if (input) input.checked = true;
+  };
+  if (item.kind === 'likert' || item.kind === 'choice') check(radioName(item), value);
+  else if (item.kind === 'matrix') for (const [key, v] of Object.entries(value || {})) check(radioName(item, key), v);
+  else {
+    const input = form.querySelector(`[name="${CSS.escape(radioName(item))}"]`);
+    if (input) input.value = String(value);
+  }
+}
+
+
+/** The shown items' values (by id), each item shown or hidden as its `show_if` says: an
+ * item is shown when the earlier item it names is shown and has one of its answers
+ * (numbers compare by value, 4 is 4.0, as on the server). */
+function showItems(form, items) {
+  const values = {};
+  for (const item of items) {
+    const rule = item.show_if;
+    const shown = !rule || (values[rule.item] !== undefined && rule.in.includes(values[rule.item]));
+    const box = form.querySelector(`fieldset[data-item="${CSS.escape(item.id)}"]`);
+    box.hidden = !shown;
+    if (shown) values[item.id] = itemValue(form, item);
+  }
+  return values;
+}
+
+/** Marks an item as missing or wrong (`why`, or not: null). */
+function markItem(form, itemId, why) {
   const box = form.querySelector(`fieldset[data-item="${CSS.escape(itemId)}"]`);
   if (!box) return;
-  box.setAttribute('aria-invalid', String(missing));
-  box.querySelector('.missing').hidden = !missing;
+  box.setAttribute('aria-invalid', String(Boolean(why)));
+  const note = box.querySelector('.missing');
+  note.hidden = !why;
+  if (why) setText(note, why);
+}
+
+/** What is wrong with a shown item's value in the form (null: nothing). */
+function itemProblem(form, item, value) {
+  if (item.kind === 'number') {
+    const input = form.querySelector(`[name="${CSS.escape(radioName(item))}"]`);
+    const v = input.validity;
+    if (v.badInput || v.rangeUnderflow || v.rangeOverflow || v.stepMismatch) return `Please give ${numberRange(item)}.`;
+  }
+  if (item.required === false) return null;
+  if (value === undefined) return 'Please answer this.';
+  if (item.kind === 'matrix' && item.rows.some((row) => value[row.key] === undefined)) return 'Please answer every row.';
+  return null;
 }
 
 function renderQuestionnaire(p) {
   const items = p.items || [];
   const form = el('form', { id: 'questionnaire', novalidate: '' }, ...items.map(renderItem));
   form.append(el('div', { class: 'actions' }, el('button', { type: 'submit', id: 'questionnaire-submit' }, 'Continue')));
-  // An item answered after a refused submit is no longer marked.
+  // A reload keeps what was filled in and not yet sent.
+  let draft = {};
+  try {
+    draft = JSON.parse(sessionStorage.getItem(draftKey()) || '{}') || {};
+  } catch {
+    // an unreadable draft is no draft
+  }
+  for (const item of items) if (draft[item.id] !== undefined) setItemValue(form, item, draft[item.id]);
+  showItems(form, items);
+  for (const item of items) updateCounter(form.querySelector(`fieldset[data-item="${CSS.escape(item.id)}"]`), item);
+  form.dataset.draft = Object.keys(draft).length ? 'restored' : 'none';
+  // An item answered after a refused submit is no longer marked; the draft is kept.
   form.addEventListener('input', (event) => {
     const box = event.target.closest('fieldset[data-item]');
-    if (box?.getAttribute('aria-invalid') === 'true') markMissing(form, box.dataset.item, false);
+    const item = items.find((i) => i.id === box?.dataset.item);
+    if (item) updateCounter(box, item);
+    if (box?.getAttribute('aria-invalid') === 'true') markItem(form, box.dataset.item, null);
     // Every missing answer given: the reminder goes.
     if (!form.querySelector('fieldset[aria-invalid="true"]')) showError('');
+    const values = {};
+    for (const i of items) {
+      const value = itemValue(form, i);
+      if (value !== undefined) values[i.id] = value;
+    }
+    showItems(form, items);
+    sessionStorage.setItem(draftKey(), JSON.stringify(values));
   });
   form.addEventListener('submit', async (event) => {
     event.preventDefault();
     logEvent('click', { target: 'questionnaire-submit' });
-    const answers = {};
-    let firstMissing = null;
+    const key = draftKey();
+    const answers = showItems(form, items);
+    let firstWrong = null;
     for (const item of items) {
-      const value = itemValue(form, item);
-      const missing = item.required !== false && value === undefined;
-      markMissing(form, item.id, missing);
-      if (missing && !firstMissing) firstMissing = item;
-      if (value !== undefined) answers[item.id] = value;
+      const shown = !form.querySelector(`fieldset[data-item="${CSS.escape(item.id)}"]`).hidden;
+      const why = shown ? itemProblem(form, item, answers[item.id]) : null;
+      markItem(form, item.id, why);
+      if (why && !firstWrong) firstWrong = item;
+      if (answers[item.id] === undefined) delete answers[item.id];
     }
-    if (firstMissing) {
-      showError('Please answer every question marked *.');
-      form.querySelector(`fieldset[data-item="${CSS.escape(firstMissing.id)}"] input, fieldset[data-item="${CSS.escape(firstMissing.id)}"] textarea`)?.focus();
+    if (firstWrong) {
+      // Missing answers, as always; else (a number out of range) the item says what it needs.
+      const notes = [...form.querySelectorAll('fieldset[aria-invalid="true"] .missing')].map((n) => n.textContent);
+      const missing = notes.every((note) => note === 'Please answer this.');
+      showError(missing ? 'Please answer every question marked *.' : 'Please check the questions marked in red.');
+      form.querySelector(`fieldset[data-item="${CSS.escape(firstWrong.id)}"] :is(input, textarea)`)?.focus();
       return;
     }
     const result = await answer(answers);
-    // The server names an item it refused: mark it.
+    if (result.ok) sessionStorage.removeItem(key);
+    // The server names an item it refused: mark it with its words.
     if (result.status === 400) {
-      for (const item of items) if (result.body?.error?.includes(item.id)) markMissing(form, item.id, true);
+      for (const item of items) if (result.body?.error?.includes(`'${item.id}'`)) markItem(form, item.id, result.body.error);
     }
   });
   return [el('h2', {}, p.title || 'Questionnaire'), p.html ? html(p.html) : '', form];
