@@ -221,7 +221,7 @@ impl Running {
 
     /// Ends the program and everything it started: a second to leave by itself after
     /// `match_end` (to write down its result), then TERM to its process group, KILL after
-    /// another second.
+    /// another second, and up to a second more for the group to be gone.
     async fn stop(&mut self) {
         let Ok(child) = &mut self.child else { return };
         if self.exited.is_none() {
@@ -245,6 +245,15 @@ impl Running {
         }
         let _ = Command::new("kill").args(["-KILL", "--", &group]).stderr(Stdio::null()).status();
         let _ = child.wait();
+        // The group's other processes (a shell's children) die on their own time: wait, a
+        // while at most, until none is left, so nothing it started outlives the run.
+        for _ in 0..20 {
+            let alive = Command::new("kill").args(["-0", "--", &group]).stderr(Stdio::null()).status();
+            if !alive.is_ok_and(|status| status.success()) {
+                break;
+            }
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
     }
 }
 
