@@ -6,7 +6,8 @@
 // robot is seen moving after a click on a place (the latency is printed), a refused
 // action is said plainly, and the tick logged with every action's answer is the tick the
 // match's replay has for it. A small window gets the screen-out page, and no participant
-// is made. Screenshots: test-output/browser/participant-WxH.png, participant-screen-out.png;
+// is made; nor does an MTurk preview. The robot follows the participant from tab to tab,
+// and a practice round's missed pass mark ends on the screen-out page with its code. Screenshots: test-output/browser/participant-WxH.png, participant-screen-out.png;
 // with BW4T_SCREENSHOTS=1 also docs/screenshots/study-participant.png (1280x720) and
 // study-screen-out.png.
 
@@ -328,4 +329,28 @@ test('the robot follows the participant, not the tab: a second tab takes it over
   const trial = readCsv(path.join(out, 'trials.csv')).find((r) => r.participant === id);
   assert.equal(trial.complete, 'true', JSON.stringify(trial));
   assert.ok(Number(trial.disconnections) >= 1 && Number(trial.absent_s) > 0, `the absence is recorded: ${JSON.stringify(trial)}`);
+});
+
+test('a participant who misses the practice round\'s pass mark ends on the screen-out page with its code', { timeout: 90_000 }, async (t) => {
+  const data = tempDir('study-practice');
+  t.after(() => fs.rmSync(data, { recursive: true, force: true }));
+  const practice = path.join(ROOT, 'tests', 'fixtures', 'study-practice', 'study.toml');
+  const server = await startBw4t(['study', practice, '--data', data, '--http', '0', '--port', '0', '--operator-token', TOKEN]);
+  t.after(() => stop(server.proc));
+  const b = await openBrowser({ width: 1280, height: 720 });
+  t.after(() => b.close());
+  // The practice plays as a trial does; this participant does nothing in it.
+  await b.page.goto(new URL('/study?participant=idle1', server.url).href);
+  await b.page.waitForSelector('body[data-kind="consent"]');
+  await b.page.click('#consent-agree');
+  await b.page.waitForSelector('body[data-kind="practice"]');
+  const frame = await (await b.page.waitForSelector('#trial-frame')).contentFrame();
+  await frame.waitForSelector('body[data-participant="true"] #status[data-status="connected"]', { state: 'attached', timeout: 20_000 });
+  await b.page.waitForSelector('#trial-continue', { timeout: 40_000 });
+  await b.page.click('#trial-continue');
+  await b.page.waitForSelector('body[data-kind="screened_out"]');
+  assert.match(await b.page.innerText('#study-page'), /practice round was not passed/);
+  assert.equal(await b.page.innerText('#completion-code'), 'SCREENED');
+  await screenshot(b.page, 'participant-screened-out');
+  assert.deepEqual(b.errors, [], 'no errors on the page');
 });
