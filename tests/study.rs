@@ -596,7 +596,11 @@ async fn a_participant_goes_through_the_whole_study_and_the_export_has_every_row
 
     let out = dir.join("export");
     let summary = study::export(&dir, &out).expect("export");
-    assert_eq!((summary.participants, summary.trials, summary.incomplete), (2, 2, 0), "{summary:?}");
+    assert_eq!(
+        (summary.counts.participants, summary.counts.trials, summary.counts.incomplete),
+        (2, 2, 0),
+        "{summary:?}"
+    );
     let trials = csv_rows(&out.join("trials.csv"));
     let conditions: Vec<(&str, &str, &str)> = trials
         .iter()
@@ -707,7 +711,7 @@ async fn a_restarted_server_continues_each_participant_and_gives_a_lost_trial_ag
 
     let out = dir.join("export");
     let summary = study::export(&dir, &out).expect("export");
-    assert_eq!((summary.trials, summary.incomplete), (2, 1), "{summary:?}");
+    assert_eq!((summary.counts.trials, summary.counts.incomplete), (2, 1), "{summary:?}");
     let trials = csv_rows(&out.join("trials.csv"));
     assert_eq!(trials[0]["complete"], "false");
     assert!(trials[0]["incomplete_reason"].contains("server stopped"), "{trials:?}");
@@ -1277,7 +1281,7 @@ async fn a_trial_start_takes_only_what_a_match_id_looks_like() {
     rig.shutdown().await;
     // And the export, which names files after match ids, works.
     let summary = study::export(&dir, &dir.join("export")).expect("export");
-    assert_eq!((summary.participants, summary.trials), (1, 1), "{summary:?}");
+    assert_eq!((summary.counts.participants, summary.counts.trials), (1, 1), "{summary:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -1575,7 +1579,7 @@ async fn a_study_server_shows_its_matches_to_the_operator_only() {
     assert_eq!(made.status, 200, "{}", made.body);
     let exported: bw4t_protocol::StudyExported =
         serde_json::from_str(&made.body).expect("the export's summary");
-    assert_eq!((exported.participants, exported.files.len()), (1, 4), "{exported:?}");
+    assert_eq!((exported.counts.participants, exported.files.len()), (1, 4), "{exported:?}");
     let (status, csv) =
         http(server.web, "GET", "/api/study/export/participants.csv", Some(TOKEN), None).await;
     assert!(

@@ -111,12 +111,12 @@ fn run_export(args: &ExportArgs) -> Result<()> {
         "exported {} into {}: {}, {} ({} without an end), {}, {}, {}",
         args.dir.display(),
         out.display(),
-        bw4t_runner::plural(summary.participants, "participant"),
-        bw4t_runner::plural(summary.trials, "trial"),
-        summary.incomplete,
-        bw4t_runner::plural(summary.answers, "answer"),
-        bw4t_runner::plural(summary.events, "event"),
-        bw4t_runner::plural(summary.replays, "replay"),
+        bw4t_runner::plural(summary.counts.participants, "participant"),
+        bw4t_runner::plural(summary.counts.trials, "trial"),
+        summary.counts.incomplete,
+        bw4t_runner::plural(summary.counts.answers, "answer"),
+        bw4t_runner::plural(summary.counts.events, "event"),
+        bw4t_runner::plural(summary.counts.replays, "replay"),
     );
     Ok(())
 }

@@ -38,8 +38,9 @@ pub use row::{CSV_COLUMNS, ResultRow, spreadsheet_safe};
 pub use schema::schemas;
 pub use session::{ClientSession, Closed, Request, SessionError, SessionEvent, SessionOptions};
 pub use study::{
-    EventsRecorded, MatrixRow, ParticipantList, ParticipantRow, ParticipantState, QuestionItem, QuestionKind,
-    ScreenRequirement, ShowIf, StepConflict, StudyExported, StudyInfo, StudyPage, TrialHello, TrialLanguage,
+    EventsRecorded, ExportCounts, MatrixRow, ParticipantList, ParticipantRow, ParticipantState, QuestionItem,
+    QuestionKind, ScreenRequirement, ShowIf, StepConflict, StudyExported, StudyInfo, StudyPage, TrialHello,
+    TrialLanguage,
 };
 pub use table::{
     ACTIONS, ActionRow, PERCEPTS, PerceptRow, Scope, SendType, action_row, percept_row, table_json,

@@ -307,10 +307,9 @@ pub struct EventsRecorded {
     pub recorded: usize,
 }
 
-/// `POST /api/study/export` (operator): the export made into the data directory's
-/// `export/`, whose CSV files `GET /api/study/export/NAME.csv` gives.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
-pub struct StudyExported {
+/// What an export wrote: how many of each thing.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+pub struct ExportCounts {
     /// Participants exported.
     pub participants: usize,
     /// Trials (attempts) exported, complete or not.
@@ -323,6 +322,15 @@ pub struct StudyExported {
     pub events: usize,
     /// Replays copied.
     pub replays: usize,
+}
+
+/// `POST /api/study/export` (operator): the export made into the data directory's
+/// `export/`, whose CSV files `GET /api/study/export/NAME.csv` gives.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct StudyExported {
+    /// What it wrote.
+    #[serde(flatten)]
+    pub counts: ExportCounts,
     /// The CSV files, each at `GET /api/study/export/FILE`.
     pub files: Vec<String>,
 }

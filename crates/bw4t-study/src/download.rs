@@ -28,12 +28,7 @@ impl StudyServer {
             Ok(Ok(summary)) => reply(
                 StatusCode::OK,
                 &StudyExported {
-                    participants: summary.participants,
-                    trials: summary.trials,
-                    incomplete: summary.incomplete,
-                    answers: summary.answers,
-                    events: summary.events,
-                    replays: summary.replays,
+                    counts: summary.counts,
                     files: FILES.iter().map(|f| f.to_string()).collect(),
                 },
             ),

@@ -20,23 +20,13 @@ use super::answers::Shown;
 use super::flow::{Participant, Record};
 use super::store::{DATABASE, Store, Stored};
 
-/// What an export wrote.
+/// What an export wrote, and where.
 #[derive(Clone, Debug, Default)]
 pub struct ExportSummary {
     /// Where it went.
     pub out: PathBuf,
-    /// Participants exported.
-    pub participants: usize,
-    /// Trials (attempts) exported, complete or not.
-    pub trials: usize,
-    /// Of those, the trials without an end.
-    pub incomplete: usize,
-    /// Answers exported (one per item).
-    pub answers: usize,
-    /// Events exported.
-    pub events: usize,
-    /// Replays copied.
-    pub replays: usize,
+    /// How many of each thing.
+    pub counts: bw4t_protocol::ExportCounts,
 }
 
 /// One trial attempt.
@@ -184,8 +174,10 @@ pub fn export(dir: &Path, out: &Path) -> Result<ExportSummary, String> {
     std::fs::create_dir_all(out.join("replays"))
         .map_err(|e| format!("cannot write {}: {e}", out.display()))?;
 
-    let mut summary =
-        ExportSummary { out: out.to_path_buf(), participants: logs.len(), ..Default::default() };
+    let mut summary = ExportSummary {
+        out: out.to_path_buf(),
+        counts: bw4t_protocol::ExportCounts { participants: logs.len(), ..Default::default() },
+    };
     let (mut events, mut trials_csv, mut answers, mut people) =
         (header(EVENT_COLUMNS), header(TRIAL_COLUMNS), header(ANSWER_COLUMNS), header(PARTICIPANT_COLUMNS));
     let mut incomplete = Vec::new();
@@ -205,7 +197,7 @@ pub fn export(dir: &Path, out: &Path) -> Result<ExportSummary, String> {
                     state = Some(Participant::new(id, *number, Vec::new(), line.server_ms));
                 }
                 Record::Event { event } => {
-                    summary.events += 1;
+                    summary.counts.events += 1;
                     let mut data = event.as_object().cloned().unwrap_or_default();
                     let mut take = |key: &str| cell(&data.remove(key).unwrap_or(Value::Null));
                     let (wall, step, tick, kind) =
@@ -267,7 +259,7 @@ pub fn export(dir: &Path, out: &Path) -> Result<ExportSummary, String> {
                     if page != "trial" =>
                 {
                     for (item, value, position) in answer_rows(given, shown.as_ref()) {
-                        summary.answers += 1;
+                        summary.counts.answers += 1;
                         row(
                             &mut answers,
                             &[
@@ -304,11 +296,11 @@ pub fn export(dir: &Path, out: &Path) -> Result<ExportSummary, String> {
                 false => None,
             };
             if replay.is_some() {
-                summary.replays += 1;
+                summary.counts.replays += 1;
             }
             let r = t.result.clone().unwrap_or(Value::Null);
             let done = t.result.is_some();
-            summary.incomplete += usize::from(!done);
+            summary.counts.incomplete += usize::from(!done);
             if !t.practice {
                 complete += usize::from(done);
                 unfinished += usize::from(!done);
@@ -367,7 +359,7 @@ pub fn export(dir: &Path, out: &Path) -> Result<ExportSummary, String> {
                 performance.team_deliveries += figure("good_drops") as u64;
             }
         }
-        summary.trials += trials.len();
+        summary.counts.trials += trials.len();
         let finished = pages > 0 && state.step + 1 == pages && !state.declined && !state.screened_out;
         // Without an assignment record: the arrival number's slot of the only group.
         let (slot, group) = assigned.unwrap_or_else(|| (created.0, String::new()));
@@ -412,8 +404,8 @@ pub fn export(dir: &Path, out: &Path) -> Result<ExportSummary, String> {
         "bw4t": bw4t_server::program(),
         "conditions": conditions,
         "pages": pages,
-        "participants": summary.participants,
-        "trials": summary.trials,
+        "participants": summary.counts.participants,
+        "trials": summary.counts.trials,
         "incomplete_trials": incomplete,
         "files": {
             "events.csv": EVENT_COLUMNS,
