@@ -16,7 +16,7 @@ import fs from 'node:fs';
 import path from 'node:path';
 import { test } from 'node:test';
 
-import { ROOT, openBrowser, runBw4t, screenshot, startBw4t, stop, tempDir } from './helpers.js';
+import { ROOT, openBrowser, readCsv, runBw4t, screenshot, startBw4t, stop, tempDir } from './helpers.js';
 
 const STUDY = path.join(ROOT, 'tests', 'fixtures', 'study-view', 'study.toml');
 const TOKEN = 'op-secret';
@@ -34,36 +34,6 @@ const SIZES = [
   { width: 1366, height: 768 },
   { width: 1920, height: 1080 },
 ];
-
-/** A CSV file (no newlines inside cells but in quoted JSON) as rows of named cells. */
-function readCsv(file) {
-  const rows = [];
-  let row = [];
-  let cell = '';
-  let quoted = false;
-  const text = fs.readFileSync(file, 'utf8');
-  for (let i = 0; i < text.length; i++) {
-    const c = text[i];
-    if (quoted) {
-      if (c === '"' && text[i + 1] === '"') {
-        cell += '"';
-        i++;
-      } else if (c === '"') quoted = false;
-      else cell += c;
-    } else if (c === '"') quoted = true;
-    else if (c === ',') {
-      row.push(cell);
-      cell = '';
-    } else if (c === '\n') {
-      rows.push([...row, cell]);
-      row = [];
-      cell = '';
-    } else cell += c;
-  }
-  if (cell || row.length) rows.push([...row, cell]);
-  const [head, ...body] = rows;
-  return body.map((cells) => Object.fromEntries(head.map((name, i) => [name, cells[i] ?? ''])));
-}
 
 /** The participant list as the operator sees it. */
 async function participants(server) {

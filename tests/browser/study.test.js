@@ -15,7 +15,7 @@ import fs from 'node:fs';
 import path from 'node:path';
 import { test } from 'node:test';
 
-import { ROOT, openBrowser, runBw4t, screenshot, startBw4t, stop, tempDir } from './helpers.js';
+import { ROOT, openBrowser, readCsv, runBw4t, screenshot, startBw4t, stop, tempDir } from './helpers.js';
 
 const STUDY = path.join(ROOT, 'tests', 'fixtures', 'study-short', 'study.toml');
 const TOKEN = 'op-secret';
@@ -26,37 +26,6 @@ async function keep(page, name) {
   if (!SHOTS) return;
   fs.mkdirSync(SHOTS, { recursive: true });
   await page.screenshot({ path: path.join(SHOTS, `study-${name}.png`) });
-}
-
-/** A CSV file as rows of cells (quoted cells may hold commas, quotes and newlines). */
-function readCsv(file) {
-  const text = fs.readFileSync(file, 'utf8');
-  const rows = [];
-  let row = [];
-  let cell = '';
-  let quoted = false;
-  for (let i = 0; i < text.length; i++) {
-    const c = text[i];
-    if (quoted) {
-      if (c === '"' && text[i + 1] === '"') {
-        cell += '"';
-        i++;
-      } else if (c === '"') quoted = false;
-      else cell += c;
-    } else if (c === '"') quoted = true;
-    else if (c === ',') {
-      row.push(cell);
-      cell = '';
-    } else if (c === '\n') {
-      row.push(cell);
-      rows.push(row);
-      row = [];
-      cell = '';
-    } else cell += c;
-  }
-  if (cell || row.length) rows.push([...row, cell]);
-  const [head, ...body] = rows;
-  return body.map((cells) => Object.fromEntries(head.map((name, i) => [name, cells[i] ?? ''])));
 }
 
 /** Waits for the study page to show a page of `kind` (at `step`, if given). */
