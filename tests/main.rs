@@ -21,6 +21,9 @@ mod import;
 /// Built-in agents in headless matches.
 mod agents;
 
+/// `bw4t eval`: the suite's reference rows, agent programs, scoring outcomes, errors.
+mod eval;
+
 /// The cooperative team's progress rule: no deadlock whatever the seed and team size.
 mod coop_deadlock;
 

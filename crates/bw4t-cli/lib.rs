@@ -12,6 +12,7 @@ mod bench_arena;
 mod bench_merge;
 mod bench_net;
 mod cluster;
+mod eval;
 mod map_cmd;
 mod maps;
 mod mcp;
@@ -51,6 +52,10 @@ enum Command {
     /// Play many matches over teams, maps and seeds, and summarise them.
     #[command(after_help = status::TOURNAMENT_HELP)]
     Tournament(tournament::TournamentArgs),
+    /// Evaluate an agent on a tier of the named suite (bw4t-suite): its matches, the
+    /// built-in team's on the same tasks, and a leaderboard row.
+    #[command(after_help = status::EVAL_HELP)]
+    Eval(eval::EvalArgs),
     /// Serve matches over TCP (JSON lines; see protocol/PROTOCOL.md) until stopped: one
     /// restarted as it ends, or the templates of a --config file; --once: one match.
     Serve(serve::ServeArgs),
@@ -126,6 +131,7 @@ pub fn main(args: impl IntoIterator<Item = OsString>, self_command: Option<Vec<O
         Command::Replay(args) => replay::run(&args),
         Command::Serve(args) => done(serve::run(&args)),
         Command::Tournament(args) => tournament::run(&args),
+        Command::Eval(args) => eval::run(&args),
         Command::Study(args) => done(study::run(&args)),
         Command::Mcp(args) => done(mcp::run(&args)),
         Command::Bench(args) => done(bench::run(&args)),

@@ -25,7 +25,7 @@ pub(crate) struct RunArgs {
     #[arg(long)]
     robots: Option<usize>,
     /// The built-in team filling the seats no --agent takes: `builtin` or `builtin:STRATEGY`
-    /// (coop, silent, ignoring, baseline).
+    /// (coop, silent, ignoring, baseline, random).
     #[arg(long)]
     team: Option<String>,
     /// An agent program, run with `sh -c`; repeat for more. One --agent with --robots N and
@@ -109,6 +109,7 @@ pub(crate) fn run(args: &RunArgs) -> Result<u8> {
             replay,
             stop: None,
             wall_budget: (args.wall_budget_s > 0).then(|| Duration::from_secs(args.wall_budget_s)),
+            language: bw4t_protocol::MessagePolicy::default(),
         })?;
         out_of_time = served.out_of_time;
         (served.result, served.agents)

@@ -41,6 +41,13 @@ pub(crate) const TOURNAMENT_HELP: &str = "Exit status: 0 every match was played 
      SIGINT/SIGTERM (the rows so far are kept; the message says how to resume); 141 \
      standard output closed early.";
 
+/// The exit statuses of `bw4t eval`, for its `--help`.
+pub(crate) const EVAL_HELP: &str = "Exit status: 0 the tier was played and scored (whatever the score); 1 an error \
+     (bad tier, split, agent command, outcomes file or output directory); 2 a command line \
+     that cannot be read; 4 the agent's programs played in none of its matches; 130/143 \
+     stopped by SIGINT/SIGTERM (the matches so far are kept; the message says how to \
+     resume); 141 standard output closed early.";
+
 /// The exit statuses of `bw4t tournament merge`, for its `--help`.
 pub(crate) const MERGE_HELP: &str = "Exit status: 0 every match of the configuration is in the merged directory; 1 an \
      error (a directory that is not a tournament, configurations that differ, a file that \
@@ -55,6 +62,9 @@ mod tests {
     fn the_help_texts_name_every_status() {
         for code in [SUCCESS, ERROR, NOT_COMPLETED, NO_AGENT_PLAYED] {
             assert!(RUN_HELP.contains(&format!("{code} ")), "run help lacks {code}");
+        }
+        for code in [SUCCESS, ERROR, NO_AGENT_PLAYED] {
+            assert!(EVAL_HELP.contains(&format!("{code} ")), "eval help lacks {code}");
         }
         for code in [SUCCESS, ERROR, NO_AGENT_PLAYED] {
             assert!(TOURNAMENT_HELP.contains(&format!("{code} ")), "tournament help lacks {code}");

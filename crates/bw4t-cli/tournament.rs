@@ -388,7 +388,7 @@ fn program_name() -> String {
 
 /// Refuses, before anything runs, a team whose agent command cannot start: a misspelt
 /// `builtin` is caught when the configuration resolves; here, a program that is not found.
-fn check_agents(resolved: &Resolved) -> Result<()> {
+pub(crate) fn check_agents(resolved: &Resolved) -> Result<()> {
     let mut problems = Vec::new();
     for team in &resolved.teams {
         let mut commands: Vec<String> = Vec::new();
@@ -467,6 +467,7 @@ fn config(args: &TournamentArgs) -> Result<TournamentConfig> {
             deadline_ms: 1000,
             wall_budget_s: None,
             teams: Vec::new(),
+            messages: true,
         },
     };
     if !args.maps.is_empty() {
@@ -511,7 +512,7 @@ fn config(args: &TournamentArgs) -> Result<TournamentConfig> {
 }
 
 /// A progress bar on a terminal; a line per finished match otherwise.
-fn progress(p: &Progress, terminal: bool) {
+pub(crate) fn progress(p: &Progress, terminal: bool) {
     let elapsed = p.elapsed.as_secs_f64();
     let eta = if p.played > 0 { elapsed / p.played as f64 * (p.to_play - p.played) as f64 } else { 0.0 };
     if terminal {

@@ -5,6 +5,7 @@
 mod baseline;
 mod coop;
 mod drive;
+mod random;
 mod setup;
 mod view;
 
@@ -13,6 +14,7 @@ use bw4t_sim::{Action, OrderOutcome, PerceptDelta};
 pub use baseline::Baseline;
 pub use coop::{CLAIM_LAPSE_TICKS, Cooperative, STALL_TICKS, WORD_CLAIM_LAPSE_TICKS};
 pub use drive::{Driver, Team};
+pub use random::RandomPlayer;
 pub use setup::{AgentFactory, MatchSetup, Player, Seat, SetupError, bot_name, named_seats};
 
 /// The outcome of one of the agent's actions, numbered in the order the agent returned
@@ -84,12 +86,15 @@ pub enum Strategy {
     Ignoring,
     /// Each robot alone, no messages: fetch the colour needed now, put back what is not.
     Baseline,
+    /// No plan: whenever idle, one action drawn at random from those that could be valid
+    /// (see [`RandomPlayer`]); the floor of the evaluation suite.
+    Random,
 }
 
 impl Strategy {
     /// Every strategy, the default first.
-    pub const ALL: [Strategy; 4] =
-        [Strategy::Cooperative, Strategy::Silent, Strategy::Ignoring, Strategy::Baseline];
+    pub const ALL: [Strategy; 5] =
+        [Strategy::Cooperative, Strategy::Silent, Strategy::Ignoring, Strategy::Baseline, Strategy::Random];
 
     /// The name used on the command line (`builtin:NAME`).
     pub fn name(self) -> &'static str {
@@ -98,6 +103,7 @@ impl Strategy {
             Strategy::Silent => "silent",
             Strategy::Ignoring => "ignoring",
             Strategy::Baseline => "baseline",
+            Strategy::Random => "random",
         }
     }
 
@@ -113,6 +119,7 @@ impl Strategy {
             Strategy::Silent => Box::new(Cooperative::silent(name)),
             Strategy::Ignoring => Box::new(Cooperative::ignoring(name)),
             Strategy::Baseline => Box::new(Baseline::new(name)),
+            Strategy::Random => Box::new(RandomPlayer::new(name)),
         }
     }
 }

@@ -35,5 +35,5 @@ pub use native::NativeError;
 pub use parts::{DROP_ZONE, MapParts, Spawn, Zone, ZoneIdx, ZoneKind};
 pub use problem::{Problem, Severity};
 pub use render::{RobotMark, colour_hex, render_scene, render_svg, zone_fill};
-pub use rng::SeededRng;
+pub use rng::{SeededRng, fnv1a};
 pub use walls::{Wall, zone_walls};

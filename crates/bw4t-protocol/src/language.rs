@@ -293,6 +293,11 @@ impl Default for MessagePolicy {
 }
 
 impl MessagePolicy {
+    /// No message at all: no kind of the language and no free text.
+    pub fn silence() -> MessagePolicy {
+        MessagePolicy { kinds: Some(Vec::new()), free_text: false }
+    }
+
     /// Why the policy refuses a message (a structured one, or free text when `said` is
     /// `None`), or `None` when it is allowed.
     pub fn refuses(&self, said: Option<&Said>) -> Option<String> {

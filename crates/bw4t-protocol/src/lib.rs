@@ -8,6 +8,7 @@ mod convert;
 mod http;
 mod knowledge;
 mod language;
+mod leaderboard;
 mod messages;
 mod replay;
 mod result;
@@ -31,6 +32,7 @@ pub use http::{
 };
 pub use knowledge::{Heard, Knowledge, RoomSeen, RoomTold, is_room};
 pub use language::{Group, KINDS, KindRow, MessagePolicy, Said, SaidError, Slot, kind_row, language_json};
+pub use leaderboard::{AgentInfo, LeaderboardRow, UsageTotals};
 pub use messages::*;
 pub use replay::{REPLAY_FORMAT, Recorder, ReplayEvent, ReplayHeader, ReplayLine, ReplayMeta};
 pub use result::{MatchResult, PlayerUsage, RobotExtra, RobotResult};

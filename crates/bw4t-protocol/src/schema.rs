@@ -58,6 +58,12 @@ pub fn schemas() -> Vec<(String, Value)> {
         }
     }
     out.extend(http());
+    let mut row = serde_json::to_value(reply::<crate::LeaderboardRow>()).unwrap_or_default();
+    if let Some(object) = row.as_object_mut() {
+        object.insert("$id".into(), "https://bw4t.invalid/protocol/v1/eval/row.json".into());
+        object.insert("title".into(), "a leaderboard row of `bw4t eval`".into());
+    }
+    out.push(("eval/row.json".to_string(), row));
     out
 }
 

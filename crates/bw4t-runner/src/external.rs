@@ -8,7 +8,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use bw4t_agents::{MatchSetup, Player, Seat, Strategy};
-use bw4t_protocol::{AgentStatus, MatchResult, Mode};
+use bw4t_protocol::{AgentStatus, MatchResult, MessagePolicy, Mode};
 use bw4t_server::{Extras, HostConfig, ServerConfig};
 use serde::Serialize;
 
@@ -66,6 +66,8 @@ pub struct ServedRun<'a> {
     /// Wall time the match may take from its start (agents connecting included); past
     /// it the match ends as `interrupted` and [`Served::out_of_time`] says so.
     pub wall_budget: Option<Duration>,
+    /// Which messages the agent programs may send.
+    pub language: MessagePolicy,
 }
 
 /// A served run's outcome.
@@ -123,6 +125,7 @@ pub fn play_served(run: ServedRun<'_>) -> Result<Served, ServedError> {
         config.start_timeout = Some(run.connect_timeout);
         config.max_late_in_row = Some(MAX_LATE_IN_ROW);
         config.pause_when_empty = false;
+        config.language = run.language;
         // The server keeps each program's seat for it; the program connects under its name.
         let mut setup = run.setup;
         for seat in &mut setup.seats {

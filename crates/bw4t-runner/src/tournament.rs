@@ -10,7 +10,7 @@ use std::sync::{Arc, Mutex, mpsc};
 use std::time::{Duration, Instant};
 
 use bw4t_map::Map;
-use bw4t_protocol::{AgentStatus, EndReason, MatchResult};
+use bw4t_protocol::{AgentStatus, EndReason, MatchResult, MessagePolicy};
 use bw4t_sim::MatchConfig;
 use bw4t_tournament::{
     Machine, Manifest, ManifestError, MapLimit, Planned, ReplayPolicy, Resolved, Row, Setup, Shard, Summary,
@@ -527,6 +527,7 @@ fn play_one(
                 replay,
                 stop: Some(options.stop.clone()),
                 wall_budget: resolved.wall_budget_s.map(Duration::from_secs),
+                language: if resolved.messages { MessagePolicy::default() } else { MessagePolicy::silence() },
             })
             .map(|served| (served.result, served.agents, served.out_of_time))
             .map_err(|e| e.to_string())

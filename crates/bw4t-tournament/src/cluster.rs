@@ -86,10 +86,7 @@ impl Resolved {
     /// make their rows incomparable: 64-bit FNV-1a of its canonical JSON, in hex.
     pub fn config_hash(&self) -> String {
         let text = serde_json::to_string(self).unwrap_or_default();
-        let hash = text
-            .bytes()
-            .fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3));
-        format!("{hash:016x}")
+        format!("{:016x}", bw4t_map::fnv1a(text.bytes()))
     }
 }
 

@@ -84,6 +84,10 @@ pub struct TournamentConfig {
     /// The teams.
     #[serde(rename = "team", default)]
     pub teams: Vec<TeamConfig>,
+    /// Whether external agents may send messages (off: the server refuses every one).
+    /// Built-in agents are not held to it: give them a strategy that does not talk.
+    #[serde(default = "yes")]
+    pub messages: bool,
 }
 
 /// Robots of a team that names one agent for all and no count.
@@ -94,6 +98,12 @@ fn one() -> u32 {
 }
 fn deadline() -> u64 {
     1000
+}
+fn yes() -> bool {
+    true
+}
+fn is_true(b: &bool) -> bool {
+    *b
 }
 
 /// The master seed when the configuration names none.
@@ -119,6 +129,10 @@ pub struct Resolved {
     pub wall_budget_s: Option<u64>,
     /// The teams.
     pub teams: Vec<Team>,
+    /// Whether external agents may send messages; left out of the file (and so of the
+    /// configuration's hash) when they may.
+    #[serde(default = "yes", skip_serializing_if = "is_true")]
+    pub messages: bool,
 }
 
 /// One match of the tournament.
@@ -218,6 +232,7 @@ impl TournamentConfig {
             deadline_ms: self.deadline_ms,
             wall_budget_s: self.wall_budget_s,
             teams,
+            messages: self.messages,
         })
     }
 }

@@ -13,6 +13,7 @@ mod config;
 mod manifest;
 mod report;
 mod stats;
+pub mod suite;
 mod words;
 
 pub use cluster::{AutoShard, SHARDS_VAR, shard_from_env};

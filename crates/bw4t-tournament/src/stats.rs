@@ -505,7 +505,7 @@ fn rate(part: usize, whole: usize) -> f64 {
 }
 
 /// The arithmetic mean; none for no values.
-pub(super) fn mean(values: &[f64]) -> Option<f64> {
+pub(crate) fn mean(values: &[f64]) -> Option<f64> {
     (!values.is_empty()).then(|| values.iter().sum::<f64>() / values.len() as f64)
 }
 
@@ -513,7 +513,7 @@ pub(super) fn mean(values: &[f64]) -> Option<f64> {
 ///
 /// Unlike the normal approximation it stays within [0, 1] and is not degenerate at 0 or n
 /// successes. With no trials nothing is known, and the interval is all of [0, 1].
-pub(super) fn wilson(successes: usize, trials: usize) -> Interval {
+pub(crate) fn wilson(successes: usize, trials: usize) -> Interval {
     if trials == 0 {
         return Interval { lo: 0.0, hi: 1.0 };
     }
@@ -545,7 +545,7 @@ pub(super) fn quantile(sorted: &[f64], p: f64) -> Option<f64> {
 ///
 /// The generator is seeded with a constant, so the interval is reproducible. None with
 /// fewer than 2 values, whose resamples would all be the same.
-pub(super) fn bootstrap_mean(values: &[f64]) -> Option<Interval> {
+pub(crate) fn bootstrap_mean(values: &[f64]) -> Option<Interval> {
     let n = values.len();
     if n < 2 {
         return None;

@@ -1,0 +1,194 @@
+//! `bw4t eval` through the real binary: the committed reference rows of the easiest tier
+//! reproduce from their seeds, an agent program is scored like a built-in, outcomes played
+//! elsewhere score the same, and bad input is named.
+
+use std::path::{Path, PathBuf};
+use std::process::Output;
+use std::time::Duration;
+
+use serde_json::Value;
+
+const LIMIT: Duration = Duration::from_secs(300);
+
+fn bw4t(args: &[&str]) -> Output {
+    crate::util::bw4t_within(args, LIMIT)
+}
+
+fn temp(tag: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("bw4t-eval-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// The row a successful evaluation printed, checked against the one it wrote.
+fn row_of(out: &Output, dir: &Path) -> Value {
+    assert!(out.status.success(), "{}", stderr(out));
+    let printed: Value = serde_json::from_slice(&out.stdout).expect("one JSON row on stdout");
+    let written: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("row.json")).expect("row.json"))
+            .expect("JSON");
+    assert_eq!(printed, written);
+    printed
+}
+
+/// A row without what legitimately differs between builds: the version.
+fn comparable(mut row: Value) -> Value {
+    row.as_object_mut().expect("an object").remove("bw4t_version");
+    row
+}
+
+#[test]
+fn the_reference_rows_of_the_easiest_tier_reproduce_from_their_seeds() {
+    let text = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("eval/reference.jsonl"))
+        .expect("eval/reference.jsonl");
+    let rows: Vec<Value> = text.lines().map(|l| serde_json::from_str(l).expect("a row")).collect();
+    let solo: Vec<&Value> = rows.iter().filter(|r| r["tier"] == "solo").collect();
+    assert_eq!(solo.len(), 10, "five agents on two splits");
+    for (i, committed) in solo.into_iter().enumerate() {
+        let (agent, split) =
+            (committed["agent"]["command"].as_str().unwrap(), committed["split"].as_str().unwrap());
+        let dir = temp(&format!("reference-{i}"));
+        let out = bw4t(&["eval", "solo", "--agent", agent, "--split", split, "--out", dir.to_str().unwrap()]);
+        let row = row_of(&out, &dir);
+        assert_eq!(comparable(row), comparable(committed.clone()), "{agent} on solo {split}");
+        let _ = std::fs::remove_dir_all(dir);
+    }
+}
+
+#[test]
+fn an_agent_program_is_scored_against_the_built_in_team_and_outcomes_score_alike() {
+    let dir = temp("program");
+    let out = bw4t(&[
+        "eval",
+        "solo",
+        "--agent",
+        "python3 tests/agents/tiny_agent.py",
+        "--name",
+        "tiny",
+        "--model",
+        "none",
+        "--out",
+        dir.to_str().unwrap(),
+        "--leaderboard",
+        dir.join("board.jsonl").to_str().unwrap(),
+    ]);
+    let row = row_of(&out, &dir);
+    assert_eq!(
+        (row["tier"].as_str(), row["split"].as_str(), row["matches"].as_u64()),
+        (Some("solo"), Some("dev"), Some(10))
+    );
+    assert_eq!(row["agent"]["name"], "tiny");
+    assert_eq!(row["agent"]["model"], "none");
+    assert_eq!(row["crashed_matches"], 0, "{}", stderr(&out));
+    assert!(row["completion"].as_f64().unwrap() > 0.0, "the tiny agent completes: {row}");
+    assert!(row["score"].as_f64().unwrap() > 0.0);
+    assert_eq!(row["digest"].as_str().map(str::len), Some(64));
+    let board = std::fs::read_to_string(dir.join("board.jsonl")).expect("the leaderboard");
+    assert_eq!(serde_json::from_str::<Value>(board.trim()).expect("a row"), row);
+
+    // The same matches as outcomes (what a Python evaluation writes) score the same.
+    let rows = std::fs::read_to_string(dir.join("agent/matches.jsonl")).expect("the agent's rows");
+    let outcomes: Vec<String> = rows
+        .lines()
+        .map(|line| {
+            let r: Value = serde_json::from_str(line).unwrap();
+            let ticks = if r["completed"] == true { r["completed_tick"].clone() } else { r["ticks"].clone() };
+            serde_json::json!({"key": r["key"], "completed": r["completed"], "ticks": ticks, "digest": r["digest"]})
+                .to_string()
+        })
+        .collect();
+    let file = dir.join("outcomes.jsonl");
+    std::fs::write(&file, outcomes.join("\n")).unwrap();
+    let scored = dir.join("scored");
+    let again = bw4t(&[
+        "eval",
+        "score",
+        "solo",
+        "--outcomes",
+        file.to_str().unwrap(),
+        "--agent",
+        "python3 tests/agents/tiny_agent.py",
+        "--name",
+        "tiny",
+        "--model",
+        "none",
+        "--out",
+        scored.to_str().unwrap(),
+    ]);
+    assert_eq!(row_of(&again, &scored), row);
+
+    // One outcome short: the missing match is named.
+    std::fs::write(&file, outcomes[1..].join("\n")).unwrap();
+    let short = bw4t(&[
+        "eval",
+        "score",
+        "solo",
+        "--outcomes",
+        file.to_str().unwrap(),
+        "--agent",
+        "x",
+        "--out",
+        scored.to_str().unwrap(),
+    ]);
+    assert_eq!(short.status.code(), Some(1));
+    let first_key: Value = serde_json::from_str(&outcomes[0]).unwrap();
+    assert!(stderr(&short).contains(first_key["key"].as_str().unwrap()), "{}", stderr(&short));
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn an_agent_that_never_plays_exits_4_and_bad_input_is_named() {
+    let dir = temp("crash");
+    let out = bw4t(&[
+        "eval",
+        "solo",
+        "--agent",
+        "false",
+        "--connect-timeout-s",
+        "2",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(4), "{}", stderr(&out));
+    assert!(stderr(&out).contains("played in none of its matches"), "{}", stderr(&out));
+    let row: Value = serde_json::from_slice(&out.stdout).expect("the row is still written");
+    assert_eq!((row["crashed_matches"].as_u64(), row["score"].as_f64()), (Some(10), Some(0.0)));
+
+    for (args, says) in [
+        (vec!["eval", "nope", "--agent", "builtin"], "unknown tier 'nope'"),
+        (vec!["eval", "silent", "--agent", "builtin:coop"], "allows no messages"),
+        (vec!["eval", "solo", "--agent", "biultin:coop"], "misspelt"),
+        (vec!["eval", "solo"], "--agent is required"),
+    ] {
+        let out = bw4t(&args);
+        assert_eq!(out.status.code(), Some(1), "{args:?}");
+        assert!(stderr(&out).contains(says), "{args:?}: {}", stderr(&out));
+    }
+    let out = bw4t(&["eval", "solo", "--agent", "builtin", "--split", "train"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(stderr(&out).contains("unknown split 'train'"), "{}", stderr(&out));
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn tasks_list_every_match_with_its_seats_and_tick_limit() {
+    let out = bw4t(&["eval", "tasks", "adhoc", "--split", "test", "--repetitions", "2"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let tasks: Vec<Value> =
+        String::from_utf8_lossy(&out.stdout).lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    // Two maps, ten held-out seeds, three teammate mixes, two repetitions.
+    assert_eq!(tasks.len(), 2 * 10 * 3 * 2);
+    assert!(tasks.iter().all(|t| t["seats"][0] == "agent" && t["seats"].as_array().unwrap().len() == 3));
+    assert!(tasks.iter().any(|t| t["seats"][1] == "builtin:ignoring"), "held-out teammates");
+    assert!(tasks.iter().all(|t| t["max_ticks"].as_u64().unwrap() >= 20_000 && t["messages"] == true));
+    let dev = bw4t(&["eval", "tasks", "adhoc"]);
+    let dev_seeds: Vec<u64> = String::from_utf8_lossy(&dev.stdout)
+        .lines()
+        .map(|l| serde_json::from_str::<Value>(l).unwrap()["seed"].as_u64().unwrap())
+        .collect();
+    assert!(tasks.iter().all(|t| !dev_seeds.contains(&t["seed"].as_u64().unwrap())), "held-out seeds");
+}
