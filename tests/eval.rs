@@ -49,10 +49,21 @@ fn the_reference_rows_of_the_easiest_tier_reproduce_from_their_seeds() {
     let solo: Vec<&Value> = rows.iter().filter(|r| r["tier"] == "solo").collect();
     assert_eq!(solo.len(), 10, "five agents on two splits");
     for (i, committed) in solo.into_iter().enumerate() {
-        let (agent, split) =
-            (committed["agent"]["command"].as_str().unwrap(), committed["split"].as_str().unwrap());
+        let (agent, split) = (
+            committed["agent"]["command"].as_str().expect("present"),
+            committed["split"].as_str().expect("present"),
+        );
         let dir = temp(&format!("reference-{i}"));
-        let out = bw4t(&["eval", "solo", "--agent", agent, "--split", split, "--out", dir.to_str().unwrap()]);
+        let out = bw4t(&[
+            "eval",
+            "solo",
+            "--agent",
+            agent,
+            "--split",
+            split,
+            "--out",
+            dir.to_str().expect("present"),
+        ]);
         let row = row_of(&out, &dir);
         assert_eq!(comparable(row), comparable(committed.clone()), "{agent} on solo {split}");
         let _ = std::fs::remove_dir_all(dir);
@@ -72,9 +83,9 @@ fn an_agent_program_is_scored_against_the_built_in_team_and_outcomes_score_alike
         "--model",
         "none",
         "--out",
-        dir.to_str().unwrap(),
+        dir.to_str().expect("present"),
         "--leaderboard",
-        dir.join("board.jsonl").to_str().unwrap(),
+        dir.join("board.jsonl").to_str().expect("present"),
     ]);
     let row = row_of(&out, &dir);
     assert_eq!(
@@ -84,8 +95,8 @@ fn an_agent_program_is_scored_against_the_built_in_team_and_outcomes_score_alike
     assert_eq!(row["agent"]["name"], "tiny");
     assert_eq!(row["agent"]["model"], "none");
     assert_eq!(row["crashed_matches"], 0, "{}", stderr(&out));
-    assert!(row["completion"].as_f64().unwrap() > 0.0, "the tiny agent completes: {row}");
-    assert!(row["score"].as_f64().unwrap() > 0.0);
+    assert!(row["completion"].as_f64().expect("present") > 0.0, "the tiny agent completes: {row}");
+    assert!(row["score"].as_f64().expect("present") > 0.0);
     assert_eq!(row["digest"].as_str().map(str::len), Some(64));
     let board = std::fs::read_to_string(dir.join("board.jsonl")).expect("the leaderboard");
     assert_eq!(serde_json::from_str::<Value>(board.trim()).expect("a row"), row);
@@ -95,21 +106,21 @@ fn an_agent_program_is_scored_against_the_built_in_team_and_outcomes_score_alike
     let outcomes: Vec<String> = rows
         .lines()
         .map(|line| {
-            let r: Value = serde_json::from_str(line).unwrap();
+            let r: Value = serde_json::from_str(line).expect("present");
             let ticks = if r["completed"] == true { r["completed_tick"].clone() } else { r["ticks"].clone() };
             serde_json::json!({"key": r["key"], "completed": r["completed"], "ticks": ticks, "digest": r["digest"]})
                 .to_string()
         })
         .collect();
     let file = dir.join("outcomes.jsonl");
-    std::fs::write(&file, outcomes.join("\n")).unwrap();
+    std::fs::write(&file, outcomes.join("\n")).expect("present");
     let scored = dir.join("scored");
     let again = bw4t(&[
         "eval",
         "score",
         "solo",
         "--outcomes",
-        file.to_str().unwrap(),
+        file.to_str().expect("present"),
         "--agent",
         "python3 tests/agents/tiny_agent.py",
         "--name",
@@ -117,26 +128,26 @@ fn an_agent_program_is_scored_against_the_built_in_team_and_outcomes_score_alike
         "--model",
         "none",
         "--out",
-        scored.to_str().unwrap(),
+        scored.to_str().expect("present"),
     ]);
     assert_eq!(row_of(&again, &scored), row);
 
     // One outcome short: the missing match is named.
-    std::fs::write(&file, outcomes[1..].join("\n")).unwrap();
+    std::fs::write(&file, outcomes[1..].join("\n")).expect("present");
     let short = bw4t(&[
         "eval",
         "score",
         "solo",
         "--outcomes",
-        file.to_str().unwrap(),
+        file.to_str().expect("present"),
         "--agent",
         "x",
         "--out",
-        scored.to_str().unwrap(),
+        scored.to_str().expect("present"),
     ]);
     assert_eq!(short.status.code(), Some(1));
-    let first_key: Value = serde_json::from_str(&outcomes[0]).unwrap();
-    assert!(stderr(&short).contains(first_key["key"].as_str().unwrap()), "{}", stderr(&short));
+    let first_key: Value = serde_json::from_str(&outcomes[0]).expect("present");
+    assert!(stderr(&short).contains(first_key["key"].as_str().expect("present")), "{}", stderr(&short));
     let _ = std::fs::remove_dir_all(dir);
 }
 
@@ -151,7 +162,7 @@ fn an_agent_that_never_plays_exits_4_and_bad_input_is_named() {
         "--connect-timeout-s",
         "2",
         "--out",
-        dir.to_str().unwrap(),
+        dir.to_str().expect("present"),
     ]);
     assert_eq!(out.status.code(), Some(4), "{}", stderr(&out));
     assert!(stderr(&out).contains("played in none of its matches"), "{}", stderr(&out));
@@ -178,17 +189,26 @@ fn an_agent_that_never_plays_exits_4_and_bad_input_is_named() {
 fn tasks_list_every_match_with_its_seats_and_tick_limit() {
     let out = bw4t(&["eval", "tasks", "adhoc", "--split", "test", "--repetitions", "2"]);
     assert!(out.status.success(), "{}", stderr(&out));
-    let tasks: Vec<Value> =
-        String::from_utf8_lossy(&out.stdout).lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    let tasks: Vec<Value> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("present"))
+        .collect();
     // Two maps, ten held-out seeds, three teammate mixes, two repetitions.
     assert_eq!(tasks.len(), 2 * 10 * 3 * 2);
-    assert!(tasks.iter().all(|t| t["seats"][0] == "agent" && t["seats"].as_array().unwrap().len() == 3));
+    assert!(
+        tasks.iter().all(|t| t["seats"][0] == "agent" && t["seats"].as_array().expect("present").len() == 3)
+    );
     assert!(tasks.iter().any(|t| t["seats"][1] == "builtin:ignoring"), "held-out teammates");
-    assert!(tasks.iter().all(|t| t["max_ticks"].as_u64().unwrap() >= 20_000 && t["messages"] == true));
+    assert!(
+        tasks.iter().all(|t| t["max_ticks"].as_u64().expect("present") >= 20_000 && t["messages"] == true)
+    );
     let dev = bw4t(&["eval", "tasks", "adhoc"]);
     let dev_seeds: Vec<u64> = String::from_utf8_lossy(&dev.stdout)
         .lines()
-        .map(|l| serde_json::from_str::<Value>(l).unwrap()["seed"].as_u64().unwrap())
+        .map(|l| serde_json::from_str::<Value>(l).expect("present")["seed"].as_u64().expect("present"))
         .collect();
-    assert!(tasks.iter().all(|t| !dev_seeds.contains(&t["seed"].as_u64().unwrap())), "held-out seeds");
+    assert!(
+        tasks.iter().all(|t| !dev_seeds.contains(&t["seed"].as_u64().expect("present"))),
+        "held-out seeds"
+    );
 }

@@ -121,7 +121,7 @@ enum EvalCommand {
         #[command(flatten)]
         split: SplitArgs,
         #[command(flatten)]
-        meta: MetaArgs,
+        meta: Box<MetaArgs>,
     },
 }
 

@@ -307,11 +307,11 @@ mod tests {
 
     #[test]
     fn talking_strategies_are_refused_where_messages_are_off() {
-        let silent = tier("silent").unwrap();
-        assert!(silent.admits("builtin:coop").unwrap_err().contains("allows no messages"));
+        let silent = tier("silent").expect("as made");
+        assert!(silent.admits("builtin:coop").expect_err("refused").contains("allows no messages"));
         assert!(silent.admits("builtin:baseline").is_ok());
         assert!(silent.admits("python agent.py").is_ok());
         assert_eq!(silent.reference_entry(), "builtin:silent");
-        assert!(tier("nope").unwrap_err().contains("solo, pair, team, silent, adhoc, crowd"));
+        assert!(tier("nope").expect_err("refused").contains("solo, pair, team, silent, adhoc, crowd"));
     }
 }

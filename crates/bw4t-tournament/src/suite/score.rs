@@ -220,13 +220,14 @@ mod tests {
 
     #[test]
     fn the_reference_scores_one_and_half_speed_scores_a_half() {
-        let solo = tier("solo").unwrap();
+        let solo = tier("solo").expect("as made");
         let reference = outcomes(solo, 1, |_, _| Some(1000));
-        let same = score(solo, Split::Dev, 1, AgentInfo::default(), "v", &reference, &reference).unwrap();
+        let same =
+            score(solo, Split::Dev, 1, AgentInfo::default(), "v", &reference, &reference).expect("as made");
         assert_eq!((same.score, same.completion, same.pass_k.clone()), (1.0, 1.0, vec![1.0]));
         assert_eq!(same.usage.tool_calls, 3 * u64::from(same.matches));
         let slow = outcomes(solo, 1, |_, _| Some(2000));
-        let half = score(solo, Split::Dev, 1, AgentInfo::default(), "v", &slow, &reference).unwrap();
+        let half = score(solo, Split::Dev, 1, AgentInfo::default(), "v", &slow, &reference).expect("as made");
         assert_eq!(half.score, 0.5);
         assert_eq!(half.mean_ticks, Some(2000.0));
         assert_eq!(half.reference_mean_ticks, 1000.0);
@@ -235,11 +236,11 @@ mod tests {
 
     #[test]
     fn pass_k_counts_tasks_every_repetition_completes() {
-        let solo = tier("solo").unwrap();
+        let solo = tier("solo").expect("as made");
         let reference = outcomes(solo, 1, |_, _| Some(1000));
         // Every task: repetition 0 completes, repetition 1 does not: pass^1 = 1/2, pass^2 = 0.
         let flaky = outcomes(solo, 2, |_, rep| (rep == 0).then_some(1000));
-        let row = score(solo, Split::Dev, 2, AgentInfo::default(), "v", &flaky, &reference).unwrap();
+        let row = score(solo, Split::Dev, 2, AgentInfo::default(), "v", &flaky, &reference).expect("as made");
         assert_eq!(row.pass_k, vec![0.5, 0.0]);
         assert_eq!(row.score, 0.5);
         let [lo, hi] = row.completion_interval;
@@ -248,13 +249,15 @@ mod tests {
 
     #[test]
     fn missing_and_stray_matches_are_named() {
-        let solo = tier("solo").unwrap();
+        let solo = tier("solo").expect("as made");
         let reference = outcomes(solo, 1, |_, _| Some(1000));
         let mut partial = reference.clone();
-        let gone = partial.pop().unwrap();
-        let err = score(solo, Split::Dev, 1, AgentInfo::default(), "v", &partial, &reference).unwrap_err();
+        let gone = partial.pop().expect("as made");
+        let err =
+            score(solo, Split::Dev, 1, AgentInfo::default(), "v", &partial, &reference).expect_err("refused");
         assert_eq!(err, ScoreError::Missing { whose: "the agent's", key: gone.key.clone(), more: 0 });
-        let err = score(solo, Split::Dev, 1, AgentInfo::default(), "v", &reference, &partial).unwrap_err();
+        let err =
+            score(solo, Split::Dev, 1, AgentInfo::default(), "v", &reference, &partial).expect_err("refused");
         assert!(matches!(err, ScoreError::Missing { whose: "the built-in team's", .. }), "{err}");
         let mut stray = reference.clone();
         stray[0].key = "solo1/default/1/0".into();
