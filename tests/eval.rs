@@ -212,3 +212,37 @@ fn tasks_list_every_match_with_its_seats_and_tick_limit() {
         "held-out seeds"
     );
 }
+
+#[test]
+fn the_guide_shows_the_tiers_and_reference_rows_as_they_are() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let guide = std::fs::read_to_string(root.join("docs/EVAL.md")).expect("docs/EVAL.md");
+    let tiers = bw4t(&["eval", "tiers"]);
+    assert!(tiers.status.success());
+    let table = String::from_utf8_lossy(&tiers.stdout);
+    assert!(guide.contains(table.trim()), "docs/EVAL.md lacks the output of `bw4t eval tiers`:\n{table}");
+    let rows = std::fs::read_to_string(root.join("eval/reference.jsonl")).expect("reference rows");
+    let mut shown = 0;
+    for line in rows.lines() {
+        let r: Value = serde_json::from_str(line).expect("a row");
+        let number = |v: &Value, places: usize| v.as_f64().map_or("-".into(), |x| format!("{x:.places$}"));
+        let interval = match r["score_interval"].as_array() {
+            Some(i) => format!("{}-{}", number(&i[0], 3), number(&i[1], 3)),
+            None => "-".into(),
+        };
+        let expected = format!(
+            "| {} | {} | {} | {} | {interval} | {} | {} | {} |",
+            r["tier"].as_str().expect("tier"),
+            r["split"].as_str().expect("split"),
+            r["agent"]["name"].as_str().expect("name"),
+            number(&r["score"], 3),
+            number(&r["completion"], 2),
+            number(&r["mean_ticks"], 0),
+            number(&r["reference_mean_ticks"], 0),
+        );
+        assert!(guide.contains(&expected), "docs/EVAL.md lacks the row {expected}");
+        shown += 1;
+    }
+    let table_rows = guide.lines().filter(|l| l.starts_with("| ") && l.contains(" | builtin:")).count();
+    assert_eq!(table_rows, shown, "the guide's reference table has rows the file does not");
+}
