@@ -174,7 +174,13 @@ impl Env {
     /// Resets on `seed` and steps with `played` (a whole number of steps of action
     /// indices, as [`Env::episode`] gives them): the same episode, bit for bit, as the
     /// one that was played. Writes the last observations and masks.
-    pub fn replay(&mut self, seed: u64, played: &[u32], obs: &mut [f32], masks: &mut [u8]) -> Result<(), EnvError> {
+    pub fn replay(
+        &mut self,
+        seed: u64,
+        played: &[u32],
+        obs: &mut [f32],
+        masks: &mut [u8],
+    ) -> Result<(), EnvError> {
         let agents = self.agents();
         if played.len() % agents != 0 {
             return Err(EnvError::Config("a replay's actions must be one per learner for each step"));

@@ -105,7 +105,11 @@ const fn row(name: &'static str, size: StateSize, meaning: &'static str) -> Stat
 
 /// The global state, segment after segment.
 pub const STATE_SEGMENTS: &[StateRow] = &[
-    row("robot_position", StateSize::PerRobot(2), "per robot: its centre's x and y over the map's width and height"),
+    row(
+        "robot_position",
+        StateSize::PerRobot(2),
+        "per robot: its centre's x and y over the map's width and height",
+    ),
     row("robot_room", StateSize::RobotRooms, "per robot: one-hot, the room it is in (last: none)"),
     row("robot_state", StateSize::PerRobot(3), "per robot: one-hot, arrived, traveling, collided"),
     row("robot_holding", StateSize::RobotColours, "per robot: the held block's colour one-hot (zeros: none)"),
@@ -116,7 +120,11 @@ pub const STATE_SEGMENTS: &[StateRow] = &[
         counts: true,
     },
     row("sequence", StateSize::SequenceColours, "per position: the goal colour one-hot"),
-    row("sequence_index", StateSize::SequencePlusOne, "one-hot: the index of the next colour needed (L: complete)"),
+    row(
+        "sequence_index",
+        StateSize::SequencePlusOne,
+        "one-hot: the index of the next colour needed (L: complete)",
+    ),
     row("delivered", StateSize::Sequence, "1 for each position already delivered"),
     row("time", StateSize::Fixed(1), "the tick over the tick limit"),
 ];

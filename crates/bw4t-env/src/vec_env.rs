@@ -182,7 +182,8 @@ impl VecEnv {
     /// [`VecEnv::reset`] first.
     pub fn new(config: EnvConfig, n: usize, seed: u64, threads: usize) -> Result<VecEnv, EnvError> {
         let first = Env::new(config)?;
-        let (config, codec, state) = (first.config().clone(), first.codec().clone(), first.state_space().clone());
+        let (config, codec, state) =
+            (first.config().clone(), first.codec().clone(), first.state_space().clone());
         let agents = first.agents();
         let mut envs = vec![first];
         for _ in 1..n {
@@ -283,15 +284,31 @@ impl VecEnv {
     pub fn snapshot(&self, i: usize) -> Option<SlotState> {
         let slot = &self.slots[i];
         let (seed, played) = slot.env.episode()?;
-        Some(SlotState { stream: slot.seeds.position(), episodes: slot.episodes, seed, played: played.to_vec() })
+        Some(SlotState {
+            stream: slot.seeds.position(),
+            episodes: slot.episodes,
+            seed,
+            played: played.to_vec(),
+        })
     }
 
     /// Puts environment `i` where `state` says, playing its episode again; writes its rows
     /// of `obs` and `masks` (those of the whole vector).
-    pub fn restore(&mut self, i: usize, state: &SlotState, obs: &mut [f32], masks: &mut [u8]) -> Result<(), EnvError> {
+    pub fn restore(
+        &mut self,
+        i: usize,
+        state: &SlotState,
+        obs: &mut [f32],
+        masks: &mut [u8],
+    ) -> Result<(), EnvError> {
         let (o, m) = (self.agents * self.obs_len, self.agents * self.n_actions);
         let slot = &mut self.slots[i];
-        slot.env.replay(state.seed, &state.played, &mut obs[i * o..(i + 1) * o], &mut masks[i * m..(i + 1) * m])?;
+        slot.env.replay(
+            state.seed,
+            &state.played,
+            &mut obs[i * o..(i + 1) * o],
+            &mut masks[i * m..(i + 1) * m],
+        )?;
         slot.seeds = SeedStream::resumed(state.stream.0, state.stream.1);
         slot.episodes = state.episodes;
         slot.last = None;
