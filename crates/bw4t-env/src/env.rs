@@ -182,7 +182,7 @@ impl Env {
         masks: &mut [u8],
     ) -> Result<(), EnvError> {
         let agents = self.agents();
-        if played.len() % agents != 0 {
+        if !played.len().is_multiple_of(agents) {
             return Err(EnvError::Config("a replay's actions must be one per learner for each step"));
         }
         self.reset(seed, obs, masks)?;

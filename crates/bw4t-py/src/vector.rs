@@ -39,6 +39,10 @@ impl VecEnv {
     }
 }
 
+/// A match's snapshot as Python gets it: `(stream_origin, stream_drawn, episodes, seed,
+/// played)`.
+type Snapshot<'py> = (u64, u64, u64, u64, Bound<'py, PyArray1<u32>>);
+
 fn rows(vec: &bw4t_env::VecEnv) -> usize {
     vec.len() * vec.agents()
 }
@@ -118,11 +122,7 @@ impl VecEnv {
 
     /// Environment `i` where it stands: `(stream_origin, stream_drawn, episodes, seed,
     /// played)`, which `restore` takes back.
-    fn snapshot<'py>(
-        &self,
-        py: Python<'py>,
-        i: usize,
-    ) -> PyResult<(u64, u64, u64, u64, Bound<'py, PyArray1<u32>>)> {
+    fn snapshot<'py>(&self, py: Python<'py>, i: usize) -> PyResult<Snapshot<'py>> {
         self.with_env(i, |_| ())?;
         let state = self.vec()?.snapshot(i).ok_or_else(|| {
             PyValueError::new_err(format!(

@@ -30,7 +30,7 @@ fn a_replayed_episode_is_the_same_episode_and_goes_on_alike() {
 
     let mut twin = Env::new(config).expect("env");
     let mut tb = Buffers::for_env(&twin);
-    twin.replay(seed, &played.to_vec(), &mut tb.obs, &mut tb.masks).expect("replay");
+    twin.replay(seed, played, &mut tb.obs, &mut tb.masks).expect("replay");
     assert_eq!((twin.digest(), &tb.obs, &tb.masks), (env.digest(), &b.obs, &b.masks));
     let mut twin_rng = rng.clone();
     random_steps(&mut env, &mut b, &mut rng, 30);
