@@ -12,6 +12,7 @@ use crate::config::{EnvConfig, RewardMode};
 use crate::encode::Codec;
 use crate::seen::Seen;
 use crate::spaces::{Dims, Spaces};
+use crate::state::StateSpace;
 
 /// Why an environment could not be made or reset.
 #[derive(Debug, thiserror::Error)]
@@ -89,6 +90,16 @@ pub struct Env {
     /// The masks last written, learner after learner.
     masks: Vec<u8>,
     intents: Vec<Intent<u64>>,
+    /// The global state's layout (for centralised critics).
+    state: Arc<StateSpace>,
+    /// The seed this episode was reset on.
+    seed: u64,
+    /// Every step's action indices since the reset, learner after learner: with `seed`,
+    /// enough to play the episode again ([`Env::replay`]).
+    played: Vec<u32>,
+    /// Whether `played` tells the whole episode (not when a step took the match's own
+    /// actions, [`Env::step_actions`]).
+    replayable: bool,
 }
 
 impl Env {
@@ -96,11 +107,16 @@ impl Env {
     pub fn new(config: EnvConfig) -> Result<Env, EnvError> {
         let spaces = Spaces::new(Dims::of(&config.setup.map, config.slots));
         let codec = Codec::new(spaces, &config.setup.map);
-        Env::shared(Arc::new(config), Arc::new(codec))
+        let state = StateSpace::new(&config.setup.map, config.setup.seats.len());
+        Env::shared(Arc::new(config), Arc::new(codec), Arc::new(state))
     }
 
-    /// An environment sharing its config and codec with others.
-    pub(crate) fn shared(config: Arc<EnvConfig>, codec: Arc<Codec>) -> Result<Env, EnvError> {
+    /// An environment sharing its config, codec and state layout with others.
+    pub(crate) fn shared(
+        config: Arc<EnvConfig>,
+        codec: Arc<Codec>,
+        state: Arc<StateSpace>,
+    ) -> Result<Env, EnvError> {
         if config.ticks_per_step == 0 {
             return Err(EnvError::Config("ticks_per_step must be at least 1"));
         }
@@ -124,6 +140,10 @@ impl Env {
             learners: Vec::new(),
             masks,
             intents: Vec::new(),
+            state,
+            seed: 0,
+            played: Vec::new(),
+            replayable: true,
         };
         env.start(0)?;
         Ok(env)
@@ -131,6 +151,46 @@ impl Env {
 
     pub(crate) fn codec(&self) -> &Arc<Codec> {
         &self.codec
+    }
+
+    /// The global state's layout.
+    pub fn state_space(&self) -> &Arc<StateSpace> {
+        &self.state
+    }
+
+    /// Writes the global state now (the whole world, for a centralised critic) into `out`
+    /// (of [`StateSpace::len`]).
+    pub fn write_state(&self, out: &mut [f32]) {
+        self.state.write(&self.game, self.max_ticks, out);
+    }
+
+    /// The seed this episode was reset on and every step's action indices since (learner
+    /// after learner), which [`Env::replay`] plays again; `None` when a step took the
+    /// match's own actions ([`Env::step_actions`]), which indices cannot tell.
+    pub fn episode(&self) -> Option<(u64, &[u32])> {
+        self.replayable.then_some((self.seed, self.played.as_slice()))
+    }
+
+    /// Resets on `seed` and steps with `played` (a whole number of steps of action
+    /// indices, as [`Env::episode`] gives them): the same episode, bit for bit, as the
+    /// one that was played. Writes the last observations and masks.
+    pub fn replay(
+        &mut self,
+        seed: u64,
+        played: &[u32],
+        obs: &mut [f32],
+        masks: &mut [u8],
+    ) -> Result<(), EnvError> {
+        let agents = self.agents();
+        if !played.len().is_multiple_of(agents) {
+            return Err(EnvError::Config("a replay's actions must be one per learner for each step"));
+        }
+        self.reset(seed, obs, masks)?;
+        let mut rewards = vec![0.0; agents];
+        for actions in played.chunks(agents) {
+            self.step(actions, obs, masks, &mut rewards);
+        }
+        Ok(())
     }
 
     /// The configuration.
@@ -157,6 +217,9 @@ impl Env {
     }
 
     fn start(&mut self, seed: u64) -> Result<(), EnvError> {
+        self.seed = seed;
+        self.played.clear();
+        self.replayable = true;
         let config = &self.config;
         let mut game = Match::new(&config.setup.map, &config.setup.game, seed)?;
         let (mut drivers, mut learners) = (Vec::new(), Vec::new());
@@ -206,6 +269,7 @@ impl Env {
     ) -> StepEnd {
         let n_actions = self.spaces().n_actions();
         assert_eq!(actions.len(), self.learners.len(), "one action per learner");
+        self.played.extend_from_slice(actions);
         for (i, learner) in self.learners.iter_mut().enumerate() {
             let action = actions[i] as usize;
             let allowed = action < n_actions && self.masks[i * n_actions + action] == 1;
@@ -229,6 +293,7 @@ impl Env {
     /// Writes the rewards; [`Env::delta`] has each learner's new percepts.
     pub fn step_actions(&mut self, actions: Vec<Option<Action>>, rewards: &mut [f32]) -> StepEnd {
         assert_eq!(actions.len(), self.learners.len(), "one action per learner");
+        self.replayable = false;
         for (learner, action) in self.learners.iter_mut().zip(actions) {
             learner.outcome = if action.is_some() { ActionOutcome::Dropped } else { ActionOutcome::Waited };
             learner.pending = action;

@@ -85,6 +85,34 @@
 //! (the one exception: `putDown` in a room so full of blocks that no spot is free is
 //! refused with `no_space`).
 //!
+//! # Global state
+//!
+//! For centralised critics, [`Env::write_state`] writes the whole world's facts (not one
+//! robot's view) as one `f32` vector, through these segments in order
+//! ([`STATE_SEGMENTS`], [`StateSpace::layout`]); `N` is the number of robots (every seat,
+//! learners and built-in teammates, in robot-id order). `room_blocks` holds counts; every
+//! other value is 0/1 or in `[0, 1]`:
+//!
+//! | state segment | size | holds |
+//! |---|---|---|
+//! | `robot_position` | N*2 | per robot: its centre's x and y over the map's width and height |
+//! | `robot_room` | N*(R+1) | per robot: one-hot, the room it is in (last: none) |
+//! | `robot_state` | N*3 | per robot: one-hot, arrived, traveling, collided |
+//! | `robot_holding` | N*C | per robot: the held block's colour one-hot (zeros: none) |
+//! | `room_blocks` | R*C | per room: count of the blocks of each colour lying in it |
+//! | `sequence` | L*C | per position: the goal colour one-hot |
+//! | `sequence_index` | L+1 | one-hot: the index of the next colour needed (L: complete) |
+//! | `delivered` | L | 1 for each position already delivered |
+//! | `time` | 1 | the tick over the tick limit |
+//!
+//! # Copying an episode
+//!
+//! [`Env::episode`] is the episode's seed and every action index played since its reset;
+//! [`Env::replay`] plays them again into another environment of the same config, which is
+//! then the same match bit for bit (how the Python environments are pickled).
+//! [`VecEnv::snapshot`] and [`VecEnv::restore`] do the same for a vector's matches, with
+//! their seed streams.
+//!
 //! # Rewards, termination, truncation
 //!
 //! Per step and learner ([`Rewards`], default in brackets): `delivery` (+1) per block
@@ -117,6 +145,7 @@ mod env;
 mod render;
 mod seen;
 mod spaces;
+mod state;
 #[cfg(test)]
 mod tests;
 mod vec_env;
@@ -126,4 +155,5 @@ pub use config::{DEFAULT_MAX_TICKS, DEFAULT_SLOTS, DEFAULT_TICKS_PER_STEP, EnvCo
 pub use env::{ActionOutcome, Env, EnvError, StepEnd};
 pub use render::Rgb;
 pub use spaces::{ACTION_SEGMENTS, Dims, OBS_SEGMENTS, Segment, SegmentRow, Size, Spaces};
-pub use vec_env::{SeedStream, StepBuffers, VecBuffers, VecEnv};
+pub use state::{STATE_SEGMENTS, StateDims, StateRow, StateSize, StateSpace};
+pub use vec_env::{EpisodeEnd, SeedStream, SlotState, StepBuffers, VecBuffers, VecEnv};

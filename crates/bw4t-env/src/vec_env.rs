@@ -14,25 +14,85 @@ use crate::spaces::Spaces;
 /// from `base` mixed with the environment's index, so they do not depend on the order in
 /// which other environments end, nor on the number of threads.
 #[derive(Clone, Debug)]
-pub struct SeedStream(SeededRng);
+pub struct SeedStream {
+    rng: SeededRng,
+    /// The generator's seed and how many seeds were drawn: the stream's whole state.
+    origin: u64,
+    drawn: u64,
+}
 
 impl SeedStream {
     /// The stream of environment `index` of a vector seeded with `base`.
     pub fn new(base: u64, index: usize) -> SeedStream {
         let mut mix = SeededRng::new(base ^ (index as u64).wrapping_mul(0xD1B5_4A32_D192_ED03));
-        SeedStream(SeededRng::new(mix.next_u64()))
+        SeedStream::resumed(mix.next_u64(), 0)
+    }
+
+    /// The stream whose generator was seeded with `origin` after `drawn` seeds (see
+    /// [`SeedStream::position`]).
+    pub fn resumed(origin: u64, drawn: u64) -> SeedStream {
+        let mut rng = SeededRng::new(origin);
+        for _ in 0..drawn {
+            rng.next_u64();
+        }
+        SeedStream { rng, origin, drawn }
+    }
+
+    /// Where the stream is: its generator's seed and the seeds drawn so far.
+    pub fn position(&self) -> (u64, u64) {
+        (self.origin, self.drawn)
     }
 
     /// The next episode's seed.
     pub fn next_seed(&mut self) -> u64 {
-        self.0.next_u64()
+        self.drawn += 1;
+        self.rng.next_u64()
     }
+}
+
+/// How an environment's last episode ended, kept when it is reset.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct EpisodeEnd {
+    /// Ticks the episode ran.
+    pub ticks: u64,
+    /// The sequence index it reached (colours delivered in order).
+    pub sequence_index: u32,
+    /// The match's digest at its end.
+    pub digest: u64,
+}
+
+impl EpisodeEnd {
+    fn of(env: &Env) -> EpisodeEnd {
+        EpisodeEnd { ticks: env.tick(), sequence_index: env.game().sequence_index(), digest: env.digest() }
+    }
+}
+
+/// One environment of a vector where it stands: what [`VecEnv::snapshot`] gives and
+/// [`VecEnv::restore`] takes back.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SlotState {
+    /// Its seed stream's position ([`SeedStream::position`]).
+    pub stream: (u64, u64),
+    /// Episodes begun.
+    pub episodes: u64,
+    /// The episode's seed ([`Env::episode`]).
+    pub seed: u64,
+    /// The episode's action indices so far.
+    pub played: Vec<u32>,
 }
 
 struct Slot {
     env: Env,
     seeds: SeedStream,
     episodes: u64,
+    last: Option<EpisodeEnd>,
+}
+
+impl Slot {
+    fn start(&mut self, seed: u64, obs: &mut [f32], masks: &mut [u8]) -> Result<(), EnvError> {
+        self.episodes += 1;
+        self.env.reset(seed, obs, masks)
+    }
 }
 
 /// `N` environments of one config, stepped together. Arrays are laid out environment
@@ -122,17 +182,18 @@ impl VecEnv {
     /// [`VecEnv::reset`] first.
     pub fn new(config: EnvConfig, n: usize, seed: u64, threads: usize) -> Result<VecEnv, EnvError> {
         let first = Env::new(config)?;
-        let (config, codec) = (first.config().clone(), first.codec().clone());
+        let (config, codec, state) =
+            (first.config().clone(), first.codec().clone(), first.state_space().clone());
         let agents = first.agents();
         let mut envs = vec![first];
         for _ in 1..n {
-            envs.push(Env::shared(Arc::clone(&config), Arc::clone(&codec))?);
+            envs.push(Env::shared(Arc::clone(&config), Arc::clone(&codec), Arc::clone(&state))?);
         }
         let (obs_len, n_actions) = (codec.spaces().obs_len(), codec.spaces().n_actions());
         let slots = envs
             .into_iter()
             .enumerate()
-            .map(|(i, env)| Slot { env, seeds: SeedStream::new(seed, i), episodes: 0 })
+            .map(|(i, env)| Slot { env, seeds: SeedStream::new(seed, i), episodes: 0, last: None })
             .take(n)
             .collect();
         Ok(VecEnv { slots, codec, threads: threads.max(1), agents, obs_len, n_actions })
@@ -174,9 +235,83 @@ impl VecEnv {
         assert_eq!(obs.len(), self.slots.len() * o, "obs is N x agents x obs_len");
         assert_eq!(masks.len(), self.slots.len() * m, "masks is N x agents x n_actions");
         for ((slot, obs), masks) in self.slots.iter_mut().zip(obs.chunks_mut(o)).zip(masks.chunks_mut(m)) {
-            slot.episodes += 1;
-            slot.env.reset(slot.seeds.next_seed(), obs, masks)?;
+            let seed = slot.seeds.next_seed();
+            slot.start(seed, obs, masks)?;
         }
+        Ok(())
+    }
+
+    /// Resets the environments `which` marks (one flag each), leaving the others' rows of
+    /// `obs` and `masks` as they are. `seeds` (one per environment, or empty): `Some(s)`
+    /// plays match seed `s` now and seeds the environment's stream with `s` for its later
+    /// episodes; `None` takes the stream's next seed.
+    pub fn reset_some(
+        &mut self,
+        which: &[bool],
+        seeds: &[Option<u64>],
+        obs: &mut [f32],
+        masks: &mut [u8],
+    ) -> Result<(), EnvError> {
+        let (o, m) = (self.agents * self.obs_len, self.agents * self.n_actions);
+        assert_eq!(which.len(), self.slots.len(), "one flag per environment");
+        assert!(seeds.is_empty() || seeds.len() == self.slots.len(), "one seed per environment, or none");
+        assert_eq!(obs.len(), self.slots.len() * o, "obs is N x agents x obs_len");
+        assert_eq!(masks.len(), self.slots.len() * m, "masks is N x agents x n_actions");
+        let rows = self.slots.iter_mut().zip(obs.chunks_mut(o)).zip(masks.chunks_mut(m)).enumerate();
+        for (i, ((slot, obs), masks)) in rows {
+            if !which[i] {
+                continue;
+            }
+            let seed = match seeds.get(i).copied().flatten() {
+                Some(seed) => {
+                    slot.seeds = SeedStream::resumed(seed, 0);
+                    seed
+                }
+                None => slot.seeds.next_seed(),
+            };
+            slot.start(seed, obs, masks)?;
+        }
+        Ok(())
+    }
+
+    /// How environment `i`'s last ended episode ended (`None` before any ended).
+    pub fn last_episode(&self, i: usize) -> Option<EpisodeEnd> {
+        self.slots[i].last
+    }
+
+    /// Environment `i` where it stands (`None` when one of its steps took the match's
+    /// own actions, which a vector never does).
+    pub fn snapshot(&self, i: usize) -> Option<SlotState> {
+        let slot = &self.slots[i];
+        let (seed, played) = slot.env.episode()?;
+        Some(SlotState {
+            stream: slot.seeds.position(),
+            episodes: slot.episodes,
+            seed,
+            played: played.to_vec(),
+        })
+    }
+
+    /// Puts environment `i` where `state` says, playing its episode again; writes its rows
+    /// of `obs` and `masks` (those of the whole vector).
+    pub fn restore(
+        &mut self,
+        i: usize,
+        state: &SlotState,
+        obs: &mut [f32],
+        masks: &mut [u8],
+    ) -> Result<(), EnvError> {
+        let (o, m) = (self.agents * self.obs_len, self.agents * self.n_actions);
+        let slot = &mut self.slots[i];
+        slot.env.replay(
+            state.seed,
+            &state.played,
+            &mut obs[i * o..(i + 1) * o],
+            &mut masks[i * m..(i + 1) * m],
+        )?;
+        slot.seeds = SeedStream::resumed(state.stream.0, state.stream.1);
+        slot.episodes = state.episodes;
+        slot.last = None;
         Ok(())
     }
 
@@ -264,8 +399,9 @@ impl Chunk<'_> {
                 if let Some(last) = last {
                     last.copy_from_slice(obs);
                 }
-                slot.episodes += 1;
-                slot.env.reset(slot.seeds.next_seed(), obs, masks)?;
+                slot.last = Some(EpisodeEnd::of(&slot.env));
+                let seed = slot.seeds.next_seed();
+                slot.start(seed, obs, masks)?;
             }
         }
         Ok(())

@@ -143,6 +143,41 @@ impl Env {
         Ok((rewards, end.terminated, end.truncated))
     }
 
+    /// Writes the global state now (the whole world: every robot, every block, the goal)
+    /// into `out` (float32, `state_len` values).
+    fn state(&self, mut out: PyReadwriteArrayDyn<'_, f32>) -> PyResult<()> {
+        let env = self.env()?;
+        let out = writable(&mut out, "out", env.state_space().len(), "state_len")?;
+        env.write_state(out);
+        Ok(())
+    }
+
+    /// The seed this episode was reset on and every step's action indices since (uint32,
+    /// learner after learner), or `None` after a step took the match's own actions.
+    fn episode<'py>(&self, py: Python<'py>) -> PyResult<Option<(u64, Bound<'py, PyArray1<u32>>)>> {
+        let env = self.env()?;
+        Ok(env.episode().map(|(seed, played)| (seed, PyArray1::from_slice(py, played))))
+    }
+
+    /// Resets on `seed` and plays `played` (as `episode()` gives them) again, writing the
+    /// last observations and masks: the same episode, bit for bit.
+    fn replay(
+        &self,
+        py: Python<'_>,
+        seed: u64,
+        played: PyReadonlyArrayDyn<'_, u32>,
+        mut obs: PyReadwriteArrayDyn<'_, f32>,
+        mut masks: PyReadwriteArrayDyn<'_, u8>,
+    ) -> PyResult<()> {
+        let mut env = self.env()?;
+        let (a, o, n) = shapes(&env);
+        let played = played.as_slice().map_err(|e| PyValueError::new_err(format!("played: {e}")))?;
+        let obs = writable(&mut obs, "obs", a * o, "agents x obs_len")?;
+        let masks = writable(&mut masks, "masks", a * n, "agents x n_actions")?;
+        let env = &mut *env;
+        py.detach(|| env.replay(seed, played, obs, masks)).map_err(env_error)
+    }
+
     /// The learners' names (`Agent1`, ...).
     fn agent_names(&self) -> PyResult<Vec<String>> {
         Ok(self.env()?.agent_names().map(str::to_string).collect())

@@ -2,7 +2,7 @@
 //! once and shared by single and vector environments, with the spaces it implies.
 
 use bw4t_agents::{Player, Strategy};
-use bw4t_env::{EnvConfig, RewardMode, Rewards, Segment, Spaces};
+use bw4t_env::{EnvConfig, RewardMode, Rewards, STATE_SEGMENTS, Segment, Spaces, StateSpace};
 use bw4t_map::{Colour, ZoneKind};
 use bw4t_protocol::KINDS;
 use pyo3::exceptions::PyValueError;
@@ -13,6 +13,7 @@ use pyo3::prelude::*;
 pub(crate) struct EnvSpec {
     pub(crate) config: EnvConfig,
     pub(crate) spaces: Spaces,
+    pub(crate) state: StateSpace,
 }
 
 /// A seat named as the Python side names it: `learner`, or a built-in strategy's name.
@@ -96,7 +97,8 @@ impl EnvSpec {
         config.slots = slots;
         config.rewards = Rewards { delivery, wrong_drop, step_cost, mode };
         let spaces = Spaces::new(bw4t_env::Dims::of(&config.setup.map, slots));
-        Ok(EnvSpec { config, spaces })
+        let state = StateSpace::new(&config.setup.map, config.setup.seats.len());
+        Ok(EnvSpec { config, spaces, state })
     }
 
     /// Length of one observation.
@@ -139,6 +141,24 @@ impl EnvSpec {
     #[getter]
     fn obs_layout(&self) -> Vec<(&'static str, usize, usize)> {
         layout(self.spaces.obs_layout())
+    }
+
+    /// Length of the global state (`state()` of the parallel environment).
+    #[getter]
+    fn state_len(&self) -> usize {
+        self.state.len()
+    }
+
+    /// The global state's segments: `(name, offset, length)`.
+    #[getter]
+    fn state_layout(&self) -> Vec<(&'static str, usize, usize)> {
+        layout(self.state.layout())
+    }
+
+    /// The global state's segments whose values are counts (unbounded above).
+    #[getter]
+    fn state_count_segments(&self) -> Vec<&'static str> {
+        STATE_SEGMENTS.iter().filter(|r| r.counts).map(|r| r.name).collect()
     }
 
     /// The action space's segments: `(name, first action, count)`.

@@ -1,8 +1,8 @@
 //! `VecEnv`: N environments of one spec stepped together in Rust, on one or more threads,
 //! without the interpreter, into arrays the caller allocated once; same-step auto-reset.
 
-use bw4t_env::StepBuffers;
-use numpy::{PyReadonlyArrayDyn, PyReadwriteArrayDyn};
+use bw4t_env::{SlotState, StepBuffers};
+use numpy::{PyArray1, PyReadonlyArrayDyn, PyReadwriteArrayDyn};
 use pyo3::exceptions::{PyIndexError, PyValueError};
 use pyo3::prelude::*;
 
@@ -38,6 +38,10 @@ impl VecEnv {
         }
     }
 }
+
+/// A match's snapshot as Python gets it: `(stream_origin, stream_drawn, episodes, seed,
+/// played)`.
+type Snapshot<'py> = (u64, u64, u64, u64, Bound<'py, PyArray1<u32>>);
 
 fn rows(vec: &bw4t_env::VecEnv) -> usize {
     vec.len() * vec.agents()
@@ -79,6 +83,79 @@ impl VecEnv {
         let masks = writable(&mut masks, "masks", rows * n, "rows x n_actions")?;
         let vec = &mut *vec;
         py.detach(|| vec.reset(obs, masks)).map_err(env_error)
+    }
+
+    /// Starts the next episode of the environments `which` marks (bool, one per
+    /// environment), leaving the others' rows of `obs` and `masks` as they are. `seeds`:
+    /// one per environment or empty; a seed plays that match seed now and seeds the
+    /// environment's stream with it, `None` takes the stream's next seed.
+    fn reset_some(
+        &self,
+        py: Python<'_>,
+        which: PyReadonlyArrayDyn<'_, bool>,
+        seeds: Vec<Option<u64>>,
+        mut obs: PyReadwriteArrayDyn<'_, f32>,
+        mut masks: PyReadwriteArrayDyn<'_, u8>,
+    ) -> PyResult<()> {
+        let mut vec = self.vec()?;
+        let spaces = vec.spaces();
+        let (envs, rows, o, n) = (vec.len(), rows(&vec), spaces.obs_len(), spaces.n_actions());
+        let which = readable(&which, "which", envs, "one per environment")?;
+        if !seeds.is_empty() && seeds.len() != envs {
+            return Err(PyValueError::new_err(format!(
+                "seeds holds {} values; it must hold {envs} (one per environment) or none",
+                seeds.len()
+            )));
+        }
+        let obs = writable(&mut obs, "obs", rows * o, "rows x obs_len")?;
+        let masks = writable(&mut masks, "masks", rows * n, "rows x n_actions")?;
+        let vec = &mut *vec;
+        py.detach(|| vec.reset_some(which, &seeds, obs, masks)).map_err(env_error)
+    }
+
+    /// How environment `i`'s last ended episode ended: `(ticks, sequence_index, digest)`,
+    /// or `None` before any ended.
+    fn last_episode(&self, i: usize) -> PyResult<Option<(u64, u32, u64)>> {
+        self.with_env(i, |_| ())?;
+        Ok(self.vec()?.last_episode(i).map(|e| (e.ticks, e.sequence_index, e.digest)))
+    }
+
+    /// Environment `i` where it stands: `(stream_origin, stream_drawn, episodes, seed,
+    /// played)`, which `restore` takes back.
+    fn snapshot<'py>(&self, py: Python<'py>, i: usize) -> PyResult<Snapshot<'py>> {
+        self.with_env(i, |_| ())?;
+        let state = self.vec()?.snapshot(i).ok_or_else(|| {
+            PyValueError::new_err(format!(
+                "environment {i} took the match's own actions: it cannot be replayed"
+            ))
+        })?;
+        Ok((state.stream.0, state.stream.1, state.episodes, state.seed, PyArray1::from_vec(py, state.played)))
+    }
+
+    /// Puts environment `i` where a `snapshot` said (playing its episode again) and
+    /// writes its rows of `obs` and `masks`.
+    #[allow(clippy::too_many_arguments)] // A snapshot's parts and the arrays, each its own.
+    fn restore(
+        &self,
+        py: Python<'_>,
+        i: usize,
+        stream: (u64, u64),
+        episodes: u64,
+        seed: u64,
+        played: PyReadonlyArrayDyn<'_, u32>,
+        mut obs: PyReadwriteArrayDyn<'_, f32>,
+        mut masks: PyReadwriteArrayDyn<'_, u8>,
+    ) -> PyResult<()> {
+        self.with_env(i, |_| ())?;
+        let mut vec = self.vec()?;
+        let spaces = vec.spaces();
+        let (rows, o, n) = (rows(&vec), spaces.obs_len(), spaces.n_actions());
+        let played = played.as_slice().map_err(|e| PyValueError::new_err(format!("played: {e}")))?.to_vec();
+        let obs = writable(&mut obs, "obs", rows * o, "rows x obs_len")?;
+        let masks = writable(&mut masks, "masks", rows * n, "rows x n_actions")?;
+        let state = SlotState { stream, episodes, seed, played };
+        let vec = &mut *vec;
+        py.detach(|| vec.restore(i, &state, obs, masks)).map_err(env_error)
     }
 
     /// One step of every environment: `actions` (uint32, one per row) in; observations,

@@ -33,8 +33,22 @@ is delivered and is *truncated* at ``max_ticks`` (default: the map's own limit, 
 ``bw4t run``). A step is ``ticks_per_step`` simulated ticks (default 10: half a simulated
 second).
 
-Seeding: ``reset(seed=s)`` plays match seed ``s``; the same seed and actions give the same
-observations, rewards and digests for whole episodes, in every process.
+Seeding: ``reset(seed=s)`` plays match seed ``s`` (an integer from 0 to 2**64 - 1); the
+same seed and actions give the same observations, rewards and digests for whole episodes,
+in every process.
+
+Actions and arguments are checked: a malformed one (a float, a bool, a negative or too
+large index, a scalar for the vector's row array, an unknown agent name) raises
+``ValueError`` naming it (``TypeError`` for the wrong type) before anything is played.
+
+The parallel env's ``state()`` (``state_space``) is the global state for centralised
+critics: every robot's position, room, move state and held colour, the blocks lying in
+each room, the goal and the time (``spec_native.state_layout``).
+
+Every kind can be pickled and ``copy.deepcopy``'d: the copy is made from the same
+arguments and plays the running episode's actions again from its seed, so it is where the
+original was, bit for bit, and goes on alike (its seed generator is copied too).
+``gymnasium.make_vec("bw4t/Bw4t-v0", n)`` gives the Rust vector of the single setting.
 """
 
 from __future__ import annotations
@@ -44,12 +58,26 @@ import gymnasium
 from ._spec import Rewards
 from .parallel import Bw4tParallelEnv
 from .single import Bw4tEnv
-from .vector import Bw4tVectorEnv
+from .vector import Bw4tVectorEnv, single_vector_env
 
-# `gymnasium.make("bw4t/Bw4t-v0", teammates=2, strategy="coop", ...)`: the single-agent env.
-gymnasium.register("bw4t/Bw4t-v0", entry_point="bw4t.env.single:Bw4tEnv")
+# `gymnasium.make("bw4t/Bw4t-v0", teammates=2, strategy="coop", ...)`: the single-agent env;
+# `gymnasium.make_vec("bw4t/Bw4t-v0", n, ...)`: n of them as the Rust vector.
+gymnasium.register(
+    "bw4t/Bw4t-v0",
+    entry_point="bw4t.env.single:Bw4tEnv",
+    vector_entry_point="bw4t.env.vector:single_vector_env",
+)
 
-__all__ = ["Bw4tEnv", "Bw4tParallelEnv", "Bw4tVectorEnv", "Rewards", "parallel_env", "single_env", "vector_env"]
+__all__ = [
+    "Bw4tEnv",
+    "Bw4tParallelEnv",
+    "Bw4tVectorEnv",
+    "Rewards",
+    "parallel_env",
+    "single_env",
+    "single_vector_env",
+    "vector_env",
+]
 
 
 #: ``parallel_env(map="default", robots=3, teammates=0, strategy="coop", ...)``: the

@@ -10,9 +10,12 @@ import numpy as np
 from gymnasium import spaces
 
 from .. import _native
+from . import _check
 
 #: Segments whose values are counts (unbounded above); every other one is 0/1 or [0, 1].
 COUNT_SEGMENTS = ("room_colours", "messages")
+#: More robots than any map has spawn points for (the map's own count is checked in Rust).
+MAX_ROBOTS = 1024
 
 
 @dataclass(frozen=True)
@@ -38,31 +41,34 @@ def make_spec(
     slots: int,
     rewards: Optional[Rewards],
 ) -> "_native.EnvSpec":
-    """The native spec (checked: a bad value raises ``ValueError`` naming it)."""
-    r = rewards or Rewards()
+    """The native spec (checked: a bad value raises ``ValueError`` naming it, a value of
+    the wrong type ``TypeError``)."""
+    r = Rewards() if rewards is None else rewards
     if not isinstance(r, Rewards):
-        raise TypeError("rewards must be a bw4t.env.Rewards")
+        raise TypeError(f"rewards must be a bw4t.env.Rewards, not {type(r).__name__}")
     return _native.EnvSpec(
-        str(map),
+        _check.map_name(map),
         list(seats),
-        int(ticks_per_step),
-        None if max_ticks is None else int(max_ticks),
-        int(slots),
-        float(r.delivery),
-        float(r.wrong_drop),
-        float(r.step_cost),
-        str(r.mode),
+        _check.integer("ticks_per_step", ticks_per_step, 1, 2**32 - 1),
+        _check.optional_integer("max_ticks", max_ticks, 1, 2**64 - 1),
+        _check.integer("slots", slots, 1, 64),
+        _check.number("rewards.delivery", r.delivery),
+        _check.number("rewards.wrong_drop", r.wrong_drop),
+        _check.number("rewards.step_cost", r.step_cost),
+        _check.text("rewards.mode", r.mode),
     )
 
 
 def seats(learners: int, teammates: int, strategy: str) -> List[str]:
     """Learners first (robots ``Agent1`` ...), then built-in teammates (``Bot1`` ...)."""
-    if learners < 1:
-        raise ValueError("there must be at least one learning robot")
-    if teammates < 0:
+    if _check.integer("robots", learners, -(2**63), 2**63) < 1:
+        raise ValueError("there must be at least one learning robot (robots >= 1)")
+    if _check.integer("teammates", teammates, -(2**63), 2**63) < 0:
         raise ValueError("teammates cannot be negative")
-    if strategy not in _native.strategies():
+    if _check.text("strategy", strategy) not in _native.strategies():
         raise ValueError(f"unknown strategy {strategy!r}: one of {', '.join(_native.strategies())}")
+    if learners + teammates > MAX_ROBOTS:
+        raise ValueError(f"{learners + teammates} robots asked for: a map has at most {MAX_ROBOTS} spawn points")
     return ["learner"] * learners + [strategy] * teammates
 
 
@@ -78,6 +84,15 @@ def observation_space(spec: "_native.EnvSpec") -> spaces.Dict:
             "action_mask": spaces.Box(0, 1, shape=(spec.n_actions,), dtype=np.int8),
         }
     )
+
+
+def state_space(spec: "_native.EnvSpec") -> spaces.Box:
+    """The global state (``state_layout``): 0/1 or [0, 1], counts unbounded above."""
+    high = np.ones(spec.state_len, dtype=np.float32)
+    for name, offset, length in spec.state_layout:
+        if name in spec.state_count_segments:
+            high[offset : offset + length] = np.inf
+    return spaces.Box(0.0, high, dtype=np.float32)
 
 
 def action_space(spec: "_native.EnvSpec") -> spaces.Discrete:

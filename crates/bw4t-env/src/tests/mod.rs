@@ -1,6 +1,7 @@
 //! The crate's tests: spaces against the docs, masks against the match, rewards, episode
 //! ends, determinism and the vector against single environments.
 
+mod copying;
 mod episodes;
 mod masks;
 mod spaces;

@@ -1,7 +1,7 @@
 //! The spaces' tables in code and in the crate docs agree.
 
 use super::default_map;
-use crate::{ACTION_SEGMENTS, Dims, EnvConfig, OBS_SEGMENTS, Spaces};
+use crate::{ACTION_SEGMENTS, Dims, EnvConfig, OBS_SEGMENTS, STATE_SEGMENTS, Spaces};
 
 const DOCS: &str = include_str!("../lib.rs");
 
@@ -41,6 +41,12 @@ fn the_docs_tables_are_the_code_tables() {
         .collect();
     let documented: Vec<Vec<String>> = actions.iter().map(|r| r[..3].to_vec()).collect();
     assert_eq!(documented, rows);
+    let state = doc_table("| state segment | size | holds |");
+    let rows: Vec<Vec<String>> = STATE_SEGMENTS
+        .iter()
+        .map(|r| vec![r.name.to_string(), r.size.formula(), r.meaning.to_string()])
+        .collect();
+    assert_eq!(state, rows);
 }
 
 #[test]
