@@ -2,7 +2,7 @@ use std::collections::HashMap;
 use std::net::SocketAddr;
 use std::time::Duration;
 
-use bw4t_mcp::{Docs, HttpOptions, Link, LocalMatch, RobotServer};
+use bw4t_mcp::{Docs, HttpOptions, Link, LinkOptions, LocalMatch, RobotServer};
 use bw4t_protocol::{ServerMessage, SessionOptions};
 use serde_json::{Value, json};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
@@ -174,7 +174,7 @@ async fn own_match(max_ticks: u64, timeout: Duration, options: HttpOptions) -> S
     setup.seed = 1;
     setup.max_ticks = Some(max_ticks);
     let started = LocalMatch { setup, deadline: None, replay: None }.start().await.expect("a match");
-    let link = Link::join(started.addr, started.hello, WAIT, None).await.expect("joined");
+    let link = Link::join(started.addr, started.hello, WAIT, LinkOptions::default()).await.expect("joined");
     serve(link, Docs::new(Some(map)), timeout, options).await
 }
 
@@ -291,7 +291,7 @@ async fn a_driving_session_that_ends_mid_call_frees_the_robot_at_once() {
     config.deadline = None;
     let server = TestServer::start(setup, config).await;
     let link =
-        Link::join(server.addr, SessionOptions::agent("Model", None), WAIT, None).await.expect("joined");
+        Link::join(server.addr, SessionOptions::agent("Model", None), WAIT, LinkOptions::default()).await.expect("joined");
     let mut tester = Client::connect(server.addr).await;
     tester.send(json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": "Tester", "every_tick": true})).await;
     tester.until(|m| matches!(m, ServerMessage::Percepts(_)).then_some(())).await;
@@ -420,7 +420,7 @@ async fn a_cancelled_call_frees_the_robot_at_once() {
     config.deadline = None;
     let server = TestServer::start(setup, config).await;
     let link =
-        Link::join(server.addr, SessionOptions::agent("Model", None), WAIT, None).await.expect("joined");
+        Link::join(server.addr, SessionOptions::agent("Model", None), WAIT, LinkOptions::default()).await.expect("joined");
     let mut tester = Client::connect(server.addr).await;
     // Told of every tick, the test holds each one until it says `ready`.
     tester.send(json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": "Tester", "every_tick": true})).await;
