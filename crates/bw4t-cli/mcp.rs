@@ -108,8 +108,12 @@ pub(crate) struct McpArgs {
 }
 
 /// The variables a served match's agent is given, each with the flag that replaces it.
-const SERVED_VARIABLES: [(&str, &str); 4] =
-    [("BW4T_HOST", "--connect"), ("BW4T_PORT", "--connect"), ("BW4T_NAME", "--name"), ("BW4T_TOKEN", "--token")];
+const SERVED_VARIABLES: [(&str, &str); 4] = [
+    ("BW4T_HOST", "--connect"),
+    ("BW4T_PORT", "--connect"),
+    ("BW4T_NAME", "--name"),
+    ("BW4T_TOKEN", "--token"),
+];
 
 /// With --served: an error naming every variable missing (and not replaced by its flag),
 /// and how to pass them on through an MCP host.

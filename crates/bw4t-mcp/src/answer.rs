@@ -13,26 +13,11 @@ use crate::view::View;
 pub(crate) const INVALID: &str = "invalid";
 /// The outcome word of `look`.
 pub(crate) const LOOKED: &str = "looked";
-/// The longest a value given by the caller is repeated in an error, in characters: enough
-/// to recognise it, never a megabyte sent back.
-pub(crate) const MAX_ECHO_CHARS: usize = 60;
-
 /// Estimated tokens of a text given to a model: one per four characters, rounded up (the
 /// usual rule of thumb for English under common tokenizers; exact counts need the model's
 /// own tokenizer, which `bw4t mcp` does not have).
 pub(crate) fn estimate_tokens(text: &str) -> u64 {
     (text.chars().count() as u64).div_ceil(4)
-}
-
-/// `value` as an error repeats it: quoted, and cut to [`MAX_ECHO_CHARS`] with a note of
-/// how long it was.
-pub(crate) fn echo(value: &str) -> String {
-    let length = value.chars().count();
-    if length <= MAX_ECHO_CHARS {
-        return format!("'{value}'");
-    }
-    let head: String = value.chars().take(MAX_ECHO_CHARS).collect();
-    format!("'{head}...' (cut; {length} characters in all)")
 }
 
 /// What a tool call returned: what the model sees, and what the transcript keeps.
@@ -172,8 +157,11 @@ fn clock_sentence(tick: u64, max_ticks: Option<u64>) -> String {
 /// The fields of `now` that differ from `before`.
 fn changed_fields(before: &Value, now: &Value) -> Value {
     let Some(fields) = now.as_object() else { return now.clone() };
-    let changed: JsonMap<String, Value> =
-        fields.iter().filter(|(key, value)| before.get(key.as_str()) != Some(value)).map(|(k, v)| (k.clone(), v.clone())).collect();
+    let changed: JsonMap<String, Value> = fields
+        .iter()
+        .filter(|(key, value)| before.get(key.as_str()) != Some(value))
+        .map(|(k, v)| (k.clone(), v.clone()))
+        .collect();
     Value::Object(changed)
 }
 
@@ -189,8 +177,9 @@ fn notices(state: &Value) -> Vec<String> {
     if in_drop_zone && holding.is_none() {
         notices.push(docs::LEAVE_DROP_ZONE.to_string());
     }
-    let drop_zone_taken =
-        state["occupied_rooms"].as_array().is_some_and(|rooms| rooms.iter().any(|r| r == bw4t_map::DROP_ZONE));
+    let drop_zone_taken = state["occupied_rooms"]
+        .as_array()
+        .is_some_and(|rooms| rooms.iter().any(|r| r == bw4t_map::DROP_ZONE));
     let carries_next = holding.and_then(|h| h.get("colour")).is_some_and(|c| *c == state["next_colour"]);
     if !in_drop_zone && drop_zone_taken && carries_next {
         notices.push(docs::DROP_ZONE_TAKEN.to_string());
@@ -211,8 +200,7 @@ pub(crate) fn output_schema() -> Value {
         "additionalProperties": false,
     });
     let block_or_null = json!({"anyOf": [block, {"type": "null"}]});
-    let outcomes: Vec<&str> =
-        Outcome::ALL.iter().map(|o| o.word()).chain([LOOKED, INVALID]).collect();
+    let outcomes: Vec<&str> = Outcome::ALL.iter().map(|o| o.word()).chain([LOOKED, INVALID]).collect();
     let state = json!({
         "type": "object",
         "description": "The robot's situation; in a brief result only the fields that changed since the previous result.",
@@ -247,38 +235,98 @@ pub(crate) fn output_schema() -> Value {
     })
 }
 
-/// `message` (a JSON reader's complaint about the arguments) with every value it quotes
-/// (`"..."` or `` `...` ``) cut as [`echo`] cuts one, so that no error repeats a long
-/// argument whole.
-pub(crate) fn clip_quoted(message: &str) -> String {
-    let mut out = String::with_capacity(message.len().min(1024));
-    let mut rest = message;
-    while let Some(open) = rest.find(['"', '`']) {
-        let quote = rest[open..].chars().next().unwrap_or('"');
-        out.push_str(&rest[..=open]);
-        let after = &rest[open + 1..];
-        let Some(close) = after.find(quote) else {
-            rest = after;
-            break;
-        };
-        let inner = &after[..close];
-        let length = inner.chars().count();
-        if length > MAX_ECHO_CHARS {
-            out.extend(inner.chars().take(MAX_ECHO_CHARS));
-            out.push_str(&format!("...{quote} (cut; {length} characters in all)"));
-        } else {
-            out.push_str(inner);
-            out.push(quote);
+#[cfg(test)]
+mod tests {
+    use serde_json::json;
+
+    use super::*;
+
+    fn view(state: Value) -> View {
+        View { words: "The whole situation.".into(), state }
+    }
+
+    fn state(tick: u64, in_room: &str, holding: Value) -> Value {
+        json!({"tick": tick, "started": true, "robot": 0, "at": in_room, "in_room": in_room, "holding": holding,
+               "at_block": null, "move_state": "arrived", "visible_blocks": [], "sequence": ["Red", "Blue"],
+               "sequence_index": 0, "next_colour": "Red", "occupied_rooms": [in_room], "players": ["Bob"],
+               "ended": false})
+    }
+
+    fn report(started: u64, tick: u64) -> Report {
+        Report {
+            outcome: Outcome::Arrived,
+            reason: None,
+            started,
+            tick,
+            changes: vec!["I arrived at RoomA1.".into()],
         }
-        rest = &after[close + 1..];
     }
-    // An unclosed quote's tail is cut too.
-    let length = rest.chars().count();
-    if length > 4 * MAX_ECHO_CHARS {
-        out.extend(rest.chars().take(MAX_ECHO_CHARS));
-        out.push_str(&format!("... (cut; {length} characters in all)"));
-    } else {
-        out.push_str(rest);
+
+    #[test]
+    fn tokens_are_estimated_at_four_characters_each_rounded_up() {
+        assert_eq!([estimate_tokens(""), estimate_tokens("abcd"), estimate_tokens("abcde")], [0, 1, 2]);
+        assert_eq!(estimate_tokens("éééé"), 1, "characters, not bytes");
     }
-    out
+
+    #[test]
+    fn every_result_has_the_clock_and_fits_the_output_schema() {
+        let mut shaper = Shaper::new(false);
+        let answer =
+            shaper.answer(Some(&report(10, 50)), &view(state(50, "RoomA1", Value::Null)), Some(2000));
+        assert!(
+            answer
+                .text
+                .starts_with("Arrived after 40 ticks.\nI arrived at RoomA1.\nTick 50 of 2000 (1950 left")
+        );
+        assert!(answer.text.ends_with("The whole situation."));
+        let data = &answer.structured;
+        assert_eq!(
+            (data["tick"].clone(), data["max_ticks"].clone(), data["ticks_left"].clone()),
+            (json!(50), json!(2000), json!(1950))
+        );
+        assert_eq!((answer.tick_start, answer.tick_end, answer.is_error), (10, 50, false));
+        let invalid =
+            shaper.invalid("go_to: 'X' is not a place", &view(state(50, "RoomA1", Value::Null)), None);
+        assert!(invalid.is_error && invalid.text.contains("Tick 50; the match has no tick limit."));
+        assert_eq!(invalid.outcome(), INVALID);
+        let schema = output_schema();
+        for data in [&answer.structured, &invalid.structured] {
+            let fields = data.as_object().expect("an object");
+            let known = schema["properties"].as_object().expect("properties");
+            assert!(fields.keys().all(|k| known.contains_key(k)), "{data}");
+            for required in schema["required"].as_array().expect("required") {
+                assert!(fields.contains_key(required.as_str().unwrap_or_default()), "{required} in {data}");
+            }
+        }
+    }
+
+    #[test]
+    fn brief_results_give_the_changed_fields_and_look_the_whole() {
+        let mut shaper = Shaper::new(true);
+        let first = shaper.answer(None, &view(state(0, "DropZone", Value::Null)), Some(100));
+        assert_eq!(first.structured["brief"], false);
+        assert!(first.text.ends_with("The whole situation."));
+        let next = shaper.answer(Some(&report(0, 40)), &view(state(40, "RoomA1", Value::Null)), Some(100));
+        assert_eq!(next.structured["brief"], true);
+        assert!(!next.text.contains("The whole situation."));
+        let fields: Vec<&String> = next.structured["state"].as_object().expect("state").keys().collect();
+        assert_eq!(fields, ["at", "in_room", "occupied_rooms", "tick"]);
+        let look = shaper.answer(None, &view(state(40, "RoomA1", Value::Null)), Some(100));
+        assert_eq!(look.structured["state"]["sequence"], json!(["Red", "Blue"]));
+    }
+
+    #[test]
+    fn a_robot_idle_in_the_drop_zone_is_told_to_leave_it() {
+        let mut shaper = Shaper::new(false);
+        let idle = shaper.answer(None, &view(state(5, "DropZone", Value::Null)), None);
+        assert_eq!(idle.structured["notices"], json!([docs::LEAVE_DROP_ZONE]));
+        assert!(idle.text.contains(docs::LEAVE_DROP_ZONE));
+        let carrying =
+            shaper.answer(None, &view(state(5, "DropZone", json!({"block": 1, "colour": "Red"}))), None);
+        assert_eq!(carrying.structured["notices"], json!([]), "it is there to deliver");
+        let mut waiting = state(5, "RoomA1", json!({"block": 1, "colour": "Red"}));
+        waiting["occupied_rooms"] = json!(["RoomA1", "DropZone"]);
+        let told = shaper.answer(None, &view(waiting), None);
+        assert_eq!(told.structured["notices"], json!([docs::DROP_ZONE_TAKEN]));
+    }
 }

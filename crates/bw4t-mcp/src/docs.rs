@@ -5,7 +5,7 @@ use bw4t_map::{Colour, Map, ZoneKind};
 use bw4t_protocol::{KINDS, SPOKEN_FIRST_POSITION};
 use serde_json::Value;
 
-use crate::answer::echo;
+use crate::echo::echo;
 
 use crate::robot::{Outcome, Report};
 
@@ -93,7 +93,12 @@ impl Docs {
             return Ok(());
         }
         let names: Vec<&str> = map.zones().iter().map(|z| z.name.as_str()).collect();
-        Err(format!("{} is not a place of map '{}'; its places are {}", echo(place), map.name(), names.join(", ")))
+        Err(format!(
+            "{} is not a place of map '{}'; its places are {}",
+            echo(place),
+            map.name(),
+            names.join(", ")
+        ))
     }
 
     /// An error naming the problem when `room` is not a room of the map (a message's room).
@@ -103,7 +108,12 @@ impl Docs {
         if rooms.contains(&room) {
             return Ok(());
         }
-        Err(format!("{} is not a room of map '{}'; its rooms are {}", echo(room), map.name(), rooms.join(", ")))
+        Err(format!(
+            "{} is not a room of map '{}'; its rooms are {}",
+            echo(room),
+            map.name(),
+            rooms.join(", ")
+        ))
     }
 
     /// Every place of the map, in file order (`None`: the map is not known here).
@@ -131,8 +141,9 @@ impl Docs {
         }
     }
 
-    /// The map as text: each place with its kind and the places it connects to.
-    fn map_text(&self) -> String {
+    /// The map as text (`bw4t://map`): each place with its kind and the places it
+    /// connects to, from the map's graph, so every connection is listed both ways.
+    pub fn map_text(&self) -> String {
         let Some(map) = &self.map else {
             return "The map is not known here (it is a file only the server has); the robot's \
                     percepts name the places as it learns them."
@@ -254,5 +265,16 @@ pub(crate) fn outcome_sentence(report: &Report) -> String {
         Outcome::MatchOver => format!("The match is over: {reason}."),
         Outcome::Cancelled if reason.is_empty() => format!("Cancelled after {ticks} ticks."),
         Outcome::Cancelled => format!("Cancelled after {ticks} ticks: {reason}."),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn the_rules_state_the_tie_break_the_blocking_and_how_positions_count() {
+        let rules = super::rules();
+        assert!(rules.contains(super::TIE_BREAK) && rules.contains("in the DropZone holding nothing"));
+        assert!(rules.contains("counted from 1 (the first colour is position 1)"), "{rules}");
+        assert!(rules.contains("| `giving_up` | position |"), "the language's table follows");
     }
 }

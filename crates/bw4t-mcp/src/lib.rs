@@ -13,6 +13,7 @@
 
 mod answer;
 mod docs;
+mod echo;
 mod http;
 mod link;
 mod local;

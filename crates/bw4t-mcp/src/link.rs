@@ -40,7 +40,13 @@ enum Request {
     /// The `look` tool.
     Look { tokens: Option<Tokens>, reply: oneshot::Sender<Answer> },
     /// A call refused for its arguments: answered, counted and recorded, nothing sent.
-    Invalid { tool: String, given: Value, problem: String, tokens: Option<Tokens>, reply: oneshot::Sender<Answer> },
+    Invalid {
+        tool: String,
+        given: Value,
+        problem: String,
+        tokens: Option<Tokens>,
+        reply: oneshot::Sender<Answer>,
+    },
     /// The state, for a resource or the prompt (no tool call: not counted).
     Peek { reply: oneshot::Sender<View> },
 }

@@ -26,8 +26,9 @@ use serde::Deserialize;
 use serde::de::DeserializeOwned;
 use serde_json::{Value, json};
 
-use crate::answer::{Answer, clip_quoted, echo, output_schema};
+use crate::answer::{Answer, output_schema};
 use crate::docs::{self, Docs};
+use crate::echo::{clip_quoted, echo};
 use crate::link::{Link, LinkError, Tokens};
 use crate::robot::Command;
 use crate::seat::Seat;
@@ -392,10 +393,11 @@ impl RobotServer {
             (Some(_), Some(_)) => Err(invalid("say", "give a kind (with its arguments) or text, not both")),
             (None, None) => Err(invalid("say", "give a kind (with its arguments) or text")),
             (None, Some(text)) => {
-                let stray =
-                    [args.room.is_some(), args.colour.is_some(), args.player.is_some()].into_iter().any(|x| x)
-                        || args.count.is_some()
-                        || args.position.is_some();
+                let stray = [args.room.is_some(), args.colour.is_some(), args.player.is_some()]
+                    .into_iter()
+                    .any(|x| x)
+                    || args.count.is_some()
+                    || args.position.is_some();
                 if stray {
                     return Err(invalid("say", "free text takes no room, colour, player, count or position"));
                 }
@@ -419,7 +421,11 @@ impl RobotServer {
                     let kinds: Vec<&str> = KINDS.iter().map(|row| row.word).collect();
                     return Err(invalid(
                         "say",
-                        format!("{} is not a kind of message; the kinds are {}", echo(&kind), kinds.join(", ")),
+                        format!(
+                            "{} is not a kind of message; the kinds are {}",
+                            echo(&kind),
+                            kinds.join(", ")
+                        ),
                     ));
                 }
                 if let Some(room) = &args.room {

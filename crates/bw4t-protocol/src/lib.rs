@@ -31,7 +31,8 @@ pub use http::{
 };
 pub use knowledge::{Heard, Knowledge, RoomSeen, RoomTold, is_room};
 pub use language::{
-    Group, KINDS, KindRow, MessagePolicy, SPOKEN_FIRST_POSITION, Said, SaidError, Slot, kind_row, language_json,
+    Group, KINDS, KindRow, MessagePolicy, SPOKEN_FIRST_POSITION, Said, SaidError, Slot, kind_row,
+    language_json,
 };
 pub use messages::*;
 pub use replay::{REPLAY_FORMAT, Recorder, ReplayEvent, ReplayHeader, ReplayLine, ReplayMeta};
