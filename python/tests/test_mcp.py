@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import os
 import re
 import shlex
 import shutil
@@ -243,7 +244,7 @@ def test_bad_arguments_are_tool_errors_naming_the_problem(bw4t_bin: str, tmp_pat
         assert data["outcome"] == "invalid" and data["tick"] == 0 and data["max_ticks"] == 20000, data
         assert data["error"].startswith(f"{tool}: ") and data["error"] in text
     lines = [json.loads(line) for line in transcript.read_text().splitlines()]
-    assert [(l["tool"], l["is_error"], l["outcome"]) for l in lines] == [
+    assert [(line["tool"], line["is_error"], line["outcome"]) for line in lines] == [
         *[(tool, True, "invalid") for tool, _, _ in BAD_CALLS], ("look", False, "looked")
     ]
     assert lines[-1]["structured"] == look
@@ -290,7 +291,9 @@ def test_brief_results_carry_only_what_changed(bw4t_bin: str) -> None:
             return [await bounded(session.call_tool(tool, args)) for tool, args in calls]
 
     first, went, said, looked = run(main())
-    text = lambda res: "".join(c.text for c in res.content)  # noqa: E731
+    def text(res: Any) -> str:
+        return "".join(c.text for c in res.content)
+
     for res in (first, looked):
         assert res.structured_content["brief"] is False and "Goal:" in text(res)
         assert set(res.structured_content["state"]) >= {"sequence", "at", "holding", "players"}
@@ -313,7 +316,7 @@ def test_the_transcript_matches_the_calls_and_the_replay(bw4t_bin: str, tmp_path
 
     record = run(main())
     lines = [json.loads(line) for line in transcript.read_text().splitlines()]
-    assert [l["tool"] for l in lines] == [c.tool for c in record.calls]
+    assert [line["tool"] for line in lines] == [c.tool for c in record.calls]
     for line, call in zip(lines, record.calls):
         assert line["text"] == call.text and line["structured"] == call.result and line["is_error"] is False
         assert (line["tick_start"], line["tick_end"]) == (call.result["started_tick"], call.result["tick"])
@@ -327,7 +330,7 @@ def test_the_transcript_matches_the_calls_and_the_replay(bw4t_bin: str, tmp_path
                 if event.get("kind", event.get("type")) == "act" and event["robot"] == 0:
                     acts.setdefault(entry["tick"], []).append(event["action"])
     wire = {"go_to": "goTo", "go_to_block": "goToBlock", "pick_up": "pickUp", "put_down": "putDown"}
-    actions = [(l["tick_start"], wire[l["tool"]]) for l in lines if l["tool"] in wire]
+    actions = [(line["tick_start"], wire[line["tool"]]) for line in lines if line["tool"] in wire]
     assert actions and all(action in acts.get(tick, []) for tick, action in actions), (actions, acts)
     assert sum(len(v) for v in acts.values()) == len(actions), "the replay has no action the transcript lacks"
 
@@ -335,7 +338,7 @@ def test_the_transcript_matches_the_calls_and_the_replay(bw4t_bin: str, tmp_path
 def test_served_without_its_variables_fails_naming_them(bw4t_bin: str) -> None:
     """What an MCP host that drops the environment gives `bw4t mcp --served`: an error naming
     the missing variables and how to pass them, not a match of its own."""
-    env = {k: v for k, v in __import__("os").environ.items() if not k.startswith("BW4T_")}
+    env = {k: v for k, v in os.environ.items() if not k.startswith("BW4T_")}
     out = subprocess.run([bw4t_bin, "mcp", "--served"], capture_output=True, text=True, timeout=30, env=env,
                          stdin=subprocess.DEVNULL)
     assert out.returncode != 0 and out.stdout == ""
@@ -543,6 +546,7 @@ def test_a_tournament_team_of_mcp_driven_agents_records_their_usage(bw4t_bin: st
         assert row["completed"] is True and row["out_of_time"] is False, row
         assert row["tool_calls"] > 0 and row["prompt_tokens"] == 10 * row["tool_calls"], row
         assert row["completion_tokens"] == row["tool_calls"] and row["think_ms"] >= 0, row
+        assert row["invalid_calls"] == 0 and row["result_tokens"] >= row["tool_calls"] - 1 > 0, row
 
 
 def test_a_robot_joins_a_served_match_by_address_and_name(bw4t_bin: str) -> None:

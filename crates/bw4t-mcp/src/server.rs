@@ -348,7 +348,7 @@ impl RobotServer {
                 parse::<NoArgs>(name, arguments)?;
                 Command::PutDown
             }
-            "say" => self.say_command(parse(name, arguments)?)?,
+            "say" => say_command(&self.docs, parse(name, arguments)?)?,
             "wait" => {
                 let args: WaitArgs = parse(name, arguments)?;
                 if args.ticks.is_some_and(|ticks| !(1..=MAX_WAIT_TICKS).contains(&ticks)) {
@@ -366,87 +366,82 @@ impl RobotServer {
         };
         Ok(command)
     }
+}
 
-    /// A `say`, checked against the language and the map: a known kind with exactly its
-    /// arguments, a room of the map, a colour of the game, a position counted from
-    /// [`SPOKEN_FIRST_POSITION`], free text of at most [`MAX_FREE_TEXT_CHARS`].
-    fn say_command(&self, args: SayArgs) -> Result<Command, Invalid> {
-        let to = args.to.unwrap_or_else(|| "all".into());
-        check_name("say", "to", &to)?;
-        for (field, value) in
-            [("kind", &args.kind), ("room", &args.room), ("colour", &args.colour), ("player", &args.player)]
-        {
-            check_name("say", field, value.as_deref().unwrap_or_default())?;
-        }
-        if args.count.is_some_and(|n| n > MAX_MESSAGE_NUMBER) {
-            return Err(invalid("say", format!("count must be at most {MAX_MESSAGE_NUMBER}")));
-        }
-        if args.position.is_some_and(|n| !(SPOKEN_FIRST_POSITION..=MAX_MESSAGE_NUMBER).contains(&n)) {
-            return Err(invalid(
-                "say",
-                format!(
-                    "position must be from {SPOKEN_FIRST_POSITION} (the first colour of the goal sequence) to {MAX_MESSAGE_NUMBER}"
-                ),
-            ));
-        }
-        match (args.kind, args.text) {
-            (Some(_), Some(_)) => Err(invalid("say", "give a kind (with its arguments) or text, not both")),
-            (None, None) => Err(invalid("say", "give a kind (with its arguments) or text")),
-            (None, Some(text)) => {
-                let stray = [args.room.is_some(), args.colour.is_some(), args.player.is_some()]
-                    .into_iter()
-                    .any(|x| x)
+/// A `say`, checked against the language and the map: a known kind with exactly its
+/// arguments, a room of the map, a colour of the game, a position counted from
+/// [`SPOKEN_FIRST_POSITION`], free text of at most [`MAX_FREE_TEXT_CHARS`].
+fn say_command(docs: &Docs, args: SayArgs) -> Result<Command, Invalid> {
+    let to = args.to.unwrap_or_else(|| "all".into());
+    check_name("say", "to", &to)?;
+    for (field, value) in
+        [("kind", &args.kind), ("room", &args.room), ("colour", &args.colour), ("player", &args.player)]
+    {
+        check_name("say", field, value.as_deref().unwrap_or_default())?;
+    }
+    if args.count.is_some_and(|n| n > MAX_MESSAGE_NUMBER) {
+        return Err(invalid("say", format!("count must be at most {MAX_MESSAGE_NUMBER}")));
+    }
+    if args.position.is_some_and(|n| !(SPOKEN_FIRST_POSITION..=MAX_MESSAGE_NUMBER).contains(&n)) {
+        return Err(invalid(
+            "say",
+            format!(
+                "position must be from {SPOKEN_FIRST_POSITION} (the first colour of the goal sequence) to {MAX_MESSAGE_NUMBER}"
+            ),
+        ));
+    }
+    match (args.kind, args.text) {
+        (Some(_), Some(_)) => Err(invalid("say", "give a kind (with its arguments) or text, not both")),
+        (None, None) => Err(invalid("say", "give a kind (with its arguments) or text")),
+        (None, Some(text)) => {
+            let stray =
+                [args.room.is_some(), args.colour.is_some(), args.player.is_some()].into_iter().any(|x| x)
                     || args.count.is_some()
                     || args.position.is_some();
-                if stray {
-                    return Err(invalid("say", "free text takes no room, colour, player, count or position"));
-                }
-                if text.trim().is_empty() {
-                    return Err(invalid("say", "the text is empty"));
-                }
-                let length = text.chars().count();
-                if length > MAX_FREE_TEXT_CHARS {
-                    return Err(invalid(
-                        "say",
-                        format!(
-                            "the text is {length} characters long; the most is {MAX_FREE_TEXT_CHARS} (every teammate reads it): say less, or use a kind of the language"
-                        ),
-                    ));
-                }
-                check_line(&to, None, Some(&text))?;
-                Ok(Command::Say { to, said: None, text: Some(text) })
+            if stray {
+                return Err(invalid("say", "free text takes no room, colour, player, count or position"));
             }
-            (Some(kind), None) => {
-                if bw4t_protocol::kind_row(&kind).is_none() {
-                    let kinds: Vec<&str> = KINDS.iter().map(|row| row.word).collect();
-                    return Err(invalid(
-                        "say",
-                        format!(
-                            "{} is not a kind of message; the kinds are {}",
-                            echo(&kind),
-                            kinds.join(", ")
-                        ),
-                    ));
-                }
-                if let Some(room) = &args.room {
-                    self.docs.check_room(room).map_err(|e| invalid("say", e))?;
-                }
-                if let Some(colour) = &args.colour {
-                    docs::check_colour(colour).map_err(|e| invalid("say", e))?;
-                }
-                let said = Said {
-                    kind,
-                    room: args.room,
-                    colour: args.colour,
-                    player: args.player,
-                    count: args.count,
-                    // On the wire positions count from 0, as `sequenceIndex` does.
-                    position: args.position.map(|n| n - SPOKEN_FIRST_POSITION),
-                };
-                said.check().map_err(|e| invalid("say", e))?;
-                check_line(&to, Some(&said), None)?;
-                Ok(Command::Say { to, said: Some(said), text: None })
+            if text.trim().is_empty() {
+                return Err(invalid("say", "the text is empty"));
             }
+            let length = text.chars().count();
+            if length > MAX_FREE_TEXT_CHARS {
+                return Err(invalid(
+                    "say",
+                    format!(
+                        "the text is {length} characters long; the most is {MAX_FREE_TEXT_CHARS} (every teammate reads it): say less, or use a kind of the language"
+                    ),
+                ));
+            }
+            check_line(&to, None, Some(&text))?;
+            Ok(Command::Say { to, said: None, text: Some(text) })
+        }
+        (Some(kind), None) => {
+            if bw4t_protocol::kind_row(&kind).is_none() {
+                let kinds: Vec<&str> = KINDS.iter().map(|row| row.word).collect();
+                return Err(invalid(
+                    "say",
+                    format!("{} is not a kind of message; the kinds are {}", echo(&kind), kinds.join(", ")),
+                ));
+            }
+            if let Some(room) = &args.room {
+                docs.check_room(room).map_err(|e| invalid("say", e))?;
+            }
+            if let Some(colour) = &args.colour {
+                docs::check_colour(colour).map_err(|e| invalid("say", e))?;
+            }
+            let said = Said {
+                kind,
+                room: args.room,
+                colour: args.colour,
+                player: args.player,
+                count: args.count,
+                // On the wire positions count from 0, as `sequenceIndex` does.
+                position: args.position.map(|n| n - SPOKEN_FIRST_POSITION),
+            };
+            said.check().map_err(|e| invalid("say", e))?;
+            check_line(&to, Some(&said), None)?;
+            Ok(Command::Say { to, said: Some(said), text: None })
         }
     }
 }
@@ -615,5 +610,84 @@ impl ServerHandler for RobotServer {
         let result = GetPromptResult::new(vec![PromptMessage::new_text(rmcp::model::Role::User, text)])
             .with_description(docs::PROMPT_DESCRIPTION);
         Ok(result.into())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use bw4t_protocol::SPOKEN_FIRST_POSITION;
+    use serde_json::json;
+
+    use super::*;
+
+    fn fixed() -> Docs {
+        let map =
+            bw4t_map::Map::from_native(include_str!("../../../maps/fixed.toml")).expect("the fixed map");
+        Docs::new(Some(map))
+    }
+
+    fn say(docs: &Docs, args: Value) -> Result<Command, Invalid> {
+        say_command(docs, serde_json::from_value(args).expect("say's arguments"))
+    }
+
+    #[test]
+    fn a_position_is_said_as_the_sentences_count_and_sent_as_the_wire_counts() {
+        let Ok(Command::Say { said: Some(said), .. }) =
+            say(&fixed(), json!({"kind": "giving_up", "position": SPOKEN_FIRST_POSITION}))
+        else {
+            panic!("a say of the language");
+        };
+        assert_eq!(said.position, Some(0), "the wire counts from 0, as sequenceIndex does");
+        let sentence = said.sentence().expect("a sentence");
+        assert!(sentence.ends_with(&format!("position {SPOKEN_FIRST_POSITION}.")), "{sentence}");
+        let refused = say(&fixed(), json!({"kind": "giving_up", "position": 0})).expect_err("refused");
+        assert!(refused.contains("position must be from 1"), "{refused}");
+    }
+
+    #[test]
+    fn a_say_names_what_is_not_of_the_map_or_the_language() {
+        let docs = fixed();
+        let room = say(&docs, json!({"kind": "contains", "room": "LeftHallA", "colour": "Red"}))
+            .expect_err("a hall");
+        assert!(
+            room.starts_with("say: 'LeftHallA' is not a room of map 'fixed'; its rooms are RoomA1"),
+            "{room}"
+        );
+        let colour = say(&docs, json!({"kind": "have", "colour": "red"})).expect_err("not a colour's name");
+        assert!(
+            colour.contains("'red' is not a colour; the colours are") && colour.contains("Red"),
+            "{colour}"
+        );
+        let kind = say(&docs, json!({"kind": "x".repeat(200)})).expect_err("no such kind");
+        assert!(kind.contains("(cut; 200 characters in all) is not a kind") && kind.len() < 600, "{kind}");
+        let text = say(&docs, json!({"text": "é".repeat(MAX_FREE_TEXT_CHARS + 1)})).expect_err("too long");
+        assert!(text.contains("281 characters long; the most is 280"), "{text}");
+        assert!(
+            say(&docs, json!({"text": "é".repeat(MAX_FREE_TEXT_CHARS)})).is_ok(),
+            "characters, not bytes"
+        );
+        assert!(say(&docs, json!({"kind": "contains", "room": "DropZone", "colour": "Red"})).is_ok());
+    }
+
+    #[test]
+    fn the_tools_carry_the_maps_places_and_the_hints() {
+        let tools = tool_list(&fixed());
+        let go_to = tools.iter().find(|t| t.name == "go_to").expect("go_to");
+        let places = &go_to.input_schema["properties"]["place"]["enum"];
+        assert!(
+            places
+                .as_array()
+                .is_some_and(|p| p.contains(&json!("LeftHallA")) && p.contains(&json!("DropZone")))
+        );
+        assert_eq!(go_to.output_schema.as_deref(), output_schema().as_object());
+        let unknown_map = tool_list(&Docs::new(None));
+        let go_to = unknown_map.iter().find(|t| t.name == "go_to").expect("go_to");
+        assert!(go_to.input_schema["properties"]["place"].get("enum").is_none(), "no map, no list");
+        let read_only: Vec<&str> = tools
+            .iter()
+            .filter(|t| t.annotations.as_ref().and_then(|a| a.read_only_hint) == Some(true))
+            .map(|t| t.name.as_ref())
+            .collect();
+        assert_eq!(read_only, ["look"]);
     }
 }
