@@ -2,7 +2,7 @@ use std::collections::HashMap;
 use std::net::SocketAddr;
 use std::time::Duration;
 
-use bw4t_mcp::{Docs, HttpOptions, Link, LocalMatch, RobotServer};
+use bw4t_mcp::{Docs, HttpOptions, Link, LinkOptions, LocalMatch, RobotServer};
 use bw4t_protocol::{ServerMessage, SessionOptions};
 use serde_json::{Value, json};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
@@ -144,15 +144,21 @@ impl Session {
         post(self.addr, Head { token: Some(TOKEN), session: Some(&self.id), ..Head::default() }, body).await
     }
 
-    /// Calls `tool`: its result (`structuredContent`), or the JSON-RPC error.
+    /// Calls `tool`: its result (`structuredContent`), or the JSON-RPC error, or for a tool
+    /// error (`isError`) its text as `message` beside its `structuredContent`.
     async fn call(&self, id: u64, tool: &str, arguments: Value) -> Result<Value, Value> {
         let answer = self.post(&call(id, tool, arguments)).await;
         assert_eq!(answer.status, 200, "{answer:?}");
         let reply = answer.reply(id);
-        match reply.get("error") {
-            Some(error) => Err(error.clone()),
-            None => Ok(reply["result"]["structuredContent"].clone()),
+        if let Some(error) = reply.get("error") {
+            return Err(error.clone());
         }
+        let result = &reply["result"];
+        if result["isError"] == true {
+            let text = result["content"][0]["text"].clone();
+            return Err(json!({"message": text, "structuredContent": result["structuredContent"]}));
+        }
+        Ok(result["structuredContent"].clone())
     }
 
     async fn tick(&self, id: u64) -> u64 {
@@ -174,7 +180,7 @@ async fn own_match(max_ticks: u64, timeout: Duration, options: HttpOptions) -> S
     setup.seed = 1;
     setup.max_ticks = Some(max_ticks);
     let started = LocalMatch { setup, deadline: None, replay: None }.start().await.expect("a match");
-    let link = Link::join(started.addr, started.hello, WAIT, None).await.expect("joined");
+    let link = Link::join(started.addr, started.hello, WAIT, LinkOptions::default()).await.expect("joined");
     serve(link, Docs::new(Some(map)), timeout, options).await
 }
 
@@ -290,8 +296,9 @@ async fn a_driving_session_that_ends_mid_call_frees_the_robot_at_once() {
     let (setup, mut config) = lockstep("fixed", 1, 2);
     config.deadline = None;
     let server = TestServer::start(setup, config).await;
-    let link =
-        Link::join(server.addr, SessionOptions::agent("Model", None), WAIT, None).await.expect("joined");
+    let link = Link::join(server.addr, SessionOptions::agent("Model", None), WAIT, LinkOptions::default())
+        .await
+        .expect("joined");
     let mut tester = Client::connect(server.addr).await;
     tester.send(json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": "Tester", "every_tick": true})).await;
     tester.until(|m| matches!(m, ServerMessage::Percepts(_)).then_some(())).await;
@@ -373,15 +380,17 @@ async fn browser_pages_from_other_origins_are_refused() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn an_over_long_say_is_an_error_before_anything_is_sent() {
-    // Were it sent, the match would drop it and the call would run until its timeout with
-    // the robot answering every tick: the whole match in a moment.
+async fn an_over_long_say_is_a_tool_error_before_anything_is_sent() {
+    // Were a line too long for the protocol sent, the match would drop it and the call
+    // would run until its timeout with the robot answering every tick: the whole match in
+    // a moment. Free text is bounded well below that: every teammate reads it.
     let addr = own_match(20_000, Duration::from_secs(5), options()).await;
     let driver = Session::open(addr).await;
     let long = "x".repeat(70_000);
     let error = driver.call(2, "say", json!({"text": long})).await.expect_err("refused");
     let message = error["message"].as_str().unwrap_or_default();
-    assert!(message.starts_with("say: ") && message.contains("at most 65536 bytes"), "{error}");
+    assert!(message.contains("say: the text is 70000 characters long; the most is 280"), "{error}");
+    assert_eq!(error["structuredContent"]["outcome"], "invalid", "{error}");
     let error = driver.call(3, "say", json!({"kind": "contains", "room": long, "colour": "Red"})).await;
     assert!(error.expect_err("refused")["message"].as_str().is_some_and(|m| m.contains("room is")));
     let error = driver.call(4, "go_to", json!({"place": long})).await;
@@ -390,7 +399,7 @@ async fn an_over_long_say_is_an_error_before_anything_is_sent() {
     assert!(error.expect_err("refused")["message"].as_str().is_some_and(|m| m.contains("from 1 to 72000")));
     assert_eq!(driver.tick(6).await, 0, "the match has not moved");
     // A say that fits is sent and answered in its tick.
-    let said = driver.call(7, "say", json!({"text": "x".repeat(60_000)})).await.expect("said");
+    let said = driver.call(7, "say", json!({"text": "x".repeat(280)})).await.expect("said");
     assert_eq!((said["outcome"].as_str(), said["tick"].as_u64()), (Some("done"), Some(1)), "{said}");
 }
 
@@ -419,8 +428,9 @@ async fn a_cancelled_call_frees_the_robot_at_once() {
     let (setup, mut config) = lockstep("fixed", 1, 2);
     config.deadline = None;
     let server = TestServer::start(setup, config).await;
-    let link =
-        Link::join(server.addr, SessionOptions::agent("Model", None), WAIT, None).await.expect("joined");
+    let link = Link::join(server.addr, SessionOptions::agent("Model", None), WAIT, LinkOptions::default())
+        .await
+        .expect("joined");
     let mut tester = Client::connect(server.addr).await;
     // Told of every tick, the test holds each one until it says `ready`.
     tester.send(json!({"type": "hello", "protocol": "bw4t", "versions": [1], "name": "Tester", "every_tick": true})).await;
@@ -539,4 +549,41 @@ fn running_out_of_file_descriptors_does_not_end_the_server() {
     let _ = child.wait();
     assert!(alive, "bw4t mcp is still running");
     assert_eq!(answer.status, 200, "{answer:?}");
+}
+
+#[test]
+fn the_map_text_lists_every_connection_both_ways_on_every_shipped_map() {
+    let maps = crate::agents::shipped_maps();
+    assert!(maps.len() >= 7, "{} maps", maps.len());
+    for (name, map) in maps {
+        let text = Docs::new(Some(map.clone())).map_text();
+        // What the text says: each place's line, `- NAME (what): connects to A, B`.
+        let mut said = std::collections::BTreeSet::new();
+        let mut listed = std::collections::BTreeSet::new();
+        for line in text.lines().filter_map(|l| l.strip_prefix("- ")) {
+            let (place, rest) = line.split_once(" (").expect("a place's line");
+            let (_, list) = rest.split_once("): connects to ").expect("its connections");
+            listed.insert(place.to_string());
+            for other in list.split(", ").filter(|o| !o.is_empty()) {
+                said.insert((place.to_string(), other.to_string()));
+            }
+        }
+        // What the graph says: every walkable place, every edge from either side.
+        let zones = map.zones();
+        let walkable: std::collections::BTreeSet<String> =
+            zones.iter().filter(|z| z.kind.is_walkable()).map(|z| z.name.clone()).collect();
+        assert_eq!(listed, walkable, "map {name}: the places listed");
+        let mut graph = std::collections::BTreeSet::new();
+        for (i, zone) in zones.iter().enumerate().filter(|(_, z)| z.kind.is_walkable()) {
+            for &j in map.neighbours(i) {
+                graph.insert((zone.name.clone(), zones[j].name.clone()));
+            }
+        }
+        assert_eq!(said, graph, "map {name}: the connections");
+        for (a, b) in &said {
+            assert!(said.contains(&(b.clone(), a.clone())), "map {name}: {a} -> {b} one way only");
+        }
+        let isolated: Vec<&String> = listed.iter().filter(|p| !said.iter().any(|(a, _)| a == *p)).collect();
+        assert!(isolated.is_empty(), "map {name}: connected to nothing: {isolated:?}");
+    }
 }

@@ -181,6 +181,8 @@ fn agents_that_crash_hang_talk_garbage_or_never_connect_get_clear_statuses() {
     assert_eq!(status("Agent2").0, "unresponsive", "{}", status("Agent2").1);
     assert_eq!(status("Agent3").0, "bad_protocol", "{}", status("Agent3").1);
     assert_eq!(status("Agent4").0, "never_connected", "{}", status("Agent4").1);
+    let advice = status("Agent4").1["detail"].as_str().unwrap_or_default().to_string();
+    assert!(advice.contains("BW4T_HOST") && advice.contains("bw4t mcp --served"), "{advice}");
     assert_eq!(status("Bot1").0, "ok");
     let log = std::fs::read_to_string(status("Agent1").1["log"].as_str().expect("log")).expect("log file");
     assert!(log.contains("about to fail"), "{log}");

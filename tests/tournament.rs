@@ -599,7 +599,16 @@ fn a_match_past_its_wall_budget_is_ended_and_its_row_says_so() {
     );
     let csv = std::fs::read_to_string(out_dir.join("matches.csv")).expect("matches.csv");
     let header: Vec<&str> = csv.lines().next().expect("a header").split(',').collect();
-    for column in ["out_of_time", "tool_calls", "think_ms", "prompt_tokens", "completion_tokens"] {
+    let columns = [
+        "out_of_time",
+        "tool_calls",
+        "invalid_calls",
+        "result_tokens",
+        "think_ms",
+        "prompt_tokens",
+        "completion_tokens",
+    ];
+    for column in columns {
         assert!(header.contains(&column), "{column} in {header:?}");
     }
     let bad = write_config(

@@ -9,7 +9,7 @@ use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
 use bw4t_agents::Strategy;
-use bw4t_mcp::{Docs, HttpOptions, Link, LocalMatch, MAX_TOOL_SECONDS, RobotServer};
+use bw4t_mcp::{Docs, HttpOptions, Link, LinkOptions, LocalMatch, MAX_TOOL_SECONDS, RobotServer};
 use bw4t_protocol::SessionOptions;
 use bw4t_runner::TickLimit;
 use clap::Args;
@@ -90,6 +90,71 @@ pub(crate) struct McpArgs {
     /// wall time thinking before it and running it, outcome.
     #[arg(long)]
     log: Option<PathBuf>,
+    /// Write one JSON line per tool call here with what it returned: the text, the
+    /// structured content, isError, the ticks it started and ended at, its estimated
+    /// tokens (default with --log: beside it, `NAME.transcript.jsonl`).
+    #[arg(long, value_name = "FILE")]
+    transcript: Option<PathBuf>,
+    /// Brief results: each gives only what changed since the previous one (the outcome,
+    /// the changes, the clock, notices and the changed fields of the state); `look` still
+    /// gives the whole situation.
+    #[arg(long)]
+    brief: bool,
+    /// Play only a served match: fail at once, naming what is missing, unless --connect or
+    /// the BW4T_* variables (`bw4t run --agent`, tournaments) say which, rather than
+    /// start a match of its own.
+    #[arg(long, conflicts_with_all = ["seed", "teammates", "max_ticks", "replay", "out"])]
+    served: bool,
+}
+
+/// The variables a served match's agent is given, each with the flag that replaces it.
+const SERVED_VARIABLES: [(&str, &str); 4] = [
+    ("BW4T_HOST", "--connect"),
+    ("BW4T_PORT", "--connect"),
+    ("BW4T_NAME", "--name"),
+    ("BW4T_TOKEN", "--token"),
+];
+
+/// With --served: an error naming every variable missing (and not replaced by its flag),
+/// and how to pass them on through an MCP host.
+fn check_served(args: &McpArgs) -> Result<()> {
+    let given = |flag: &str| match flag {
+        "--connect" => args.connect.is_some(),
+        "--name" => args.name.is_some(),
+        _ => args.token.is_some(),
+    };
+    let missing: Vec<&str> = SERVED_VARIABLES
+        .iter()
+        .filter(|(variable, flag)| std::env::var_os(variable).is_none() && !given(flag))
+        .map(|(variable, _)| *variable)
+        .collect();
+    // An address given on the command line needs nothing from the environment.
+    if missing.is_empty() || args.connect.is_some() {
+        return Ok(());
+    }
+    bail!(
+        "--served: no served match to join: {} not set. `bw4t run --agent` and tournaments give them \
+         to the agent program; an MCP host that starts `bw4t mcp` with an environment of its own drops \
+         them unless its server entry passes them on (e.g. \"env\": {{\"BW4T_HOST\": \"...\", \"BW4T_PORT\": \
+         \"...\", \"BW4T_NAME\": \"...\", \"BW4T_TOKEN\": \"...\"}}, see docs/mcp.md), or give --connect HOST:PORT \
+         --name NAME --token TOKEN",
+        missing.join(", ")
+    )
+}
+
+/// Where the transcript goes: --transcript, else beside --log.
+fn transcript_path(args: &McpArgs) -> Option<PathBuf> {
+    args.transcript.clone().or_else(|| args.log.as_ref().map(|log| log.with_extension("transcript.jsonl")))
+}
+
+/// A JSON-lines file to write, or nothing.
+fn jsonl_writer(path: Option<&std::path::Path>, flag: &str) -> Result<bw4t_mcp::DecisionLog> {
+    Ok(match path {
+        Some(path) => Some(Box::new(
+            std::fs::File::create(path).with_context(|| format!("cannot write {flag} {}", path.display()))?,
+        )),
+        None => None,
+    })
 }
 
 /// A served match's address, from --connect or the environment.
@@ -121,6 +186,9 @@ pub(crate) fn run(args: &McpArgs) -> Result<()> {
     {
         bail!("--http-token must be at least 16 characters, without spaces");
     }
+    if args.served {
+        check_served(args)?;
+    }
     let served = served_address(args)?;
     let own_match_flags = [
         args.seed.is_some(),
@@ -147,11 +215,10 @@ pub(crate) fn run(args: &McpArgs) -> Result<()> {
             })
         })
         .collect::<Result<Vec<_>>>()?;
-    let log: bw4t_mcp::DecisionLog = match &args.log {
-        Some(path) => Some(Box::new(
-            std::fs::File::create(path).with_context(|| format!("cannot write --log {}", path.display()))?,
-        )),
-        None => None,
+    let link_options = LinkOptions {
+        decisions: jsonl_writer(args.log.as_deref(), "--log")?,
+        transcript: jsonl_writer(transcript_path(args).as_deref(), "--transcript")?,
+        brief: args.brief,
     };
     let name =
         args.name.clone().or_else(|| std::env::var("BW4T_NAME").ok()).unwrap_or_else(|| "Model".into());
@@ -164,7 +231,7 @@ pub(crate) fn run(args: &McpArgs) -> Result<()> {
                 let mut options = SessionOptions::agent(name, token);
                 options.match_name = args.match_name.clone();
                 options.template = args.template.clone();
-                let link = Link::join(addr, options, join_wait, log).await?;
+                let link = Link::join(addr, options, join_wait, link_options).await?;
                 let map = match (&args.map, link.match_info()) {
                     (Some(spec), _) => Some(crate::maps::load(spec)?),
                     (None, Some(info)) => crate::maps::load(&info.map).ok(),
@@ -195,7 +262,7 @@ pub(crate) fn run(args: &McpArgs) -> Result<()> {
                 }
                 .start()
                 .await?;
-                let link = Link::join(started.addr, started.hello, join_wait, log).await?;
+                let link = Link::join(started.addr, started.hello, join_wait, link_options).await?;
                 (link, Some(map), Some(started.result))
             }
         };

@@ -63,6 +63,8 @@ class Play:
     returned: int = 0
     #: The last state the tool results gave.
     state: Dict[str, Any] = field(default_factory=dict)
+    #: Calls refused for their arguments (tool errors), made on purpose (`invalid_calls`).
+    invalid: int = 0
 
     @property
     def ended(self) -> bool:
@@ -70,7 +72,8 @@ class Play:
 
     def summary(self) -> Dict[str, Any]:
         return {
-            "tool_calls": len(self.calls),
+            "tool_calls": len(self.calls) + self.invalid,
+            "invalid_calls": self.invalid,
             "delivered": self.delivered,
             "returned": self.returned,
             "ended": self.ended,
@@ -95,17 +98,27 @@ class _Player:
         #: Rooms not to try again before this tick (their door stopped us).
         self.blocked: Dict[str, int] = {}
 
+    def meta(self) -> Optional[Dict[str, Any]]:
+        if not self.tokens_per_call:
+            return None
+        # Cumulative counts, as a model's driver reports them (here a stand-in: a fixed
+        # number per call, so that a test can check they reach the match's result).
+        n = len(self.record.calls) + self.record.invalid + 1
+        return {"bw4t/usage": {"prompt_tokens": n * self.tokens_per_call, "completion_tokens": n}}
+
+    async def invalid_call(self) -> None:
+        """A call with a place that is not on the map: a tool error, which changes nothing."""
+        res = await asyncio.wait_for(
+            self.session.call_tool("go_to", {"place": "Nowhere"}, meta=self.meta()), CALL_TIMEOUT
+        )
+        if not res.is_error:
+            raise RuntimeError(f"go_to(Nowhere) was not a tool error: {res}")
+        self.record.invalid += 1
+
     async def call(self, tool: str, **args: Any) -> Dict[str, Any]:
         if len(self.record.calls) >= self.max_calls:
             raise RuntimeError(f"the player made {self.max_calls} tool calls without finishing")
-        meta = None
-        if self.tokens_per_call:
-            # Cumulative counts, as a model's driver reports them (here a stand-in: a fixed
-            # number per call, so that a test can check they reach the match's result).
-            n = len(self.record.calls) + 1
-            usage = {"prompt_tokens": n * self.tokens_per_call, "completion_tokens": n}
-            meta = {"bw4t/usage": usage}
-        res = await asyncio.wait_for(self.session.call_tool(tool, args, meta=meta), CALL_TIMEOUT)
+        res = await asyncio.wait_for(self.session.call_tool(tool, args, meta=self.meta()), CALL_TIMEOUT)
         text = "".join(getattr(c, "text", "") for c in res.content)
         if res.is_error or res.structured_content is None:
             raise RuntimeError(f"{tool}({args}) failed: {text}")
@@ -208,13 +221,21 @@ async def rooms_of(session: ClientSession) -> List[str]:
 
 
 async def play(
-    session: ClientSession, *, deliveries: Optional[int] = None, max_calls: int = 5000, tokens_per_call: int = 0
+    session: ClientSession,
+    *,
+    deliveries: Optional[int] = None,
+    max_calls: int = 5000,
+    tokens_per_call: int = 0,
+    invalid_calls: int = 0,
 ) -> Play:
     """Plays the robot behind `session` until it has delivered `deliveries` blocks (None:
     until the match is over); returns every call made and what came of it. With
-    `tokens_per_call`, each call reports made-up token counts in its `_meta`."""
+    `tokens_per_call`, each call reports made-up token counts in its `_meta`; with
+    `invalid_calls`, it first makes that many calls refused for their arguments."""
     record = Play()
     player = _Player(session, await rooms_of(session), record, max_calls, tokens_per_call)
+    for _ in range(invalid_calls):
+        await player.invalid_call()
     await player.call("look")
     while not record.ended and (deliveries is None or record.delivered < deliveries):
         await player.step()
@@ -265,12 +286,16 @@ async def main(argv: Optional[List[str]] = None) -> int:
     parser.add_argument("--bw4t", help="the bw4t command (default: $BW4T_BIN, else bw4t beside this Python or on PATH)")
     parser.add_argument("--max-calls", type=int, default=5000)
     parser.add_argument("--tokens-per-call", type=int, default=0, help="report made-up token counts (for tests)")
+    parser.add_argument("--invalid-calls", type=int, default=0, help="first make this many invalid calls (for tests)")
     parser.add_argument("mcp_args", nargs="*", help="more arguments of `bw4t mcp` (after --)")
     args = parser.parse_args(argv)
     command = [args.bw4t] if args.bw4t else default_bw4t()
-    # The whole environment: `bw4t mcp` finds its match in the BW4T_* variables.
-    async with stdio_session([*command, "mcp", *args.mcp_args], env=dict(os.environ)) as session:
-        record = await play(session, max_calls=args.max_calls, tokens_per_call=args.tokens_per_call)
+    # The whole environment: `bw4t mcp` finds its match in the BW4T_* variables, and with
+    # --served fails at once, naming them, should they be missing.
+    async with stdio_session([*command, "mcp", "--served", *args.mcp_args], env=dict(os.environ)) as session:
+        record = await play(
+            session, max_calls=args.max_calls, tokens_per_call=args.tokens_per_call, invalid_calls=args.invalid_calls
+        )
     print(json.dumps(record.summary()), flush=True)
     return 0 if record.ended else 1
 

@@ -1,8 +1,12 @@
 """`bw4t mcp` through the official MCP SDK's client: a scripted delivery over stdio and
-over streamable HTTP, two MCP robots and a built-in one completing a `bw4t run` match,
-bad arguments refused as MCP errors naming the problem, timeouts and a second call while
-one runs, the resources and the prompt, the same run twice, a slow driver losing no
-ticks, the decision log, a tournament team of MCP-driven agents, and the MCP Inspector's CLI.
+over streamable HTTP, two MCP robots and a built-in one completing a `bw4t run` match
+(their usage, invalid calls and result tokens against their transcripts), bad arguments
+answered as tool errors (`isError`) naming the problem, the tools' enums, hints and output
+schema, brief results, timeouts and a second call while one runs, the resources and the
+prompt, the same run twice, a slow driver losing no ticks, the decision log, the
+transcript against the replay, `--served` without its variables, a tournament team of
+MCP-driven agents, and the MCP Inspector's CLI. Every result the SDK receives is checked
+by the SDK against the tool's output schema.
 
 The scripted player is mcp_player.py. The SDK needs Python 3.10 or newer: without it the
 module is skipped. Every await is bounded, so a hang fails instead of blocking.
@@ -12,6 +16,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import os
 import re
 import shlex
 import shutil
@@ -22,6 +27,7 @@ from pathlib import Path
 from typing import Any, AsyncIterator, Awaitable, Dict, List, Optional, Tuple, TypeVar
 
 import pytest
+import jsonschema
 
 pytest.importorskip("mcp", reason="the MCP SDK (mcp) is not installed; it needs Python 3.10 or newer")
 
@@ -106,6 +112,10 @@ def check_delivery(record: Play) -> None:
     for call in record.calls:
         assert call.result["outcome"] in ("looked", "arrived", "done"), (call.tool, call.result)
         assert call.result["tick"] == call.result["state"]["tick"]
+        # The clock, in the data and in the words, in every result.
+        tick, limit = call.result["tick"], call.result["max_ticks"]
+        assert limit == 20000 and call.result["ticks_left"] == limit - tick, call.result
+        assert f"Tick {tick} of {limit} ({limit - tick} left" in call.text, call.text
 
 
 def test_a_scripted_client_delivers_a_block_over_stdio(bw4t_bin: str) -> None:
@@ -131,10 +141,16 @@ def test_a_scripted_client_delivers_a_block_over_streamable_http(bw4t_bin: str) 
 
 
 def test_two_mcp_robots_and_a_built_in_one_complete_a_match(bw4t_bin: str, tmp_path: Path) -> None:
-    agent = f"{shlex.quote(sys.executable)} {shlex.quote(str(PLAYER))} --bw4t {shlex.quote(bw4t_bin)} --tokens-per-call 100"
+    def agent(name: str, invalid: int) -> str:
+        transcript = tmp_path / f"{name}.transcript.jsonl"
+        return (
+            f"{shlex.quote(sys.executable)} {shlex.quote(str(PLAYER))} --bw4t {shlex.quote(bw4t_bin)} "
+            f"--tokens-per-call 100 --invalid-calls {invalid} -- --transcript {shlex.quote(str(transcript))}"
+        )
+
     out = subprocess.run(
-        [bw4t_bin, "run", "--map", "fixed", "--seed", "1", "--robots", "3", "--agent", agent, "--agent", agent,
-         "--team", "builtin", "--deadline-ms", "0", "--json", "--log-dir", str(tmp_path)],
+        [bw4t_bin, "run", "--map", "fixed", "--seed", "1", "--robots", "3", "--agent", agent("Agent1", 2),
+         "--agent", agent("Agent2", 0), "--team", "builtin", "--deadline-ms", "0", "--json", "--log-dir", str(tmp_path)],
         capture_output=True, text=True, timeout=120,
     )
     logs = {p.name: p.read_text() for p in tmp_path.glob("*.log")}
@@ -158,48 +174,180 @@ def test_two_mcp_robots_and_a_built_in_one_complete_a_match(bw4t_bin: str, tmp_p
         assert summary["tool_calls"] - 1 <= reported <= summary["tool_calls"], (usage, summary)
         assert (usage["prompt_tokens"], usage["completion_tokens"]) == (100 * reported, reported)
         assert 0 <= usage["think_ms_max"] <= usage["think_ms"]
+        # Invalid calls and the tokens of the results, as its transcript has them: every
+        # result answered before the match ended was reported (those after it cannot be).
+        transcript = [json.loads(line) for line in (tmp_path / f"{name}.transcript.jsonl").read_text().splitlines()]
+        assert len(transcript) == summary["tool_calls"]
+        assert usage["invalid_calls"] == summary["invalid_calls"] == sum(t["is_error"] for t in transcript)
+        assert usage["invalid_calls"] == (2 if name == "Agent1" else 0)
+        counted = sum(t["result_tokens"] for t in transcript if t["outcome"] != "match_over")
+        assert usage["result_tokens"] == counted > 0, (usage, counted)
+        for line in transcript:
+            assert line["result_tokens"] == -(-len(line["text"]) // 4), line
     assert "usage" not in robots["Bot1"], "a built-in robot reports nothing"
     assert sum(r["good_drops"] for r in robots.values()) == 6
 
 
+HUGE = "Q" * 1_000_000
 BAD_CALLS: List[Tuple[str, Dict[str, Any], List[str]]] = [
     ("go_to", {"place": "Nowhere"}, ["go_to", "'Nowhere' is not a place", "RoomA1"]),
     ("go_to", {}, ["go_to", "place"]),
     ("go_to_block", {"block": "x"}, ["go_to_block", '"x"']),
-    ("say", {"kind": "shout"}, ["say", "'shout'"]),
+    ("go_to_block", {"block": HUGE}, ["go_to_block", "QQQ", "cut; 1000000 characters"]),
+    ("go_to", {"place": "RoomA1", HUGE: 1}, ["go_to", "cut; 1000000 characters"]),
+    ("say", {"kind": "shout"}, ["say", "'shout' is not a kind of message", "contains"]),
     ("say", {"kind": "have", "colour": "Red", "text": "hi"}, ["say", "not both"]),
+    ("say", {"kind": "contains", "room": "RoomZ9", "colour": "Red"}, ["say", "'RoomZ9' is not a room", "RoomA1"]),
+    ("say", {"kind": "have", "colour": "Purple"}, ["say", "'Purple' is not a colour", "Yellow"]),
+    ("say", {"kind": "giving_up", "position": 0}, ["say", "position must be from 1"]),
+    ("say", {"kind": "contains_many", "room": "RoomA1", "colour": "Red", "count": 5000}, ["say", "count"]),
+    ("say", {"text": "x" * 281}, ["say", "281 characters", "the most is 280"]),
     ("wait", {"ticks": 0}, ["wait", "ticks"]),
-    ("fly", {}, ["'fly'", "look, go_to"]),
 ]
 
 
-def test_bad_arguments_are_mcp_errors_naming_the_problem(bw4t_bin: str) -> None:
-    async def main() -> List[Tuple[str, MCPError]]:
-        errors = []
-        async with stdio_session(own_match(bw4t_bin)) as session:
-            for tool, args, _ in BAD_CALLS:
-                with pytest.raises(MCPError) as caught:
-                    await bounded(session.call_tool(tool, args))
-                errors.append((tool, caught.value))
+def test_bad_arguments_are_tool_errors_naming_the_problem(bw4t_bin: str, tmp_path: Path) -> None:
+    """Input errors are tool results with `isError` (the MCP spec's tool execution errors,
+    which a host shows the model), naming the problem and quoting at most a short piece of
+    what was given; an unknown tool stays a protocol error. None of them moves the match,
+    and every one is in the transcript."""
+    transcript = tmp_path / "transcript.jsonl"
+
+    async def main() -> Tuple[list, Dict[str, Any], Dict[str, Any]]:
+        async with stdio_session(own_match(bw4t_bin, "--transcript", str(transcript))) as session:
+            tools = {t.name: t for t in (await bounded(session.list_tools())).tools}
+            results = [await bounded(session.call_tool(tool, args)) for tool, args, _ in BAD_CALLS]
+            with pytest.raises(MCPError) as unknown:
+                await bounded(session.call_tool("fly", {}))
+            assert unknown.value.code == -32602 and "'fly'" in unknown.value.message
+            assert "look, go_to" in unknown.value.message
             with pytest.raises(MCPError) as caught:
                 await bounded(session.read_resource("bw4t://nothing"))
-            errors.append(("resource", caught.value))
+            assert "bw4t://nothing" in caught.value.message and "bw4t://rules" in caught.value.message
             with pytest.raises(MCPError) as caught:
                 await bounded(session.get_prompt("chat"))
-            errors.append(("prompt", caught.value))
+            assert "'chat'" in caught.value.message and "'play'" in caught.value.message
             # None of them did anything: the robot is where it started, at tick 0.
             look = await bounded(session.call_tool("look", {}))
             assert look.structured_content["tick"] == 0
-        return errors
+        return results, tools["go_to"].output_schema, look.structured_content
 
-    errors = run(main())
-    for (tool, args, words), (_, error) in zip(BAD_CALLS, errors):
-        assert error.code == -32602, (tool, args, error.code, error.message)  # invalid params
+    results, schema, look = run(main())
+    for (tool, args, words), res in zip(BAD_CALLS, results):
+        assert res.is_error is True, (tool, res)
+        text = "".join(c.text for c in res.content)
         for word in words:
-            assert word in error.message, (tool, args, error.message)
-    resource, prompt = errors[-2][1], errors[-1][1]
-    assert "bw4t://nothing" in resource.message and "bw4t://rules" in resource.message
-    assert "'chat'" in prompt.message and "'play'" in prompt.message
+            assert word in text, (tool, word, text[:500])
+        assert len(text) < 2000, (tool, len(text))  # a megabyte given is not sent back
+        data = res.structured_content
+        jsonschema.validate(data, schema)
+        assert data["outcome"] == "invalid" and data["tick"] == 0 and data["max_ticks"] == 20000, data
+        assert data["error"].startswith(f"{tool}: ") and data["error"] in text
+    lines = [json.loads(line) for line in transcript.read_text().splitlines()]
+    assert [(line["tool"], line["is_error"], line["outcome"]) for line in lines] == [
+        *[(tool, True, "invalid") for tool, _, _ in BAD_CALLS], ("look", False, "looked")
+    ]
+    assert lines[-1]["structured"] == look
+
+
+def test_the_tools_carry_enums_hints_and_an_output_schema(bw4t_bin: str) -> None:
+    """The input schemas name the map's places, the colours and the kinds; the hints say
+    which tools change nothing; one output schema fits every result (the SDK checks each
+    result against it)."""
+
+    async def main() -> Tuple[Dict[str, Any], str, Any]:
+        async with stdio_session(own_match(bw4t_bin)) as session:
+            tools = {t.name: t for t in (await bounded(session.list_tools())).tools}
+            text = (await bounded(session.read_resource("bw4t://map"))).contents[0].text
+            said = await bounded(session.call_tool("say", {"kind": "giving_up", "position": 1}))
+            return tools, text, said
+
+    tools, map_text, said = run(main())
+    places = re.findall(r"^- (\S+) \(", map_text, re.MULTILINE)
+    place_enum = tools["go_to"].input_schema["properties"]["place"]["enum"]
+    assert sorted(place_enum) == sorted(places) and "DropZone" in places
+    say = tools["say"].input_schema["properties"]
+    assert "Yellow" in say["colour"]["enum"] and "Purple" not in say["colour"]["enum"]
+    assert {"contains", "have", "giving_up"} <= set(say["kind"]["enum"])
+    assert set(say["room"]["enum"]) <= set(places) and "RoomA1" in say["room"]["enum"]
+    assert say["position"]["minimum"] == 1 and "1 for the first colour" in say["position"]["description"]
+    assert say["text"]["maxLength"] == 280
+    hints = {name: tool.annotations for name, tool in tools.items()}
+    assert hints["look"].read_only_hint is True and hints["look"].idempotent_hint is True
+    assert all(hints[name].read_only_hint is False for name in TOOLS if name != "look")
+    assert hints["put_down"].destructive_hint is True and hints["go_to"].destructive_hint is False
+    for tool in tools.values():
+        assert tool.output_schema is not None and tool.output_schema["type"] == "object", tool.name
+    # Position 1 in the tool is the first position on the wire, and in the sentence.
+    assert not said.is_error and said.structured_content["outcome"] == "done"
+    jsonschema.validate(said.structured_content, tools["say"].output_schema)
+
+
+def test_brief_results_carry_only_what_changed(bw4t_bin: str) -> None:
+    async def main() -> List[Any]:
+        async with stdio_session(own_match(bw4t_bin, "--brief")) as session:
+            calls = [("look", {}), ("go_to", {"place": "RoomA3"}), ("say", {"kind": "have", "colour": "Yellow"}),
+                     ("look", {})]
+            return [await bounded(session.call_tool(tool, args)) for tool, args in calls]
+
+    first, went, said, looked = run(main())
+    def text(res: Any) -> str:
+        return "".join(c.text for c in res.content)
+
+    for res in (first, looked):
+        assert res.structured_content["brief"] is False and "Goal:" in text(res)
+        assert set(res.structured_content["state"]) >= {"sequence", "at", "holding", "players"}
+    assert went.structured_content["brief"] is True and "Goal:" not in text(went)
+    state = went.structured_content["state"]
+    assert state["at"] == "RoomA3" and state["tick"] == went.structured_content["tick"]
+    assert "sequence" not in state and "players" not in state, state  # unchanged since the look
+    assert "I arrived at RoomA3." in text(went) and "Tick " in text(went)
+    assert set(said.structured_content["state"]) <= {"tick"}, said.structured_content["state"]
+    assert len(text(said)) < len(text(looked)) / 3, (text(said), text(looked))
+
+
+def test_the_transcript_matches_the_calls_and_the_replay(bw4t_bin: str, tmp_path: Path) -> None:
+    transcript, replay = tmp_path / "decisions.transcript.jsonl", tmp_path / "match.replay.jsonl"
+
+    async def main() -> Play:
+        argv = own_match(bw4t_bin, "--log", str(tmp_path / "decisions.jsonl"), "--replay", str(replay))
+        async with stdio_session(argv) as session:
+            return await play(session, deliveries=1)
+
+    record = run(main())
+    lines = [json.loads(line) for line in transcript.read_text().splitlines()]
+    assert [line["tool"] for line in lines] == [c.tool for c in record.calls]
+    for line, call in zip(lines, record.calls):
+        assert line["text"] == call.text and line["structured"] == call.result and line["is_error"] is False
+        assert (line["tick_start"], line["tick_end"]) == (call.result["started_tick"], call.result["tick"])
+        assert line["result_tokens"] == -(-len(call.text) // 4)
+    # Every action the transcript shows was applied at the tick it started, in the replay.
+    acts: Dict[int, List[str]] = {}
+    for raw in replay.read_text().splitlines():
+        entry = json.loads(raw)
+        if entry["type"] == "tick":
+            for event in entry["events"]:
+                if event.get("kind", event.get("type")) == "act" and event["robot"] == 0:
+                    acts.setdefault(entry["tick"], []).append(event["action"])
+    wire = {"go_to": "goTo", "go_to_block": "goToBlock", "pick_up": "pickUp", "put_down": "putDown"}
+    actions = [(line["tick_start"], wire[line["tool"]]) for line in lines if line["tool"] in wire]
+    assert actions and all(action in acts.get(tick, []) for tick, action in actions), (actions, acts)
+    assert sum(len(v) for v in acts.values()) == len(actions), "the replay has no action the transcript lacks"
+
+
+def test_served_without_its_variables_fails_naming_them(bw4t_bin: str) -> None:
+    """What an MCP host that drops the environment gives `bw4t mcp --served`: an error naming
+    the missing variables and how to pass them, not a match of its own."""
+    env = {k: v for k, v in os.environ.items() if not k.startswith("BW4T_")}
+    out = subprocess.run([bw4t_bin, "mcp", "--served"], capture_output=True, text=True, timeout=30, env=env,
+                         stdin=subprocess.DEVNULL)
+    assert out.returncode != 0 and out.stdout == ""
+    for word in ("--served", "BW4T_HOST, BW4T_PORT, BW4T_NAME, BW4T_TOKEN", '"env"', "--connect"):
+        assert word in out.stderr, out.stderr
+    env["BW4T_HOST"], env["BW4T_PORT"] = "127.0.0.1", "1"
+    out = subprocess.run([bw4t_bin, "mcp", "--served"], capture_output=True, text=True, timeout=30, env=env,
+                         stdin=subprocess.DEVNULL)
+    assert out.returncode != 0 and "BW4T_NAME, BW4T_TOKEN not set" in out.stderr, out.stderr
 
 
 @pytest.mark.parametrize("transport", ["stdio", "http"])
@@ -398,6 +546,7 @@ def test_a_tournament_team_of_mcp_driven_agents_records_their_usage(bw4t_bin: st
         assert row["completed"] is True and row["out_of_time"] is False, row
         assert row["tool_calls"] > 0 and row["prompt_tokens"] == 10 * row["tool_calls"], row
         assert row["completion_tokens"] == row["tool_calls"] and row["think_ms"] >= 0, row
+        assert row["invalid_calls"] == 0 and row["result_tokens"] >= row["tool_calls"] - 1 > 0, row
 
 
 def test_a_robot_joins_a_served_match_by_address_and_name(bw4t_bin: str) -> None:

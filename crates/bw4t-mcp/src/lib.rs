@@ -11,7 +11,9 @@
 //! are answered by a sans-IO robot (`robot.rs`) that turns server messages and tool
 //! commands into client messages and reports.
 
+mod answer;
 mod docs;
+mod echo;
 mod http;
 mod link;
 mod local;
@@ -22,9 +24,11 @@ mod view;
 
 pub use docs::Docs;
 pub use http::{HttpOptions, MCP_PATH, serve_http};
-pub use link::{DecisionLog, JoinError, Link};
+pub use link::{DecisionLog, JoinError, Link, LinkOptions};
 pub use local::{LocalMatch, Started};
-pub use server::{MAX_MESSAGE_NUMBER, MAX_NAME_BYTES, MAX_TOOL_SECONDS, MAX_WAIT_TICKS, RobotServer};
+pub use server::{
+    MAX_FREE_TEXT_CHARS, MAX_MESSAGE_NUMBER, MAX_NAME_BYTES, MAX_TOOL_SECONDS, MAX_WAIT_TICKS, RobotServer,
+};
 
 /// Serves `server` over standard input and output until the client closes them.
 pub async fn serve_stdio(server: RobotServer) -> Result<(), String> {

@@ -90,6 +90,19 @@ pub(crate) enum Outcome {
 }
 
 impl Outcome {
+    /// Every outcome.
+    pub(crate) const ALL: [Outcome; 9] = [
+        Outcome::Arrived,
+        Outcome::Collided,
+        Outcome::Superseded,
+        Outcome::Done,
+        Outcome::Rejected,
+        Outcome::Changed,
+        Outcome::Timeout,
+        Outcome::MatchOver,
+        Outcome::Cancelled,
+    ];
+
     /// The word in tool results.
     pub(crate) fn word(self) -> &'static str {
         match self {

@@ -1,20 +1,22 @@
 //! The MCP side: the tools, resources and prompt of one robot, answered through its
-//! [`Link`]. Arguments are checked here, each within a documented range and every message
-//! within the protocol's line, so a bad one is an MCP error naming the problem before
-//! anything is sent; what the match refuses is a tool result with outcome `rejected`.
-//! Over HTTP a tool call is refused unless its session drives the robot (`seat.rs`); the
-//! rules, map, goal, tool list and prompt stay open to every session.
+//! [`Link`]. Arguments are checked here, against the map and the language, each within a
+//! documented range and every message within the protocol's line, so a bad one is a tool
+//! error result (`isError: true`, outcome `invalid`, counted) naming the problem before
+//! anything is sent; what the match refuses is a tool result with outcome `rejected`. The
+//! tools' input schemas carry the map's places and the language's colours and kinds as
+//! `enum`s. Over HTTP a tool call is refused unless its session drives the robot
+//! (`seat.rs`); the rules, map, goal, tool list and prompt stay open to every session.
 
 use std::sync::Arc;
 use std::time::Duration;
 
-use bw4t_protocol::{ActId, ClientMessage, MAX_LINE, Said, Say};
+use bw4t_protocol::{ActId, ClientMessage, KINDS, MAX_LINE, SPOKEN_FIRST_POSITION, Said, Say};
 use rmcp::model::{
     CallToolRequestParams, CallToolResponse, CallToolResult, ContentBlock, GetPromptRequestParams,
     GetPromptResponse, GetPromptResult, Implementation, JsonObject, ListPromptsResult, ListResourcesResult,
     ListToolsResult, PaginatedRequestParams, Prompt, PromptMessage, ReadResourceRequestParams,
     ReadResourceResponse, ReadResourceResult, RequestMetaObject, Resource, ResourceContents,
-    ServerCapabilities, ServerConfig, Tool,
+    ServerCapabilities, ServerConfig, Tool, ToolAnnotations,
 };
 use rmcp::service::RequestContext;
 use rmcp::transport::common::http_header::HEADER_SESSION_ID;
@@ -24,9 +26,11 @@ use serde::Deserialize;
 use serde::de::DeserializeOwned;
 use serde_json::{Value, json};
 
+use crate::answer::{Answer, output_schema};
 use crate::docs::{self, Docs};
-use crate::link::{Link, LinkError, Reply, Tokens};
-use crate::robot::{Command, Outcome};
+use crate::echo::{clip_quoted, echo};
+use crate::link::{Link, LinkError, Tokens};
+use crate::robot::Command;
 use crate::seat::Seat;
 
 /// The longest a tool may be given (`wait`'s `seconds`, and `--tool-timeout`).
@@ -37,6 +41,11 @@ pub const MAX_WAIT_TICKS: u64 = 72_000;
 pub const MAX_NAME_BYTES: usize = 256;
 /// The largest `count` or `position` of a message.
 pub const MAX_MESSAGE_NUMBER: u32 = 1000;
+/// The longest free text `say` sends, in characters. Every teammate reads a message in
+/// the results of its next calls (a model pays for it in tokens, and in every transcript):
+/// 280 characters is a few sentences, four times the language's longest sentence, so a
+/// plan fits and a flood does not.
+pub const MAX_FREE_TEXT_CHARS: usize = 280;
 
 /// The MCP server of one robot; every session (stdio, or each HTTP client) shares it, and
 /// over HTTP one of them drives.
@@ -47,12 +56,15 @@ pub struct RobotServer {
     timeout: Duration,
     /// Over HTTP, the session that drives the robot; over stdio there is one session.
     seat: Option<Arc<Seat>>,
+    /// The tools, with the map's places in their schemas.
+    tools: Arc<Vec<Tool>>,
 }
 
 impl RobotServer {
     /// Serves the robot behind `link`; a tool call gives up after `timeout` (wall time).
     pub fn new(link: Link, docs: Docs, timeout: Duration) -> RobotServer {
-        RobotServer { link, docs: Arc::new(docs), timeout, seat: None }
+        let tools = Arc::new(tool_list(&docs));
+        RobotServer { link, docs: Arc::new(docs), timeout, seat: None, tools }
     }
 
     /// The same robot, whose tools only the session holding `seat` may call.
@@ -112,11 +124,11 @@ struct SayArgs {
     #[serde(default)]
     #[schemars(with = "u32")]
     count: Option<u32>,
-    /// A position in the goal sequence, 0 for the first colour.
+    /// A position in the goal sequence, counted as sentences count it (see `minimum`).
     #[serde(default)]
     #[schemars(with = "u32")]
     position: Option<u32>,
-    /// Free text instead of a kind, where the match allows it.
+    /// Free text instead of a kind, where the match allows it (at most 280 characters).
     #[serde(default)]
     #[schemars(with = "String")]
     text: Option<String>,
@@ -140,87 +152,163 @@ struct WaitArgs {
     seconds: Option<f64>,
 }
 
-/// One tool: its name, what it does, and its arguments' type.
+/// One tool: its name, what it does, its arguments' type, and its hints to the host.
 struct ToolRow {
     name: &'static str,
     description: &'static str,
     schema: fn() -> schemars::Schema,
+    /// Changes nothing in the match (MCP's `readOnlyHint`).
+    read_only: bool,
+    /// May destroy something (`destructiveHint`): a block put down in a hall is lost.
+    destructive: bool,
 }
 
 /// Every tool, in the order they are listed.
 const TOOLS: &[ToolRow] = &[
     ToolRow {
         name: "look",
-        description: "Describe the robot's situation now: where it is, what it holds and sees, what it knows of each room, what teammates said, what is needed next.",
+        description: "Describe the robot's situation now: where it is, what it holds and sees, what it knows of each room, what teammates said, what is needed next, the tick and the tick limit. Changes nothing; always the whole situation, also in brief mode.",
         schema: || schemars::schema_for!(NoArgs),
+        read_only: true,
+        destructive: false,
     },
     ToolRow {
         name: "go_to",
         description: "Travel to a place (a room, a hall or DropZone). Returns when the robot arrives, collides or is stopped, with what changed on the way.",
         schema: || schemars::schema_for!(GoToArgs),
+        read_only: false,
+        destructive: false,
     },
     ToolRow {
         name: "go_to_block",
         description: "Travel to a block seen in the room the robot is in, so that it can pick it up.",
         schema: || schemars::schema_for!(BlockArgs),
+        read_only: false,
+        destructive: false,
     },
     ToolRow {
         name: "pick_up",
         description: "Pick up the block the robot is at (or the named block within reach). A robot holds one block at a time.",
         schema: || schemars::schema_for!(PickUpArgs),
+        read_only: false,
+        destructive: false,
     },
     ToolRow {
         name: "put_down",
         description: "Put the held block down. In the drop zone it is delivered if it is the colour needed next; in a room it stays there; outside rooms it leaves the world.",
         schema: || schemars::schema_for!(NoArgs),
+        read_only: false,
+        destructive: true,
     },
     ToolRow {
         name: "say",
         description: "Send a message to a teammate or to all: a kind of the message language with its arguments (e.g. kind=contains, room=RoomA1, colour=Red), or free text.",
         schema: || schemars::schema_for!(SayArgs),
+        read_only: false,
+        destructive: false,
     },
     ToolRow {
         name: "wait",
-        description: "Wait until something changes for this robot (a message, a delivery, a room occupied or freed), or until the ticks or seconds given pass (simulated seconds in a lockstep match).",
+        description: "Wait until something changes for this robot (a message, a delivery, a room occupied or freed), or until the ticks or seconds given pass (simulated seconds in a lockstep match). Time passes for the whole team meanwhile.",
         schema: || schemars::schema_for!(WaitArgs),
+        read_only: false,
+        destructive: false,
     },
 ];
 
-/// Every tool's definition, made once (schemas are generated from the argument types).
-fn tool_list() -> &'static [Tool] {
-    static LIST: std::sync::OnceLock<Vec<Tool>> = std::sync::OnceLock::new();
-    LIST.get_or_init(|| {
-        TOOLS
-            .iter()
-            .map(|row| {
-                let schema = serde_json::to_value((row.schema)()).unwrap_or_default();
-                let mut object: JsonObject = match schema {
-                    Value::Object(map) => map,
-                    _ => JsonObject::new(),
-                };
-                // An optional argument is simply left out: a `null` default would contradict
-                // its type for strict schema checkers.
-                if let Some(Value::Object(properties)) = object.get_mut("properties") {
-                    for property in properties.values_mut().filter_map(Value::as_object_mut) {
-                        if property.get("default") == Some(&Value::Null) {
-                            property.remove("default");
-                        }
+/// Every tool's definition: schemas generated from the argument types, with the map's
+/// places, the colours and the kinds as `enum`s, the hints, and one output schema.
+fn tool_list(docs: &Docs) -> Vec<Tool> {
+    let output = match output_schema() {
+        Value::Object(map) => Arc::new(map),
+        _ => Arc::new(JsonObject::new()),
+    };
+    TOOLS
+        .iter()
+        .map(|row| {
+            let schema = serde_json::to_value((row.schema)()).unwrap_or_default();
+            let mut object: JsonObject = match schema {
+                Value::Object(map) => map,
+                _ => JsonObject::new(),
+            };
+            if let Some(Value::Object(properties)) = object.get_mut("properties") {
+                for property in properties.values_mut().filter_map(Value::as_object_mut) {
+                    // An optional argument is simply left out: a `null` default would
+                    // contradict its type for strict schema checkers.
+                    if property.get("default") == Some(&Value::Null) {
+                        property.remove("default");
                     }
                 }
-                Tool::new(row.name, row.description, Arc::new(object))
-            })
-            .collect()
-    })
+                constrain(row.name, properties, docs);
+            }
+            let hints = ToolAnnotations::new()
+                .read_only(row.read_only)
+                .destructive(row.destructive)
+                .idempotent(row.read_only)
+                .open_world(false);
+            Tool::new(row.name, row.description, Arc::new(object))
+                .with_annotations(hints)
+                .with_raw_output_schema(output.clone())
+        })
+        .collect()
 }
 
-/// Arguments as `T`, or an MCP error naming the tool and the problem.
-fn parse<T: DeserializeOwned>(tool: &str, arguments: Option<JsonObject>) -> Result<T, ErrorData> {
+/// Puts what the checks enforce into a tool's argument schemas: `enum`s of places, rooms,
+/// colours and kinds, and the numbers' ranges.
+fn constrain(tool: &str, properties: &mut JsonObject, docs: &Docs) {
+    let mut set = |field: &str, key: &str, value: Value| {
+        if let Some(Value::Object(property)) = properties.get_mut(field) {
+            property.insert(key.into(), value);
+        }
+    };
+    match tool {
+        "go_to" => {
+            if let Some(places) = docs.places() {
+                set("place", "enum", json!(places));
+            }
+        }
+        "say" => {
+            if let Some(rooms) = docs.rooms() {
+                set("room", "enum", json!(rooms));
+            }
+            set("colour", "enum", json!(docs::colour_names()));
+            set("kind", "enum", json!(KINDS.iter().map(|row| row.word).collect::<Vec<_>>()));
+            set("position", "minimum", json!(SPOKEN_FIRST_POSITION));
+            set("position", "maximum", json!(MAX_MESSAGE_NUMBER));
+            set(
+                "position",
+                "description",
+                json!(format!(
+                    "A position in the goal sequence, {SPOKEN_FIRST_POSITION} for the first colour (as the sentences you read count)."
+                )),
+            );
+            set("count", "maximum", json!(MAX_MESSAGE_NUMBER));
+            set("text", "maxLength", json!(MAX_FREE_TEXT_CHARS));
+            for field in ["to", "player"] {
+                set(field, "maxLength", json!(MAX_NAME_BYTES));
+            }
+        }
+        "wait" => {
+            set("ticks", "minimum", json!(1));
+            set("ticks", "maximum", json!(MAX_WAIT_TICKS));
+            set("seconds", "exclusiveMinimum", json!(0));
+            set("seconds", "maximum", json!(MAX_TOOL_SECONDS));
+        }
+        _ => {}
+    }
+}
+
+/// Why a call's arguments are refused, in words that start with the tool's name.
+type Invalid = String;
+
+/// Arguments as `T`, or the problem (what the JSON reader quotes cut short).
+fn parse<T: DeserializeOwned>(tool: &str, arguments: Option<JsonObject>) -> Result<T, Invalid> {
     let value = Value::Object(arguments.unwrap_or_default());
-    serde_json::from_value(value).map_err(|e| ErrorData::invalid_params(format!("{tool}: {e}"), None))
+    serde_json::from_value(value).map_err(|e| invalid(tool, clip_quoted(&e.to_string())))
 }
 
-fn invalid(tool: &str, problem: impl std::fmt::Display) -> ErrorData {
-    ErrorData::invalid_params(format!("{tool}: {problem}"), None)
+fn invalid(tool: &str, problem: impl std::fmt::Display) -> Invalid {
+    format!("{tool}: {problem}")
 }
 
 /// A call that is well formed but may not run now (the robot is busy or driven by
@@ -246,7 +334,7 @@ fn reported_tokens(metas: [Option<&RequestMetaObject>; 2]) -> Option<Tokens> {
 
 impl RobotServer {
     /// The command a tool call asks for, checked.
-    fn command(&self, name: &str, arguments: Option<JsonObject>) -> Result<Command, ErrorData> {
+    fn command(&self, name: &str, arguments: Option<JsonObject>) -> Result<Command, Invalid> {
         let command = match name {
             "go_to" => {
                 let args: GoToArgs = parse(name, arguments)?;
@@ -260,7 +348,7 @@ impl RobotServer {
                 parse::<NoArgs>(name, arguments)?;
                 Command::PutDown
             }
-            "say" => say_command(parse(name, arguments)?)?,
+            "say" => say_command(&self.docs, parse(name, arguments)?)?,
             "wait" => {
                 let args: WaitArgs = parse(name, arguments)?;
                 if args.ticks.is_some_and(|ticks| !(1..=MAX_WAIT_TICKS).contains(&ticks)) {
@@ -274,20 +362,92 @@ impl RobotServer {
                 }
                 Command::Wait { ticks: args.ticks, seconds: args.seconds }
             }
-            other => {
-                let names: Vec<&str> = TOOLS.iter().map(|t| t.name).collect();
-                return Err(ErrorData::invalid_params(
-                    format!("no tool named '{other}'; the tools are {}", names.join(", ")),
-                    None,
-                ));
-            }
+            other => unreachable!("tool '{other}' is checked against TOOLS before its arguments"),
         };
         Ok(command)
     }
 }
 
+/// A `say`, checked against the language and the map: a known kind with exactly its
+/// arguments, a room of the map, a colour of the game, a position counted from
+/// [`SPOKEN_FIRST_POSITION`], free text of at most [`MAX_FREE_TEXT_CHARS`].
+fn say_command(docs: &Docs, args: SayArgs) -> Result<Command, Invalid> {
+    let to = args.to.unwrap_or_else(|| "all".into());
+    check_name("say", "to", &to)?;
+    for (field, value) in
+        [("kind", &args.kind), ("room", &args.room), ("colour", &args.colour), ("player", &args.player)]
+    {
+        check_name("say", field, value.as_deref().unwrap_or_default())?;
+    }
+    if args.count.is_some_and(|n| n > MAX_MESSAGE_NUMBER) {
+        return Err(invalid("say", format!("count must be at most {MAX_MESSAGE_NUMBER}")));
+    }
+    if args.position.is_some_and(|n| !(SPOKEN_FIRST_POSITION..=MAX_MESSAGE_NUMBER).contains(&n)) {
+        return Err(invalid(
+            "say",
+            format!(
+                "position must be from {SPOKEN_FIRST_POSITION} (the first colour of the goal sequence) to {MAX_MESSAGE_NUMBER}"
+            ),
+        ));
+    }
+    match (args.kind, args.text) {
+        (Some(_), Some(_)) => Err(invalid("say", "give a kind (with its arguments) or text, not both")),
+        (None, None) => Err(invalid("say", "give a kind (with its arguments) or text")),
+        (None, Some(text)) => {
+            let stray =
+                [args.room.is_some(), args.colour.is_some(), args.player.is_some()].into_iter().any(|x| x)
+                    || args.count.is_some()
+                    || args.position.is_some();
+            if stray {
+                return Err(invalid("say", "free text takes no room, colour, player, count or position"));
+            }
+            if text.trim().is_empty() {
+                return Err(invalid("say", "the text is empty"));
+            }
+            let length = text.chars().count();
+            if length > MAX_FREE_TEXT_CHARS {
+                return Err(invalid(
+                    "say",
+                    format!(
+                        "the text is {length} characters long; the most is {MAX_FREE_TEXT_CHARS} (every teammate reads it): say less, or use a kind of the language"
+                    ),
+                ));
+            }
+            check_line(&to, None, Some(&text))?;
+            Ok(Command::Say { to, said: None, text: Some(text) })
+        }
+        (Some(kind), None) => {
+            if bw4t_protocol::kind_row(&kind).is_none() {
+                let kinds: Vec<&str> = KINDS.iter().map(|row| row.word).collect();
+                return Err(invalid(
+                    "say",
+                    format!("{} is not a kind of message; the kinds are {}", echo(&kind), kinds.join(", ")),
+                ));
+            }
+            if let Some(room) = &args.room {
+                docs.check_room(room).map_err(|e| invalid("say", e))?;
+            }
+            if let Some(colour) = &args.colour {
+                docs::check_colour(colour).map_err(|e| invalid("say", e))?;
+            }
+            let said = Said {
+                kind,
+                room: args.room,
+                colour: args.colour,
+                player: args.player,
+                count: args.count,
+                // On the wire positions count from 0, as `sequenceIndex` does.
+                position: args.position.map(|n| n - SPOKEN_FIRST_POSITION),
+            };
+            said.check().map_err(|e| invalid("say", e))?;
+            check_line(&to, Some(&said), None)?;
+            Ok(Command::Say { to, said: Some(said), text: None })
+        }
+    }
+}
+
 /// An error unless `value` (the argument `field` of `tool`) is a name of a sensible length.
-fn check_name(tool: &str, field: &str, value: &str) -> Result<(), ErrorData> {
+fn check_name(tool: &str, field: &str, value: &str) -> Result<(), Invalid> {
     if value.len() > MAX_NAME_BYTES {
         return Err(invalid(
             tool,
@@ -299,7 +459,7 @@ fn check_name(tool: &str, field: &str, value: &str) -> Result<(), ErrorData> {
 
 /// An error unless the `say` message fits in one protocol line (the match drops longer
 /// lines unread).
-fn check_line(to: &str, said: Option<&Said>, text: Option<&str>) -> Result<(), ErrorData> {
+fn check_line(to: &str, said: Option<&Said>, text: Option<&str>) -> Result<(), Invalid> {
     let say = Say {
         id: Some(ActId::Number(u64::MAX)),
         to: to.into(),
@@ -318,78 +478,12 @@ fn check_line(to: &str, said: Option<&Said>, text: Option<&str>) -> Result<(), E
     Ok(())
 }
 
-fn say_command(args: SayArgs) -> Result<Command, ErrorData> {
-    let to = args.to.unwrap_or_else(|| "all".into());
-    check_name("say", "to", &to)?;
-    for (field, value) in
-        [("kind", &args.kind), ("room", &args.room), ("colour", &args.colour), ("player", &args.player)]
-    {
-        check_name("say", field, value.as_deref().unwrap_or_default())?;
-    }
-    for (field, value) in [("count", args.count), ("position", args.position)] {
-        if value.is_some_and(|n| n > MAX_MESSAGE_NUMBER) {
-            return Err(invalid("say", format!("{field} must be at most {MAX_MESSAGE_NUMBER}")));
-        }
-    }
-    match (args.kind, args.text) {
-        (Some(_), Some(_)) => Err(invalid("say", "give a kind (with its arguments) or text, not both")),
-        (None, None) => Err(invalid("say", "give a kind (with its arguments) or text")),
-        (None, Some(text)) => {
-            let stray =
-                [args.room.is_some(), args.colour.is_some(), args.player.is_some()].into_iter().any(|x| x)
-                    || args.count.is_some()
-                    || args.position.is_some();
-            if stray {
-                return Err(invalid("say", "free text takes no room, colour, player, count or position"));
-            }
-            if text.trim().is_empty() {
-                return Err(invalid("say", "the text is empty"));
-            }
-            check_line(&to, None, Some(&text))?;
-            Ok(Command::Say { to, said: None, text: Some(text) })
-        }
-        (Some(kind), None) => {
-            let said = Said {
-                kind,
-                room: args.room,
-                colour: args.colour,
-                player: args.player,
-                count: args.count,
-                position: args.position,
-            };
-            said.check().map_err(|e| invalid("say", e))?;
-            check_line(&to, Some(&said), None)?;
-            Ok(Command::Say { to, said: Some(said), text: None })
-        }
-    }
-}
-
-/// A tool result: the outcome and changes in words, then the state; the same as data.
-fn tool_result(reply: Reply) -> CallToolResult {
-    let mut structured = json!({ "state": reply.view.state });
-    let mut text = String::new();
-    if let Some(report) = &reply.report {
-        text.push_str(&docs::outcome_sentence(report));
-        for line in &report.changes {
-            text.push('\n');
-            text.push_str(line);
-        }
-        text.push_str("\n\n");
-        structured["outcome"] = json!(report.outcome.word());
-        structured["reason"] = json!(report.reason);
-        structured["tick"] = json!(report.tick);
-        structured["ticks"] = json!(report.tick.saturating_sub(report.started));
-        structured["changes"] = json!(report.changes);
-        structured["ended"] = json!(report.outcome == Outcome::MatchOver);
-    } else {
-        structured["outcome"] = json!("looked");
-        structured["tick"] = reply.view.state["tick"].clone();
-        structured["changes"] = json!([]);
-        structured["ended"] = reply.view.state["ended"].clone();
-    }
-    text.push_str(&reply.view.words);
-    let mut result = CallToolResult::success(vec![ContentBlock::text(text)]);
-    result.structured_content = Some(structured);
+/// A tool result as MCP carries it.
+fn tool_result(answer: Answer) -> CallToolResult {
+    let content = vec![ContentBlock::text(answer.text)];
+    let mut result =
+        if answer.is_error { CallToolResult::error(content) } else { CallToolResult::success(content) };
+    result.structured_content = Some(answer.structured);
     result
 }
 
@@ -407,11 +501,11 @@ impl ServerHandler for RobotServer {
         _request: Option<PaginatedRequestParams>,
         _context: RequestContext<RoleServer>,
     ) -> Result<ListToolsResult, ErrorData> {
-        Ok(ListToolsResult::with_all_items(tool_list().to_vec()))
+        Ok(ListToolsResult::with_all_items(self.tools.to_vec()))
     }
 
     fn get_tool(&self, name: &str) -> Option<Tool> {
-        tool_list().iter().find(|t| t.name == name).cloned()
+        self.tools.iter().find(|t| t.name == name).cloned()
     }
 
     async fn call_tool(
@@ -428,16 +522,29 @@ impl ServerHandler for RobotServer {
             seat.take(session, &call).await.map_err(|refusal| refused(&request.name, refusal))?;
         }
         let tokens = reported_tokens([request.meta.as_ref(), Some(&context.meta)]);
-        let reply = if request.name == "look" {
-            parse::<NoArgs>("look", request.arguments)?;
-            self.link.look(tokens, true).await
-        } else {
-            let command = self.command(&request.name, request.arguments)?;
-            self.link.run(command, self.timeout, tokens, &call).await
+        let name = request.name.as_ref();
+        if !TOOLS.iter().any(|t| t.name == name) {
+            // An unknown tool is a protocol error (the MCP spec's "Error Handling").
+            let names: Vec<&str> = TOOLS.iter().map(|t| t.name).collect();
+            return Err(ErrorData::invalid_params(
+                format!("no tool named {}; the tools are {}", echo(name), names.join(", ")),
+                None,
+            ));
+        }
+        let given = Value::Object(request.arguments.clone().unwrap_or_default());
+        let checked = match name {
+            "look" => parse::<NoArgs>(name, request.arguments).map(|_| None),
+            _ => self.command(name, request.arguments).map(Some),
         };
-        match reply {
-            Ok(reply) => Ok(tool_result(reply).into()),
-            Err(LinkError::Busy(busy)) => Err(refused(&request.name, busy)),
+        let answer = match checked {
+            Ok(None) => self.link.look(tokens).await,
+            Ok(Some(command)) => self.link.run(command, given, self.timeout, tokens, &call).await,
+            // Input errors are tool results the model sees (`isError`), as the MCP spec asks.
+            Err(problem) => self.link.invalid(name, given, problem, tokens).await,
+        };
+        match answer {
+            Ok(answer) => Ok(tool_result(answer).into()),
+            Err(LinkError::Busy(busy)) => Err(refused(name, busy)),
             Err(LinkError::Gone) => {
                 Err(ErrorData::internal_error("the robot's connection to the match is gone", None))
             }
@@ -470,7 +577,7 @@ impl ServerHandler for RobotServer {
         };
         // Only the goal depends on the match; the rest is fixed.
         let goal = match row.uri {
-            "bw4t://goal" => self.link.look(None, false).await.ok().map(|reply| reply.view.state),
+            "bw4t://goal" => self.link.peek().await.ok().map(|view| view.state),
             _ => None,
         };
         let text = self.docs.resource(row.uri, goal.as_ref());
@@ -498,10 +605,89 @@ impl ServerHandler for RobotServer {
                 None,
             ));
         }
-        let view = self.link.look(None, false).await.ok().map(|reply| reply.view);
+        let view = self.link.peek().await.ok();
         let text = self.docs.role_prompt(view.as_ref().map(|v| &v.state));
         let result = GetPromptResult::new(vec![PromptMessage::new_text(rmcp::model::Role::User, text)])
             .with_description(docs::PROMPT_DESCRIPTION);
         Ok(result.into())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use bw4t_protocol::SPOKEN_FIRST_POSITION;
+    use serde_json::json;
+
+    use super::*;
+
+    fn fixed() -> Docs {
+        let map =
+            bw4t_map::Map::from_native(include_str!("../../../maps/fixed.toml")).expect("the fixed map");
+        Docs::new(Some(map))
+    }
+
+    fn say(docs: &Docs, args: Value) -> Result<Command, Invalid> {
+        say_command(docs, serde_json::from_value(args).expect("say's arguments"))
+    }
+
+    #[test]
+    fn a_position_is_said_as_the_sentences_count_and_sent_as_the_wire_counts() {
+        let Ok(Command::Say { said: Some(said), .. }) =
+            say(&fixed(), json!({"kind": "giving_up", "position": SPOKEN_FIRST_POSITION}))
+        else {
+            panic!("a say of the language");
+        };
+        assert_eq!(said.position, Some(0), "the wire counts from 0, as sequenceIndex does");
+        let sentence = said.sentence().expect("a sentence");
+        assert!(sentence.ends_with(&format!("position {SPOKEN_FIRST_POSITION}.")), "{sentence}");
+        let refused = say(&fixed(), json!({"kind": "giving_up", "position": 0})).expect_err("refused");
+        assert!(refused.contains("position must be from 1"), "{refused}");
+    }
+
+    #[test]
+    fn a_say_names_what_is_not_of_the_map_or_the_language() {
+        let docs = fixed();
+        let room = say(&docs, json!({"kind": "contains", "room": "LeftHallA", "colour": "Red"}))
+            .expect_err("a hall");
+        assert!(
+            room.starts_with("say: 'LeftHallA' is not a room of map 'fixed'; its rooms are RoomA1"),
+            "{room}"
+        );
+        let colour = say(&docs, json!({"kind": "have", "colour": "red"})).expect_err("not a colour's name");
+        assert!(
+            colour.contains("'red' is not a colour; the colours are") && colour.contains("Red"),
+            "{colour}"
+        );
+        let kind = say(&docs, json!({"kind": "x".repeat(200)})).expect_err("no such kind");
+        assert!(kind.contains("(cut; 200 characters in all) is not a kind") && kind.len() < 600, "{kind}");
+        let text = say(&docs, json!({"text": "é".repeat(MAX_FREE_TEXT_CHARS + 1)})).expect_err("too long");
+        assert!(text.contains("281 characters long; the most is 280"), "{text}");
+        assert!(
+            say(&docs, json!({"text": "é".repeat(MAX_FREE_TEXT_CHARS)})).is_ok(),
+            "characters, not bytes"
+        );
+        assert!(say(&docs, json!({"kind": "contains", "room": "DropZone", "colour": "Red"})).is_ok());
+    }
+
+    #[test]
+    fn the_tools_carry_the_maps_places_and_the_hints() {
+        let tools = tool_list(&fixed());
+        let go_to = tools.iter().find(|t| t.name == "go_to").expect("go_to");
+        let places = &go_to.input_schema["properties"]["place"]["enum"];
+        assert!(
+            places
+                .as_array()
+                .is_some_and(|p| p.contains(&json!("LeftHallA")) && p.contains(&json!("DropZone")))
+        );
+        assert_eq!(go_to.output_schema.as_deref(), output_schema().as_object());
+        let unknown_map = tool_list(&Docs::new(None));
+        let go_to = unknown_map.iter().find(|t| t.name == "go_to").expect("go_to");
+        assert!(go_to.input_schema["properties"]["place"].get("enum").is_none(), "no map, no list");
+        let read_only: Vec<&str> = tools
+            .iter()
+            .filter(|t| t.annotations.as_ref().and_then(|a| a.read_only_hint) == Some(true))
+            .map(|t| t.name.as_ref())
+            .collect();
+        assert_eq!(read_only, ["look"]);
     }
 }

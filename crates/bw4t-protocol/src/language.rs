@@ -23,9 +23,13 @@ pub enum Slot {
     /// A number of blocks.
     Count,
     /// A position in the goal sequence: on the wire the index as in `sequenceIndex`
-    /// (0 is the first colour); sentences count from 1.
+    /// (0 is the first colour); sentences count from [`SPOKEN_FIRST_POSITION`].
     Position,
 }
+
+/// The number sentences (and `bw4t mcp`'s `say` tool) give the first position of the goal
+/// sequence; on the wire it is 0, as `sequenceIndex` counts.
+pub const SPOKEN_FIRST_POSITION: u32 = 1;
 
 /// What a kind of message is for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
@@ -229,7 +233,9 @@ impl Said {
             Slot::Colour => self.colour.clone(),
             Slot::Player => self.player.clone(),
             Slot::Count => self.count.map(|n| n.to_string()),
-            Slot::Position => self.position.map(|n| (u64::from(n) + 1).to_string()),
+            Slot::Position => {
+                self.position.map(|n| (u64::from(n) + u64::from(SPOKEN_FIRST_POSITION)).to_string())
+            }
         }
     }
 

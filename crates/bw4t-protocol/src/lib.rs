@@ -31,7 +31,10 @@ pub use http::{
     StoppedMatch, TemplateInfo, Watch, ZoneKindWord, ZoneLayout,
 };
 pub use knowledge::{Heard, Knowledge, RoomSeen, RoomTold, is_room};
-pub use language::{Group, KINDS, KindRow, MessagePolicy, Said, SaidError, Slot, kind_row, language_json};
+pub use language::{
+    Group, KINDS, KindRow, MessagePolicy, SPOKEN_FIRST_POSITION, Said, SaidError, Slot, kind_row,
+    language_json,
+};
 pub use leaderboard::{AgentInfo, LeaderboardRow, UsageTotals};
 pub use messages::*;
 pub use replay::{REPLAY_FORMAT, Recorder, ReplayEvent, ReplayHeader, ReplayLine, ReplayMeta};

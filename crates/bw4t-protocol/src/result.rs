@@ -104,9 +104,17 @@ fn is_zero<T: Default + PartialEq>(n: &T) -> bool {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct PlayerUsage {
-    /// Decisions made: tool calls, for a player driven through MCP.
+    /// Decisions made: tool calls, for a player driven through MCP (invalid ones included).
     #[serde(default)]
     pub tool_calls: u64,
+    /// Of those, the calls refused for their arguments (an unknown place, a colour not of
+    /// the game, a number out of range): answered as tool errors, nothing sent to the match.
+    #[serde(default)]
+    pub invalid_calls: u64,
+    /// Estimated tokens of the tool results returned to the model, summed: each result's
+    /// text at one token per four characters, rounded up (`bw4t mcp`'s estimate).
+    #[serde(default)]
+    pub result_tokens: u64,
     /// Wall milliseconds spent deciding, in all (between an answer and the next call).
     #[serde(default)]
     pub think_ms: u64,

@@ -51,6 +51,12 @@ pub struct ResultRow {
     /// Tool calls of the team's players that report them (`bw4t mcp` does).
     #[serde(default)]
     pub tool_calls: u64,
+    /// Of those, calls refused for their arguments (answered as tool errors), summed.
+    #[serde(default)]
+    pub invalid_calls: u64,
+    /// Estimated tokens of the tool results those players returned to their models, summed.
+    #[serde(default)]
+    pub result_tokens: u64,
     /// Wall milliseconds those players spent deciding, summed over the team.
     #[serde(default)]
     pub think_ms: u64,
@@ -93,6 +99,8 @@ pub const CSV_COLUMNS: &[(&str, CsvField)] = &[
     ("crashed_agents", |r| r.crashed_agents.to_string()),
     ("out_of_time", |r| r.out_of_time.to_string()),
     ("tool_calls", |r| r.tool_calls.to_string()),
+    ("invalid_calls", |r| r.invalid_calls.to_string()),
+    ("result_tokens", |r| r.result_tokens.to_string()),
     ("think_ms", |r| r.think_ms.to_string()),
     ("prompt_tokens", |r| r.prompt_tokens.to_string()),
     ("completion_tokens", |r| r.completion_tokens.to_string()),
@@ -132,6 +140,8 @@ impl ResultRow {
             crashed_agents: 0,
             out_of_time: false,
             tool_calls: 0,
+            invalid_calls: 0,
+            result_tokens: 0,
             think_ms: 0,
             prompt_tokens: 0,
             completion_tokens: 0,
@@ -157,6 +167,8 @@ impl ResultRow {
         let usage = result.per_robot.iter().filter_map(|r| r.usage);
         for u in usage {
             self.tool_calls = self.tool_calls.saturating_add(u.tool_calls);
+            self.invalid_calls = self.invalid_calls.saturating_add(u.invalid_calls);
+            self.result_tokens = self.result_tokens.saturating_add(u.result_tokens);
             self.think_ms = self.think_ms.saturating_add(u.think_ms);
             self.prompt_tokens = self.prompt_tokens.saturating_add(u.prompt_tokens);
             self.completion_tokens = self.completion_tokens.saturating_add(u.completion_tokens);

@@ -94,6 +94,13 @@ pub enum ServedError {
     Setup(#[from] bw4t_agents::SetupError),
 }
 
+/// What a report says of an agent program that never joined its seat: the usual cause,
+/// and what to do about it.
+const NEVER_CONNECTED: &str = "never connected to this match (was it given BW4T_HOST, BW4T_PORT, \
+BW4T_NAME and BW4T_TOKEN? a program that drops them, such as an MCP host with an environment of its \
+own, plays elsewhere or not at all: pass them on, and start `bw4t mcp --served` so that it fails \
+loudly without them)";
+
 /// Deadlines a player may miss in a row before it is dropped as unresponsive.
 const MAX_LATE_IN_ROW: u32 = 3;
 
@@ -311,7 +318,7 @@ fn report(seat: &Seat, result: &MatchResult, children: &[Running]) -> AgentRepor
                 (_, false) if errors > 0 => {
                     (AgentStatus::BadProtocol, format!("never completed hello; {errors} invalid lines"))
                 }
-                (_, false) => (AgentStatus::NeverConnected, "never connected".to_string()),
+                (_, false) => (AgentStatus::NeverConnected, NEVER_CONNECTED.to_string()),
                 // Causes before consequences: a program dropped for garbage or silence often
                 // exits with an error afterwards.
                 _ if errors > 0 => (AgentStatus::BadProtocol, format!("sent {errors} invalid lines")),
