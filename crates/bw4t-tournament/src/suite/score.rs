@@ -46,10 +46,10 @@ impl From<&Row> for Outcome {
             failed: row.error.is_some(),
             usage: UsageTotals {
                 tool_calls: row.tool_calls,
-                invalid_calls: 0,
+                invalid_calls: row.invalid_calls,
                 prompt_tokens: row.prompt_tokens,
                 completion_tokens: row.completion_tokens,
-                result_tokens: 0,
+                result_tokens: row.result_tokens,
             },
             digest: row.digest.clone(),
         }
