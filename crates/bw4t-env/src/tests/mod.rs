@@ -3,6 +3,7 @@
 
 mod episodes;
 mod masks;
+mod recorded;
 mod spaces;
 mod symbolic;
 mod vector;
