@@ -584,3 +584,6 @@ fn drops(game: &Match, robot: RobotId) -> [(u32, u32); 2] {
     let own = game.robot_stats(robot).map_or((0, 0), |s| (s.good_drops, s.wrong_drops));
     [(stats.good_drops, stats.wrong_drops), own]
 }
+
+#[cfg(test)]
+mod tests;
