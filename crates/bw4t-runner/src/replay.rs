@@ -219,12 +219,15 @@ pub(crate) trait Watch {
     fn before(&mut self, game: &mut Match, event: &ReplayEvent);
     /// `event` was applied again, as recorded.
     fn after(&mut self, game: &mut Match, event: &ReplayEvent);
+    /// Every event recorded after the match's tick was applied again.
+    fn settled(&mut self, game: &mut Match);
 }
 
 impl Watch for () {
     fn ticked(&mut self, _: &mut Match) {}
     fn before(&mut self, _: &mut Match, _: &ReplayEvent) {}
     fn after(&mut self, _: &mut Match, _: &ReplayEvent) {}
+    fn settled(&mut self, _: &mut Match) {}
 }
 
 /// What re-simulating a replay gave.
@@ -288,6 +291,7 @@ pub(crate) fn resimulate(
             }
             watch.after(game, event);
         }
+        watch.settled(game);
     }
     let verdict = verdict.unwrap_or_else(|| match reason {
         Some(_) => Verdict::Matches { digests, ticks: game.tick() },

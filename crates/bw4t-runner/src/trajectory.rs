@@ -286,7 +286,7 @@ impl Watch for Follow<'_> {
                 let parsed = event.action();
                 if let Some(env) = &mut follower.env {
                     // An action this program cannot read has no index either.
-                    env.acted(game, parsed.as_ref());
+                    env.acted(game, follower.robot, parsed.as_ref());
                     return;
                 }
                 let record = TrajectoryAction { action: action.clone(), args: args.clone(), ok: *ok };
@@ -302,6 +302,14 @@ impl Watch for Follow<'_> {
                 }
             }
             ReplayEvent::Join { .. } | ReplayEvent::Stop { .. } => {}
+        }
+    }
+
+    fn settled(&mut self, game: &mut Match) {
+        for follower in self.live.values_mut() {
+            if let Some(env) = &mut follower.env {
+                env.begin(game, follower.robot);
+            }
         }
     }
 
@@ -382,7 +390,10 @@ impl Follower {
             if let Some(delta) = delta {
                 env.view.apply(delta);
             }
-            env.ticked(game, self.robot, options);
+            // At its joining the robot waits for its teammates joining with it (`begin`).
+            if game.tick() > self.joined {
+                env.ticked(game, self.robot, options);
+            }
             return;
         }
         let Some(delta) = delta.filter(|d| !d.is_empty()) else { return };
@@ -486,14 +497,23 @@ impl EnvFollower {
             return;
         }
         let Some(last) = self.steps.last() else {
-            let first = self.observe(game);
-            self.steps.push(first);
-            self.start_step(game, robot);
+            self.begin(game, robot);
             return;
         };
         let complete = game.is_complete();
         if game.tick() - last.tick >= u64::from(options.ticks_per_step) || complete {
             self.close_step(game, robot, options, complete, false);
+        }
+    }
+
+    /// The first observation, unless made: once everyone joining with the robot has
+    /// joined (the tick's events are applied) or when the robot first acts, whichever
+    /// comes first, as an environment's reset observes after every seat has joined.
+    fn begin(&mut self, game: &Match, robot: RobotId) {
+        if self.steps.is_empty() {
+            let first = self.observe(game);
+            self.steps.push(first);
+            self.start_step(game, robot);
         }
     }
 
@@ -544,10 +564,11 @@ impl EnvFollower {
     }
 
     /// The robot took `action` in the step under way.
-    fn acted(&mut self, game: &Match, action: Option<&Action>) {
+    fn acted(&mut self, game: &Match, robot: RobotId, action: Option<&Action>) {
         if self.over {
             return;
         }
+        self.begin(game, robot);
         // The index as the robot's view and mask stand now (with one tick per step, those
         // of the step's observation).
         self.view.mask(others(game), &mut self.mask);
