@@ -205,7 +205,7 @@ def minari_dataset(
         description=description
         or "BW4T robots' trajectories re-simulated from replays, in the single-learner environment's encoding",
         author=author,
-        **kwargs,
+        **{"algorithm_name": "bw4t replay trajectories", **kwargs},
     )
 
 
