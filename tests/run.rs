@@ -580,3 +580,61 @@ fn the_default_tick_limit_follows_the_map_so_one_robot_finishes_a_large_one() {
     assert_eq!((given["max_ticks"].as_u64(), given["ticks"].as_u64()), (Some(9), Some(9)));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn replay_trajectories_writes_each_robots_file_and_refuses_a_replay_that_does_not_verify() {
+    let dir = temp_dir("trajectories");
+    let replay = dir.join("m.jsonl");
+    let out = bw4t(&[
+        "run",
+        "--map",
+        "fixed",
+        "--seed",
+        "3",
+        "--robots",
+        "2",
+        "--replay",
+        replay.to_str().expect("utf-8"),
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let export = dir.join("export");
+    let args =
+        ["replay", "trajectories", replay.to_str().expect("utf-8"), "--out", export.to_str().expect("utf-8")];
+    let done = bw4t(&args);
+    assert!(done.status.success(), "{}", String::from_utf8_lossy(&done.stderr));
+    let meta: Value =
+        serde_json::from_str(&std::fs::read_to_string(export.join("m/meta.json")).expect("meta"))
+            .expect("json");
+    let robots = meta["robots"].as_array().expect("robots");
+    assert_eq!(robots.len(), 2);
+    for robot in robots {
+        let file = export.join("m").join(robot["file"].as_str().expect("file"));
+        let text = std::fs::read_to_string(&file).expect("a robot's file");
+        assert_eq!(text.lines().count() as u64, robot["lines"].as_u64().expect("lines"));
+    }
+    // A replay changed after it was written is refused, named, with the tick it differs at.
+    let text = std::fs::read_to_string(&replay).expect("replay");
+    let line = text.lines().find(|l| l.contains("\"goTo\"")).expect("a goTo");
+    let place = ["RoomA1", "RoomB3"].into_iter().find(|p| !line.contains(p)).expect("another place");
+    let bad = dir.join("bad.jsonl");
+    std::fs::write(&bad, text.replacen(line, &regex_free_replace_place(line, place), 1)).expect("write");
+    let refused = bw4t(&[
+        "replay",
+        "trajectories",
+        bad.to_str().expect("utf-8"),
+        "--out",
+        export.to_str().expect("utf-8"),
+    ]);
+    assert_eq!(refused.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        err.contains("bad.jsonl") && err.contains("does not verify") && err.contains("differs at tick"),
+        "{err}"
+    );
+    assert!(!export.join("bad").exists(), "nothing written for a refused replay");
+    // A format that does not exist is a command line clap refuses.
+    let wrong =
+        bw4t(&["replay", "trajectories", replay.to_str().expect("utf-8"), "--out", "x", "--format", "csv"]);
+    assert_eq!(wrong.status.code(), Some(2));
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -26,6 +26,7 @@ mod status;
 mod study;
 mod study_simulate;
 mod tournament;
+mod trajectories;
 
 use std::ffi::OsString;
 use std::sync::OnceLock;

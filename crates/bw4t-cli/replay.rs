@@ -1,4 +1,5 @@
-//! `bw4t replay`: check a replay by re-simulating it, summarise it, or serve the page on it.
+//! `bw4t replay`: check a replay by re-simulating it, summarise it, serve the page on it,
+//! or export its trajectories (`trajectories.rs`).
 
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
@@ -52,7 +53,27 @@ enum ReplayCommand {
         #[arg(long, default_value = "127.0.0.1")]
         bind: std::net::IpAddr,
     },
+    /// Re-simulate replays into each robot's trajectory for learners: per robot, JSON lines
+    /// of what it was told (percepts and their plain-English words) and did (actions,
+    /// messages sent and received), or (--format env) the single-learner environment's
+    /// observations, masks, action indices, rewards and episode ends. A replay that does
+    /// not verify is refused.
+    #[command(after_help = TRAJECTORIES_HELP)]
+    Trajectories(crate::trajectories::ReplayTrajectoriesArgs),
 }
+
+/// What `bw4t replay trajectories` writes, for its `--help`.
+const TRAJECTORIES_HELP: &str =
+    "Writes, per replay, OUT/STEM/ (STEM: the replay's file name without .jsonl) with
+meta.json (the map, seed, labels such as a study trial's participant and condition, the
+robots and their files; for env the spaces' layouts and rewards), map.toml, and per robot
+NAME.jsonl (symbolic) or NAME.env.jsonl (env). Line shapes: protocol/schema/trajectory/.
+In env, a step's action is the first action of the robot in the step that an index stands
+for (moves and block actions before messages), else 0 (wait); each step says how many
+actions were taken and left out. python -m bw4t.datasets (or bw4t.datasets.minari_dataset)
+makes a Minari dataset of an env export.
+Exit status: 0 written; 1 a replay that cannot be read, does not verify, or is incomplete
+(without --incomplete), or a bad option; 2 a command line that cannot be read.";
 
 /// Runs a replay command; its exit status says the verdict (`VERIFY_EXIT_STATUS`).
 pub(crate) fn run(args: &ReplayArgs) -> Result<u8> {
@@ -74,6 +95,10 @@ pub(crate) fn run(args: &ReplayArgs) -> Result<u8> {
             Ok(status::SUCCESS)
         }
         ReplayCommand::View { file, http, bind } => view(file, *bind, *http),
+        ReplayCommand::Trajectories(args) => {
+            crate::trajectories::run(args)?;
+            Ok(status::SUCCESS)
+        }
     }
 }
 

@@ -85,6 +85,14 @@ struct ExportArgs {
     /// Where to write (default: DIR/export).
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
+    /// Also export every trial's replay as trajectories for learners, into OUT/trajectories/
+    /// (one directory per trial; its meta.json labels name the participant's anonymous id,
+    /// the condition and the trial). As `bw4t replay trajectories`; --format, --ticks-per-step
+    /// and --slots as there.
+    #[arg(long)]
+    trajectories: bool,
+    #[command(flatten)]
+    flags: crate::trajectories::TrajectoryFlags,
 }
 
 impl StudyArgs {
@@ -118,6 +126,15 @@ fn run_export(args: &ExportArgs) -> Result<()> {
         bw4t_runner::plural(summary.counts.events, "event"),
         bw4t_runner::plural(summary.counts.replays, "replay"),
     );
+    if args.trajectories {
+        let robots = crate::trajectories::export_study(&out, &args.flags)?;
+        outln!(
+            "wrote {} ({}) into {}",
+            bw4t_runner::plural(robots, "robot trajectory"),
+            args.flags.format.kind().as_str(),
+            out.join("trajectories").display()
+        );
+    }
     Ok(())
 }
 
@@ -237,7 +254,7 @@ fn serve(args: &StudyArgs, file: &Path) -> Result<()> {
         simulated.screened_out,
         bw4t_runner::plural(simulated.trials, "trial")
     );
-    run_export(&ExportArgs { dir: data.clone(), out: None })?;
+    run_export(&ExportArgs { dir: data.clone(), out: None, trajectories: false, flags: Default::default() })?;
     if !simulated.stopped.is_empty() {
         bail!("the dry run found problems:\n  {}", simulated.stopped.join("\n  "));
     }

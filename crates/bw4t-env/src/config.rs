@@ -25,6 +25,14 @@ pub struct Rewards {
     pub mode: RewardMode,
 }
 
+impl Rewards {
+    /// One step's reward for `good` blocks delivered in order and `wrong` blocks of the
+    /// wrong colour dropped in the drop zone (the drops the [`RewardMode`] counts).
+    pub fn of_step(&self, good: u32, wrong: u32) -> f32 {
+        good as f32 * self.delivery + wrong as f32 * self.wrong_drop - self.step_cost
+    }
+}
+
 impl Default for Rewards {
     /// `+1` per delivery and `-0.5` per wrong drop, shared by the team; `0.001` per step.
     fn default() -> Self {

@@ -172,10 +172,43 @@ impl Codec {
         }
     }
 
+    /// The index that stands for `action` now (the inverse of [`Codec::action`]): the
+    /// first allowed index the mask (`mask`, as [`Codec::mask`] wrote it) allows whose
+    /// action is `action`, a message compared by what it says rather than its spelling.
+    /// `None`: no index stands for it (a message to one player, free text or a kind the
+    /// action space has no segment for, a block beyond the slots, a masked-out action).
+    pub(crate) fn index_of(&self, seen: &Seen, game: &Match, mask: &[u8], action: &Action) -> Option<usize> {
+        // `pickUp` naming the block within reach picks up what the unnamed one does.
+        let at_block = seen.knowledge.at_block().map(|(b, _)| b);
+        let unnamed = Action::PickUp(None);
+        let action = match action {
+            Action::PickUp(Some(b)) if Some(*b) == at_block => &unnamed,
+            other => other,
+        };
+        // Found by encoding each allowed index forwards, so the inverse cannot drift from
+        // the encoding; actions are rare beside ticks, and the space is small.
+        (1..self.spaces.n_actions())
+            .filter(|&i| mask.get(i) == Some(&1))
+            .find(|&i| self.action(seen, game, i).is_some_and(|a| same_action(&a, action)))
+    }
+
     /// The segment (by position in the table) and index within it of an action.
     fn segment_of(&self, action: usize) -> Option<(usize, usize)> {
         let seg = self.act.iter().rposition(|&start| start <= action)?;
         let len = self.spaces.action_layout()[seg].len;
         (action - self.act[seg] < len).then_some((seg, action - self.act[seg]))
+    }
+}
+
+/// Whether two actions do the same: equal, or messages to the same receiver saying the same
+/// message of the language however its text is spelt.
+fn same_action(a: &Action, b: &Action) -> bool {
+    match (a, b) {
+        (Action::SendMessage { to: to_a, text: text_a }, Action::SendMessage { to: to_b, text: text_b }) => {
+            to_a == to_b
+                && (text_a == text_b
+                    || Said::from_text(text_a).is_some_and(|said| Said::from_text(text_b) == Some(said)))
+        }
+        _ => a == b,
     }
 }

@@ -326,7 +326,6 @@ impl Env {
         self.poll();
         let after = self.drops();
         let r = &self.config.rewards;
-        let value = |(good, wrong): (u32, u32)| good as f32 * r.delivery + wrong as f32 * r.wrong_drop;
         for (i, reward) in rewards.iter_mut().enumerate() {
             let (good, wrong) = match r.mode {
                 RewardMode::Team => (after.team.0 - before.team.0, after.team.1 - before.team.1),
@@ -334,7 +333,7 @@ impl Env {
                     (after.own[i].0 - before.own[i].0, after.own[i].1 - before.own[i].1)
                 }
             };
-            *reward = value((good, wrong)) - r.step_cost;
+            *reward = r.of_step(good, wrong);
         }
         let terminated = self.game.is_complete();
         StepEnd { terminated, truncated: !terminated && self.game.tick() >= max_ticks }

@@ -17,6 +17,7 @@ mod schema;
 mod session;
 mod study;
 mod table;
+mod trajectory;
 mod view;
 mod vocabulary;
 mod words;
@@ -49,6 +50,10 @@ pub use study::{
 };
 pub use table::{
     ACTIONS, ActionRow, PERCEPTS, PerceptRow, Scope, SendType, action_row, percept_row, table_json,
+};
+pub use trajectory::{
+    EnvEncoding, EnvStep, EnvStepTaken, LayoutSegment, RobotTick, TRAJECTORY_FORMAT, TrajectoryAction,
+    TrajectoryMessage, TrajectoryMeta, TrajectoryRobot,
 };
 pub use vocabulary::{
     AckCode, AgentStatus, ByeReason, EndReason, ErrorCode, Leaving, Mode, MoveState, Outcome,

@@ -9,6 +9,7 @@ use crate::messages::{ClientMessage, ServerMessage};
 use crate::study::{
     EventsRecorded, ParticipantList, ParticipantState, StepConflict, StudyExported, StudyInfo,
 };
+use crate::trajectory::{EnvStep, RobotTick, TrajectoryMeta};
 use crate::vocabulary::{AckCode, AgentStatus, ByeReason, EndReason, ErrorCode, Leaving, MoveState, Outcome};
 
 /// Every message's schema as (relative path, schema): `client/hello.json`, `server/welcome.json`, ...,
@@ -16,7 +17,7 @@ use crate::vocabulary::{AckCode, AgentStatus, ByeReason, EndReason, ErrorCode, L
 /// `table.json`, the percepts and actions ([`PERCEPTS`](crate::PERCEPTS), [`ACTIONS`](crate::ACTIONS)),
 /// and the web port's JSON replies under `http/` ([`MapLayout`], [`ServerInfo`], [`MatchList`],
 /// [`MatchSummary`], [`StoppedMatch`], [`ResultList`], [`ErrorReply`]; the study API's under
-/// `http/study/`).
+/// `http/study/`), and the trajectory files under `trajectory/`.
 pub fn schemas() -> Vec<(String, Value)> {
     let mut out = vec![
         ("vocabulary.json".to_string(), vocabulary()),
@@ -58,6 +59,7 @@ pub fn schemas() -> Vec<(String, Value)> {
         }
     }
     out.extend(http());
+    out.extend(trajectory());
     let mut row = serde_json::to_value(reply::<crate::LeaderboardRow>()).unwrap_or_default();
     if let Some(object) = row.as_object_mut() {
         object.insert("$id".into(), "https://bw4t.invalid/protocol/v1/eval/row.json".into());
@@ -65,6 +67,31 @@ pub fn schemas() -> Vec<(String, Value)> {
     }
     out.push(("eval/row.json".to_string(), row));
     out
+}
+
+/// The files `bw4t replay trajectories` writes: `trajectory/robot.json` (a line of
+/// `NAME.jsonl`), `trajectory/env.json` (a line of `NAME.env.jsonl`), `trajectory/meta.json`.
+fn trajectory() -> Vec<(String, Value)> {
+    [
+        ("robot", "a line of a robot's trajectory (NAME.jsonl)", reply::<RobotTick>()),
+        ("env", "a line of a robot's environment trajectory (NAME.env.jsonl)", reply::<EnvStep>()),
+        ("meta", "meta.json: what an exported replay's trajectories hold", reply::<TrajectoryMeta>()),
+    ]
+    .into_iter()
+    .map(|(name, title, schema)| {
+        (format!("trajectory/{name}.json"), titled(schema, &format!("trajectory/{name}"), title))
+    })
+    .collect()
+}
+
+/// A schema with its `$id` (under the protocol's, at `path`) and title.
+fn titled(schema: Schema, path: &str, title: &str) -> Value {
+    let mut schema = serde_json::to_value(schema).unwrap_or_default();
+    if let Some(object) = schema.as_object_mut() {
+        object.insert("$id".into(), format!("https://bw4t.invalid/protocol/v1/{path}.json").into());
+        object.insert("title".into(), title.into());
+    }
+    schema
 }
 
 /// The web port's replies: `http/map.json`, `http/info.json`, `http/matches.json`,
@@ -92,12 +119,7 @@ fn http() -> Vec<(String, Value)> {
     ]
     .into_iter()
     .map(|(name, title, schema)| {
-        let mut schema = serde_json::to_value(schema).unwrap_or_default();
-        if let Some(object) = schema.as_object_mut() {
-            object.insert("$id".into(), format!("https://bw4t.invalid/protocol/v1/http/{name}.json").into());
-            object.insert("title".into(), title.into());
-        }
-        (format!("http/{name}.json"), schema)
+        (format!("http/{name}.json"), titled(schema, &format!("http/{name}"), title))
     })
     .collect()
 }

@@ -1,5 +1,6 @@
 //! Whole matches: headless with built-in agents, or served to external agent processes
-//! mixed with built-in ones; and replays (verify, show, frames for the viewer).
+//! mixed with built-in ones; and replays (verify, show, frames for the viewer, trajectories
+//! for learners).
 
 mod external;
 mod headless;
@@ -8,6 +9,7 @@ mod preflight;
 mod remote;
 mod replay;
 pub mod tournament;
+mod trajectory;
 
 /// `1 robot`, `2 robots`: the one rule for counts in messages (the tournament summary's too).
 pub use bw4t_tournament::plural;
@@ -20,5 +22,6 @@ pub use replay::{
     FRAME_CACHE_BYTES, MAX_DIGEST_EVERY, ReplayError, ReplayFrames, ReplayMessage, ReplaySummary, Verdict,
     read_replay, verify_replay,
 };
+pub use trajectory::{Trajectories, TrajectoryError, TrajectoryKind, TrajectoryOptions, trajectories};
 
 pub use bw4t_server::program;

@@ -131,7 +131,7 @@ fn new_match(header: &ReplayHeader, map: &Map) -> Result<Match, ReplayError> {
 }
 
 /// The replay's map, and its match before anything happened.
-fn start(header: &ReplayHeader) -> Result<(Map, Match), ReplayError> {
+pub(crate) fn start(header: &ReplayHeader) -> Result<(Map, Match), ReplayError> {
     // Checked as every map a match is played on, so a hand-made header cannot slip one by.
     let (map, _warnings) =
         Map::parse_checked(&header.map_native, "", None).map_err(|e| ReplayError::Setup(e.to_string()))?;
@@ -205,6 +205,45 @@ pub struct ReplaySummary {
 pub fn verify_replay(text: &str) -> Result<(Verdict, ReplaySummary), ReplayError> {
     let (header, lines) = read_replay(text)?;
     let (_, mut game) = start(&header)?;
+    let walked = resimulate(&header, &lines, &mut game, &mut ());
+    Ok((walked.verdict, walked.summary))
+}
+
+/// Hears a re-simulation as it goes: every tick the match reaches, every recorded event
+/// around its re-application. Whoever turns a replay into something else (trajectories)
+/// sees the match exactly as verification re-simulates it.
+pub(crate) trait Watch {
+    /// The match is at a new tick (tick 0 before anything is applied, then after each step).
+    fn ticked(&mut self, game: &mut Match);
+    /// `event` is about to be applied again.
+    fn before(&mut self, game: &mut Match, event: &ReplayEvent);
+    /// `event` was applied again, as recorded.
+    fn after(&mut self, game: &mut Match, event: &ReplayEvent);
+    /// Every event recorded after the match's tick was applied again.
+    fn settled(&mut self, game: &mut Match);
+}
+
+impl Watch for () {
+    fn ticked(&mut self, _: &mut Match) {}
+    fn before(&mut self, _: &mut Match, _: &ReplayEvent) {}
+    fn after(&mut self, _: &mut Match, _: &ReplayEvent) {}
+    fn settled(&mut self, _: &mut Match) {}
+}
+
+/// What re-simulating a replay gave.
+pub(crate) struct Walked {
+    pub(crate) verdict: Verdict,
+    pub(crate) summary: ReplaySummary,
+}
+
+/// Re-simulates `lines` on `game` (the header's match, before anything happened),
+/// comparing every recorded digest and outcome, and telling `watch` as it goes.
+pub(crate) fn resimulate(
+    header: &ReplayHeader,
+    lines: &[(usize, ReplayLine)],
+    game: &mut Match,
+    watch: &mut impl Watch,
+) -> Walked {
     let (mut digests, mut actions, mut reason, mut players) = (0, 0, None, Vec::new());
     let differs = |tick, expected: &str, found: String| Verdict::Differs {
         tick,
@@ -212,7 +251,8 @@ pub fn verify_replay(text: &str) -> Result<(Verdict, ReplaySummary), ReplayError
         found,
     };
     let mut verdict = None;
-    'lines: for (_, line) in &lines {
+    watch.ticked(game);
+    'lines: for (_, line) in lines {
         let (tick, recorded) = match line {
             ReplayLine::Header(_) => continue,
             ReplayLine::Tick { tick, .. } => (*tick, None),
@@ -223,6 +263,7 @@ pub fn verify_replay(text: &str) -> Result<(Verdict, ReplaySummary), ReplayError
         // `read_replay` checked that ticks never go back and stay within the file's digests.
         while game.tick() < tick {
             game.step();
+            watch.ticked(game);
         }
         if let Some(digest) = recorded {
             let found = format!("{:016x}", game.digest());
@@ -237,7 +278,8 @@ pub fn verify_replay(text: &str) -> Result<(Verdict, ReplaySummary), ReplayError
         }
         let ReplayLine::Tick { events, .. } = line else { continue };
         for event in events {
-            let problem = event.reapply(&mut game).err();
+            watch.before(game, event);
+            let problem = event.reapply(game).err();
             match event {
                 ReplayEvent::Join { name, .. } if problem.is_none() => players.push(name.clone()),
                 ReplayEvent::Act { .. } => actions += 1,
@@ -247,7 +289,9 @@ pub fn verify_replay(text: &str) -> Result<(Verdict, ReplaySummary), ReplayError
                 verdict = Some(differs(tick, "the recorded outcome", problem));
                 break 'lines;
             }
+            watch.after(game, event);
         }
+        watch.settled(game);
     }
     let verdict = verdict.unwrap_or_else(|| match reason {
         Some(_) => Verdict::Matches { digests, ticks: game.tick() },
@@ -260,9 +304,9 @@ pub fn verify_replay(text: &str) -> Result<(Verdict, ReplaySummary), ReplayError
         reason,
         actions,
         players,
-        header,
+        header: header.clone(),
     };
-    Ok((verdict, summary))
+    Walked { verdict, summary }
 }
 
 /// A message of a replay and the tick whose frame first shows it.

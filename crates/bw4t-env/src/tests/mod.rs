@@ -4,6 +4,7 @@
 mod copying;
 mod episodes;
 mod masks;
+mod recorded;
 mod spaces;
 mod symbolic;
 mod vector;
