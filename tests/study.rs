@@ -1755,3 +1755,45 @@ fn a_dry_run_of_the_between_subjects_example_gives_each_completer_one_condition(
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_dry_run_exported_as_trajectories_gives_every_trial_its_participant_and_condition() {
+    let dir = temp_dir("dry-run-trajectories");
+    let data = dir.join("data");
+    let example = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/study/study.toml");
+    let limit = std::time::Duration::from_secs(180);
+    let args = ["study", example, "--simulate", "2", "--data", data.to_str().expect("path"), "-q"];
+    let out = crate::util::bw4t_within(&args, limit);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let export = ["study", "export", data.to_str().expect("path"), "--trajectories"];
+    let out = crate::util::bw4t_within(&export, limit);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let trials = csv_rows(&data.join("export/trials.csv"));
+    assert!(!trials.is_empty());
+    let root = data.join("export/trajectories");
+    let mut exported = 0;
+    for entry in std::fs::read_dir(&root).expect("the trajectories") {
+        let trial = entry.expect("an entry").path();
+        let meta: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(trial.join("meta.json")).expect("meta.json")).expect("JSON");
+        let labels = &meta["labels"];
+        let row = trials
+            .iter()
+            .find(|t| {
+                labels["participant"] == t["participant"].as_str()
+                    && labels["condition"] == t["condition"].as_str()
+                    && labels["trial"] == t["trial"].as_str()
+            })
+            .unwrap_or_else(|| panic!("{} is no trial of trials.csv: {labels}", trial.display()));
+        assert!(!row["participant"].is_empty());
+        for robot in meta["robots"].as_array().expect("robots") {
+            let file = trial.join(robot["file"].as_str().expect("a file"));
+            let lines = std::fs::read_to_string(&file).expect("the robot's lines").lines().count();
+            assert_eq!(Some(lines as u64), robot["lines"].as_u64(), "{}", file.display());
+            assert!(lines > 0);
+        }
+        exported += 1;
+    }
+    assert_eq!(exported, trials.len(), "one trajectory directory per trial");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -209,17 +209,16 @@ fn tiers(json: bool) -> Result<()> {
     };
     if !json {
         outln!(
-            "{} v{}: maps {}; {} seeds per map in dev, {} in test\n",
+            "{} v{}: {} seeds per map in dev, {} in test\n",
             suite::SUITE,
             suite::SUITE_VERSION,
-            suite::MAPS.join(", "),
             suite::DEV_SEEDS,
             suite::TEST_SEEDS
         );
         outln!(
-            "| tier | robots | agent plays | teammates (dev) | teammates (test) | messages | what it asks |"
+            "| tier | maps | robots | agent plays | teammates (dev) | teammates (test) | messages | what it asks |"
         );
-        outln!("|---|---|---|---|---|---|---|");
+        outln!("|---|---|---|---|---|---|---|---|");
     }
     for tier in &TIERS {
         let plays = match tier.plays {
@@ -228,7 +227,7 @@ fn tiers(json: bool) -> Result<()> {
         };
         if json {
             let line = serde_json::json!({
-                "tier": tier.name, "robots": tier.robots, "agent_plays": plays,
+                "tier": tier.name, "maps": tier.maps, "robots": tier.robots, "agent_plays": plays,
                 "teammates_dev": mixes(tier, Split::Dev), "teammates_test": mixes(tier, Split::Test),
                 "messages": tier.messages, "about": tier.about,
                 "tasks_dev": tier.tournament(Split::Dev, "agent", 1, 0, None).plan().len(),
@@ -237,8 +236,9 @@ fn tiers(json: bool) -> Result<()> {
             outln!("{line}");
         } else {
             outln!(
-                "| {} | {} | {plays} | {} | {} | {} | {} |",
+                "| {} | {} | {} | {plays} | {} | {} | {} | {} |",
                 tier.name,
+                tier.maps.join(", "),
                 tier.robots,
                 mixes(tier, Split::Dev),
                 mixes(tier, Split::Test),

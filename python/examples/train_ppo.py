@@ -94,6 +94,16 @@ class Args:
     smoke: bool = False
     """A very short run with tiny sizes, which checks its own figures are finite."""
 
+    # After training.
+    eval_tier: str = ""
+    """Play the trained policy (greedy: the most likely allowed action) on this tier of the
+    suite (``bw4t eval tiers``; ``learn`` has this map's layout) and print its leaderboard
+    row as the last line (``{"eval": ROW}``)."""
+    eval_split: str = "dev"
+    """The tier's split: ``dev``, ``test`` (held out), or both (``dev,test``: a row each)."""
+    eval_out: str = ""
+    """Where the evaluation writes its matches and row (default: under runs/)."""
+
 
 def parse_args(argv: Optional[List[str]] = None) -> Args:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -236,6 +246,26 @@ def act(params: Dict, obs: jax.Array, mask: jax.Array, key: jax.Array) -> Tuple[
     action = jax.random.categorical(sample_key, logp_all)
     logprob = jnp.take_along_axis(logp_all, action[:, None], axis=1)[:, 0]
     return action, logprob, value(params, obs), key
+
+
+def greedy_policy(params: Dict, spec, args: Args):
+    """The trained actor as a ``bw4t.eval`` policy: for every robot, the allowed action
+    (by the learner's own mask) with the highest logit."""
+    learner_mask = LearnerMask(spec, args)
+
+    def policy(observations: Dict[str, Dict[str, np.ndarray]]) -> Dict[str, int]:
+        names = list(observations)
+        obs = np.stack([observations[name]["observation"] for name in names])
+        if obs.shape[1] != spec.obs_len:
+            raise ValueError(
+                f"the tier's map gives {obs.shape[1]} observation values, the policy was trained on {spec.obs_len}: "
+                "evaluate it on a tier of its map's layout (learn, for the default layout)"
+            )
+        mask = learner_mask(obs, np.stack([observations[name]["action_mask"] for name in names]))
+        chosen = np.asarray(jnp.argmax(masked_logits(params, jnp.asarray(obs), jnp.asarray(mask)), axis=1))
+        return {name: int(action) for name, action in zip(names, chosen)}
+
+    return policy
 
 
 # ---------------------------------------------------------------------- PPO
@@ -494,6 +524,22 @@ def main(argv: Optional[List[str]] = None) -> int:
         if not all_returns:
             print("smoke: no episode ended", file=sys.stderr)
             return 1
+    if args.eval_tier:
+        import bw4t.eval
+
+        settings = f"map={args.map} seed={args.seed} total_steps={args.total_steps} ticks_per_step={args.ticks_per_step}"
+        for split in args.eval_split.split(","):
+            out = f"{args.eval_out}/{split}" if args.eval_out else None
+            row = bw4t.eval.evaluate(
+                greedy_policy(params, env.spec_native, args),
+                args.eval_tier,
+                agent="python:examples/train_ppo.py",
+                split=split.strip(),
+                ticks_per_step=args.ticks_per_step,
+                out=out,
+                meta={"name": "ppo-example", "harness": f"train_ppo.py greedy, {settings}"},
+            )
+            print(json.dumps({"eval": row}), flush=True)
     return 0
 
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -56,3 +57,42 @@ def test_smoke_run_prints_finite_json_lines():
     for line in lines:
         for x in numbers(line):
             assert math.isfinite(x), line
+
+
+def test_smoke_run_evaluates_its_policy_on_the_learn_tier(tmp_path):
+    done = subprocess.run(
+        [sys.executable, str(SCRIPT), "--smoke", "--eval-tier", "learn", "--eval-out", str(tmp_path)],
+        cwd=PYTHON_DIR,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert done.returncode == 0, f"exit {done.returncode}\nstderr:\n{done.stderr}"
+    row = json.loads(done.stdout.splitlines()[-1])["eval"]
+    assert (row["tier"], row["split"], row["agent"]["name"]) == ("learn", "dev", "ppo-example")
+    assert row["matches"] == row["tasks"] > 0
+    assert (tmp_path / "dev" / "row.json").exists()
+
+
+REFERENCE = PYTHON_DIR.parent / "eval" / "reference.jsonl"
+
+
+@pytest.mark.skipif(
+    not os.environ.get("BW4T_SLOW_TESTS"),
+    reason="trains the default run (about 3 minutes); set BW4T_SLOW_TESTS=1 to check the committed PPO rows",
+)
+def test_the_default_run_reproduces_its_reference_rows(tmp_path):
+    committed = [json.loads(l) for l in REFERENCE.read_text().splitlines()]
+    committed = [r for r in committed if r["agent"]["name"] == "ppo-example"]
+    assert {r["split"] for r in committed} == {"dev", "test"}
+    done = subprocess.run(
+        [sys.executable, str(SCRIPT), "--eval-tier", "learn", "--eval-split", "dev,test", "--eval-out", str(tmp_path)],
+        cwd=PYTHON_DIR,
+        capture_output=True,
+        text=True,
+        timeout=1800,
+    )
+    assert done.returncode == 0, done.stderr
+    rows = [json.loads(l)["eval"] for l in done.stdout.splitlines() if l.startswith('{"eval"')]
+    strip = lambda r: {k: v for k, v in r.items() if k != "bw4t_version"}
+    assert [strip(r) for r in rows] == [strip(r) for r in committed]

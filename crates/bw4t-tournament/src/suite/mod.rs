@@ -18,10 +18,14 @@ pub const SUITE: &str = "bw4t-suite";
 /// The suite's version: tiers, seeds and scoring never change within a version.
 pub const SUITE_VERSION: u32 = 1;
 
-/// The maps of every tier: the two shipped maps whose blocks and sequence follow the match
+/// The maps of the tiers: the two shipped maps whose blocks and sequence follow the match
 /// seed, so a seed split is a split of tasks (on the fixed-content maps every seed plays
 /// the same match).
 pub const MAPS: [&str; 2] = ["default", "side-doors"];
+
+/// The maps of a tier for learners whose observation has one map's size: the default
+/// layout only.
+const ONE_LAYOUT: [&str; 1] = ["default"];
 
 /// Seeds per map in each split.
 pub const DEV_SEEDS: u64 = 5;
@@ -56,13 +60,15 @@ pub struct Tier {
     /// Whether messages are allowed (off: the server refuses every message of the agent,
     /// and its teammates are silent ones).
     pub messages: bool,
+    /// Its maps.
+    pub maps: &'static [&'static str],
 }
 
 use Strategy::{Baseline as BASE, Cooperative as COOP, Ignoring as IGN, Silent as SIL};
 
 /// Every tier, easiest first. One table: the docs' table and the command's help are
 /// printed from it.
-pub const TIERS: [Tier; 6] = [
+pub const TIERS: [Tier; 7] = [
     Tier {
         name: "solo",
         about: "one robot alone: find and deliver the whole sequence",
@@ -71,6 +77,7 @@ pub const TIERS: [Tier; 6] = [
         dev_teammates: &[&[]],
         test_teammates: &[&[]],
         messages: true,
+        maps: &MAPS,
     },
     Tier {
         name: "pair",
@@ -80,6 +87,17 @@ pub const TIERS: [Tier; 6] = [
         dev_teammates: &[&[COOP]],
         test_teammates: &[&[COOP]],
         messages: true,
+        maps: &MAPS,
+    },
+    Tier {
+        name: "learn",
+        about: "three robots, all played by the agent, on the default layout only: for learners whose observation has one map's size",
+        robots: 3,
+        plays: Plays::All,
+        dev_teammates: &[&[]],
+        test_teammates: &[&[]],
+        messages: true,
+        maps: &ONE_LAYOUT,
     },
     Tier {
         name: "team",
@@ -89,6 +107,7 @@ pub const TIERS: [Tier; 6] = [
         dev_teammates: &[&[]],
         test_teammates: &[&[]],
         messages: true,
+        maps: &MAPS,
     },
     Tier {
         name: "silent",
@@ -98,6 +117,7 @@ pub const TIERS: [Tier; 6] = [
         dev_teammates: &[&[SIL, SIL]],
         test_teammates: &[&[SIL, SIL]],
         messages: false,
+        maps: &MAPS,
     },
     Tier {
         name: "adhoc",
@@ -107,6 +127,7 @@ pub const TIERS: [Tier; 6] = [
         dev_teammates: &[&[COOP, COOP], &[COOP, SIL]],
         test_teammates: &[&[IGN, IGN], &[BASE, BASE], &[IGN, BASE]],
         messages: true,
+        maps: &MAPS,
     },
     Tier {
         name: "crowd",
@@ -116,6 +137,7 @@ pub const TIERS: [Tier; 6] = [
         dev_teammates: &[&[COOP, COOP, COOP, COOP, COOP]],
         test_teammates: &[&[COOP, SIL, IGN, COOP, BASE]],
         messages: true,
+        maps: &MAPS,
     },
 ];
 
@@ -247,7 +269,7 @@ impl Tier {
             })
             .collect();
         Resolved {
-            maps: MAPS.iter().map(|m| m.to_string()).collect(),
+            maps: self.maps.iter().map(|m| m.to_string()).collect(),
             seeds: self.seeds(split),
             master_seed: 0,
             max_ticks: None,
@@ -284,9 +306,10 @@ mod tests {
                 }
                 let resolved = tier.tournament(split, "./agent", 2, 1000, None);
                 assert!(resolved.teams.iter().all(|t| crate::seats(t).is_ok()));
+                let maps = tier.maps.len() as u64;
                 assert_eq!(
                     resolved.plan().len() as u64,
-                    2 * 2 * resolved.seeds.len() as u64 * resolved.teams.len() as u64
+                    2 * maps * resolved.seeds.len() as u64 * resolved.teams.len() as u64
                 );
             }
         }
@@ -312,6 +335,6 @@ mod tests {
         assert!(silent.admits("builtin:baseline").is_ok());
         assert!(silent.admits("python agent.py").is_ok());
         assert_eq!(silent.reference_entry(), "builtin:silent");
-        assert!(tier("nope").expect_err("refused").contains("solo, pair, team, silent, adhoc, crowd"));
+        assert!(tier("nope").expect_err("refused").contains("solo, pair, learn, team, silent, adhoc, crowd"));
     }
 }
