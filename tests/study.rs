@@ -1775,7 +1775,8 @@ fn a_dry_run_exported_as_trajectories_gives_every_trial_its_participant_and_cond
     for entry in std::fs::read_dir(&root).expect("the trajectories") {
         let trial = entry.expect("an entry").path();
         let meta: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(trial.join("meta.json")).expect("meta.json")).expect("JSON");
+            serde_json::from_str(&std::fs::read_to_string(trial.join("meta.json")).expect("meta.json"))
+                .expect("JSON");
         let labels = &meta["labels"];
         let row = trials
             .iter()

@@ -35,8 +35,11 @@ SLOTS = 10
 
 
 def _bw4t(*args: str) -> str:
-    """Runs this package's ``bw4t`` command; its standard output, or ``RuntimeError``."""
-    done = subprocess.run([sys.executable, "-m", "bw4t", *args], capture_output=True, text=True)
+    """Runs this package's ``bw4t`` command; its standard output, or ``RuntimeError``. It
+    runs from the folder holding this package, so ``-m bw4t`` is this same package whatever
+    the caller's working directory holds (paths in ``args`` are absolute)."""
+    home = Path(__file__).resolve().parent.parent
+    done = subprocess.run([sys.executable, "-m", "bw4t", *args], capture_output=True, text=True, cwd=home)
     if done.returncode != 0:
         raise RuntimeError(f"bw4t {' '.join(args)}: {done.stderr.strip()}")
     return done.stdout
@@ -98,7 +101,7 @@ def evaluate(
 
     A step is ``ticks_per_step`` ticks, so a completion is seen at the end of its step:
     the ticks a row counts are rounded up to a step (1 gives exact ticks)."""
-    out_dir = Path(out or f"runs/eval-{tier}-{split}-python")
+    out_dir = Path(out or f"runs/eval-{tier}-{split}-python").resolve()
     out_dir.mkdir(parents=True, exist_ok=True)
     outcomes = out_dir / "outcomes.jsonl"
     with outcomes.open("w") as file:
@@ -110,7 +113,7 @@ def evaluate(
     args += ["--repetitions", str(int(repetitions)), "--out", str(out_dir)]
     for key, value in (meta or {}).items():
         if value is not None:
-            args += [f"--{key}", str(value)]
+            args += [f"--{key}", str(Path(value).resolve()) if key == "leaderboard" else str(value)]
     return json.loads(_bw4t(*args))
 
 

@@ -36,6 +36,7 @@ import numpy as np
 import optax
 
 import bw4t.env
+import bw4t.eval
 
 #: The logit given to an action the mask forbids.
 MASKED_LOGIT = -1e9
@@ -525,8 +526,6 @@ def main(argv: Optional[List[str]] = None) -> int:
             print("smoke: no episode ended", file=sys.stderr)
             return 1
     if args.eval_tier:
-        import bw4t.eval
-
         settings = f"map={args.map} seed={args.seed} total_steps={args.total_steps} ticks_per_step={args.ticks_per_step}"
         for split in args.eval_split.split(","):
             out = f"{args.eval_out}/{split}" if args.eval_out else None

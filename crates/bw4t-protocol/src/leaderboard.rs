@@ -48,7 +48,7 @@ pub struct LeaderboardRow {
     pub suite: String,
     /// The suite's version: tiers, seeds and scoring are fixed within a version.
     pub suite_version: u32,
-    /// The tier (`solo`, `pair`, `team`, `silent`, `adhoc`, `crowd`).
+    /// The tier (`bw4t eval tiers` lists them).
     pub tier: String,
     /// `dev` (for tuning) or `test` (held out: for reporting).
     pub split: String,
