@@ -582,3 +582,24 @@ def test_a_robot_joins_a_served_match_by_address_and_name(bw4t_bin: str) -> None
 
     record = run(main())
     assert record.delivered == 1 and record.calls[0].result["state"]["robot"] == 0
+
+
+def test_bw4t_eval_scores_an_mcp_driven_agent_with_its_usage(bw4t_bin: str, tmp_path: Path) -> None:
+    """`bw4t eval` on the `pair` tier with the scripted MCP player as the agent: a
+    leaderboard row whose usage sums what each `bw4t mcp` reported."""
+    agent = f"{sys.executable} {PLAYER} --bw4t {bw4t_bin} --tokens-per-call 10"
+    out = subprocess.run(
+        [bw4t_bin, "eval", "pair", "--agent", agent, "--deadline-ms", "0", "--wall-budget-s", "300",
+         "--name", "scripted-mcp", "--model", "none", "--harness", "mcp_player.py", "--out", str(tmp_path / "eval")],
+        capture_output=True, text=True, timeout=600,
+    )
+    assert out.returncode == 0, out.stderr
+    row = json.loads(out.stdout)
+    assert (row["tier"], row["agent"]["name"], row["agent"]["harness"]) == ("pair", "scripted-mcp", "mcp_player.py")
+    assert row["crashed_matches"] == 0 and row["failed_matches"] == 0, row
+    assert row["completion"] > 0 and row["score"] > 0, row
+    usage = row["usage"]
+    assert usage["tool_calls"] > 0 and usage["prompt_tokens"] == 10 * usage["tool_calls"], usage
+    assert usage["invalid_calls"] == 0 and usage["result_tokens"] > 0, usage
+    agent_rows = [json.loads(line) for line in (tmp_path / "eval" / "agent" / "matches.jsonl").read_text().splitlines()]
+    assert usage["tool_calls"] == sum(r["tool_calls"] for r in agent_rows)
