@@ -47,9 +47,11 @@ impl Tag {
 }
 
 /// Handles of one robot's body and collider.
+/// A robot's kinematic body in rapier, when robots collide; without collisions robots are
+/// nothing to any query, so they have no body and the world never changes.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct RobotBody {
-    body: RigidBodyHandle,
+    body: Option<RigidBodyHandle>,
 }
 
 /// What a single move of a robot did.
@@ -111,18 +113,23 @@ impl Physics {
         }
     }
 
-    /// Adds a robot's kinematic body at `pos`.
+    /// Adds a robot's kinematic body at `pos` (none when robots do not collide).
     pub(crate) fn add_robot(&mut self, id: u32, pos: Vec2) -> RobotBody {
+        if !self.robots_collide {
+            return RobotBody { body: None };
+        }
         let body = self.world.insert_body(RigidBodyBuilder::kinematic_position_based().translation(pos));
         let collider = ColliderBuilder::new(self.robot_shape.clone()).user_data(Tag::Robot(id).encode());
         // The broad phase learns of it at the next step, as of any other change.
         self.world.insert_collider(collider, Some(body));
-        RobotBody { body }
+        RobotBody { body: Some(body) }
     }
 
     /// Removes a robot's body.
     pub(crate) fn remove_robot(&mut self, robot: RobotBody) {
-        self.world.remove_body_with_colliders(robot.body, true);
+        if let Some(body) = robot.body {
+            self.world.remove_body_with_colliders(body, true);
+        }
     }
 
     /// Moves a robot from `pos` by up to `desired`, stopped by walls, by the guards for
@@ -167,14 +174,18 @@ impl Physics {
 
     /// Places a robot's body at its new position for the next step.
     pub(crate) fn place_robot(&mut self, robot: RobotBody, pos: Vec2) {
-        if let Some(body) = self.world.bodies.get_mut(robot.body) {
+        if let Some(body) = robot.body.and_then(|body| self.world.bodies.get_mut(body)) {
             body.set_next_kinematic_translation(pos);
         }
     }
 
     /// Advances rapier by one fixed step, bringing colliders and the broad phase up to date.
+    /// Without robot collisions the world holds walls and guards only, which never move:
+    /// there is nothing to step.
     pub(crate) fn step(&mut self) {
-        self.world.step();
+        if self.robots_collide {
+            self.world.step();
+        }
     }
 
     /// Bodies and colliders in the world (walls, guards, robots).
@@ -183,9 +194,10 @@ impl Physics {
         (self.world.bodies.len(), self.world.colliders.len())
     }
 
-    /// The position of a robot's body as rapier holds it.
-    pub(crate) fn body_position(&self, robot: RobotBody) -> Vec2 {
-        self.world.bodies.get(robot.body).map_or(Vec2::ZERO, |b| b.translation())
+    /// The position of a robot's body as rapier holds it; none for a robot without a body.
+    pub(crate) fn body_position(&self, robot: RobotBody) -> Option<Vec2> {
+        let body = self.world.bodies.get(robot.body?)?;
+        Some(body.translation())
     }
 }
 

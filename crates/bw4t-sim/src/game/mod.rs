@@ -334,7 +334,9 @@ impl Match {
         for robot in self.live_robots() {
             d.u64(u64::from(robot.id.0));
             d.str(&robot.name);
-            let body = self.physics.body_position(robot.body);
+            // A robot without a body (no robot collisions) is where the body would be after
+            // every step: at its position.
+            let body = self.physics.body_position(robot.body).unwrap_or(robot.pos);
             [robot.pos.x, robot.pos.y, body.x, body.y].into_iter().for_each(|v| d.f32(v));
             d.u64(robot.state as u64);
             d.u64(robot.holding.map_or(0, u64::from));
@@ -480,6 +482,13 @@ mod tests {
         (game.robots.len(), game.departed.len(), game.physics.object_count())
     }
 
+    /// `game()` with robot collisions, so robots have bodies in rapier.
+    fn colliding_game() -> Match {
+        let map = Map::from_native(MAP).expect("map");
+        let config = MatchConfig { robot_collisions: true, ..MatchConfig::default() };
+        Match::new(&map, &config, 1).expect("match")
+    }
+
     #[test]
     fn join_leave_churn_leaves_no_trace() {
         let mut churned = game();
@@ -502,12 +511,29 @@ mod tests {
             churned.leave(guest).expect("leave");
             assert_eq!(footprint(&churned), size, "after {i} guests");
         }
-        // Ann's slot and the guest's; the guest's record; Ann's body and collider.
-        let empty = footprint(&game()).2;
-        assert_eq!(size, (2, 1, (empty.0 + 1, empty.1 + 1)));
+        // Ann's slot and the guest's; the guest's record; no bodies (robots do not collide).
+        assert_eq!(size, (2, 1, footprint(&game()).2));
         // The world is as if nobody else had ever come: the same digest, bit for bit.
         assert_eq!(churned.robots().count(), 1);
         assert_eq!(churned.digest(), calm.digest());
+    }
+
+    #[test]
+    fn colliding_robots_leave_no_body_behind() {
+        let mut game = colliding_game();
+        let empty = game.physics.object_count();
+        let ann = game.join("Ann").expect("Ann");
+        for i in 0..500 {
+            let guest = game.join(&format!("Guest{i}")).expect("guest");
+            game.handle_action(guest, &Action::GoTo("DropZone".into())).expect("go");
+            game.step();
+            game.leave(guest).expect("leave");
+            // Ann's body and collider, nobody else's.
+            assert_eq!(game.physics.object_count(), (empty.0 + 1, empty.1 + 1), "after {i} guests");
+        }
+        game.leave(ann).expect("leave");
+        game.step();
+        assert_eq!(game.physics.object_count(), empty);
     }
 
     #[test]
