@@ -164,8 +164,13 @@ pub(crate) fn run(args: &EvalArgs) -> Result<u8> {
     eprintln!("bw4t: {agent} on tier '{}' ({split}): {} matches", tier.name, resolved.plan().len());
     let (outcome, signal) = play(&resolved, &played)?;
     if outcome.stopped {
-        let mut again =
-            vec![program_name(), "eval".into(), tier.name.into(), "--agent".into(), shell_quote(agent)];
+        let mut again = vec![
+            crate::tournament::program_name(),
+            "eval".into(),
+            tier.name.into(),
+            "--agent".into(),
+            shell_quote(agent),
+        ];
         again.extend([
             "--split".into(),
             split.name().into(),
@@ -406,8 +411,4 @@ fn play(resolved: &Resolved, how: &Playing) -> Result<(Played, Option<u8>)> {
         eprintln!();
     }
     Ok((outcome, signal.number()))
-}
-
-fn program_name() -> String {
-    std::env::args().next().map(|p| shell_quote(&p)).unwrap_or_else(|| "bw4t".into())
 }

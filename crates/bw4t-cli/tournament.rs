@@ -382,7 +382,7 @@ fn summary(path: &Path, json: bool) -> Result<u8> {
 }
 
 /// How this program was started, for commands it prints (`bw4t` when unknown).
-fn program_name() -> String {
+pub(crate) fn program_name() -> String {
     std::env::args().next().map(|p| shell_quote(&p)).unwrap_or_else(|| "bw4t".into())
 }
 

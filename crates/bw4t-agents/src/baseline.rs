@@ -5,23 +5,21 @@
 use std::collections::{BTreeMap, BTreeSet};
 
 use bw4t_map::Colour;
-use bw4t_protocol::Knowledge;
 use bw4t_sim::Action;
 
+use crate::orders::Orders;
 use crate::view::{DROP_ZONE, View, rotated};
 use crate::{Agent, Observation};
 
 /// A player that works alone.
 pub struct Baseline {
     name: String,
-    knowledge: Knowledge,
+    orders: Orders,
     /// Blocks seen lying in rooms: id -> (room, colour).
     known: BTreeMap<u32, (String, Colour)>,
     explored: BTreeSet<String>,
     /// Where the held block was picked up, to put it back there.
     picked_in: Option<String>,
-    next_action: u64,
-    moving: Option<u64>,
     last_hall: Option<String>,
 }
 
@@ -30,25 +28,23 @@ impl Baseline {
     pub fn new(name: &str) -> Self {
         Baseline {
             name: name.to_string(),
-            knowledge: Knowledge::new(),
+            orders: Orders::new(),
             known: BTreeMap::new(),
             explored: BTreeSet::new(),
             picked_in: None,
-            next_action: 0,
-            moving: None,
             last_hall: None,
         }
     }
 
     fn go(&mut self, place: String) -> Vec<Action> {
-        self.moving = Some(self.next_action);
+        self.orders.move_first();
         vec![Action::GoTo(place)]
     }
 
     fn plan(&mut self, v: &View) -> Vec<Action> {
         let needed = v.sequence.get(v.index).copied();
         if let Some(held) = v.holding {
-            if self.knowledge.colour_of(held) == needed {
+            if self.orders.knowledge.colour_of(held) == needed {
                 if v.in_drop_zone() {
                     self.picked_in = None;
                     return vec![Action::PutDown];
@@ -84,7 +80,7 @@ impl Baseline {
                     self.picked_in = Some(room);
                     return vec![Action::PickUp(Some(block))];
                 }
-                self.moving = Some(self.next_action);
+                self.orders.move_first();
                 return vec![Action::GoToBlock(block)];
             }
             if v.occupied.contains(&room) {
@@ -123,20 +119,8 @@ impl Baseline {
 
 impl Agent for Baseline {
     fn decide(&mut self, obs: &Observation) -> Vec<Action> {
-        for delta in &obs.percepts {
-            self.knowledge.apply(delta.tick, delta);
-        }
-        for ack in &obs.acks {
-            if ack.result.is_err() && Some(ack.action) == self.moving {
-                self.moving = None;
-            }
-        }
-        for done in &obs.done {
-            if Some(done.action) == self.moving {
-                self.moving = None;
-            }
-        }
-        let v = View::read(&self.knowledge);
+        self.orders.observe(obs);
+        let v = View::read(&self.orders.knowledge);
         if v.room.is_none() {
             self.last_hall.clone_from(&v.at);
         }
@@ -147,8 +131,8 @@ impl Agent for Baseline {
                 self.known.insert(*id, (room.clone(), *colour));
             }
         }
-        let actions = if v.complete() || self.moving.is_some() { Vec::new() } else { self.plan(&v) };
-        self.next_action += actions.len() as u64;
+        let actions = if v.complete() || self.orders.moving() { Vec::new() } else { self.plan(&v) };
+        self.orders.returned(actions.len());
         actions
     }
 }

@@ -5,6 +5,7 @@
 mod baseline;
 mod coop;
 mod drive;
+mod orders;
 mod random;
 mod setup;
 mod view;

@@ -2,9 +2,9 @@
 //! running it takes one action drawn uniformly from those that could be valid now.
 
 use bw4t_map::{SeededRng, fnv1a};
-use bw4t_protocol::Knowledge;
 use bw4t_sim::Action;
 
+use crate::orders::Orders;
 use crate::view::View;
 use crate::{Agent, Observation};
 
@@ -12,24 +12,16 @@ use crate::{Agent, Observation};
 /// down what it holds (which, outside a room, removes the block from the match).
 pub struct RandomPlayer {
     name: String,
-    knowledge: Knowledge,
+    orders: Orders,
     /// Made at the first call, from the player's name and the sequence it is told, so the
     /// same match seed and seat give the same play without the seed being passed in.
     rng: Option<SeededRng>,
-    next_action: u64,
-    moving: Option<u64>,
 }
 
 impl RandomPlayer {
     /// A random player for player `name`.
     pub fn new(name: &str) -> Self {
-        RandomPlayer {
-            name: name.to_string(),
-            knowledge: Knowledge::new(),
-            rng: None,
-            next_action: 0,
-            moving: None,
-        }
+        RandomPlayer { name: name.to_string(), orders: Orders::new(), rng: None }
     }
 
     /// A hash of the name and the sequence's colour names, stable across versions.
@@ -58,21 +50,9 @@ impl RandomPlayer {
 
 impl Agent for RandomPlayer {
     fn decide(&mut self, obs: &Observation) -> Vec<Action> {
-        for delta in &obs.percepts {
-            self.knowledge.apply(delta.tick, delta);
-        }
-        for ack in &obs.acks {
-            if ack.result.is_err() && Some(ack.action) == self.moving {
-                self.moving = None;
-            }
-        }
-        for done in &obs.done {
-            if Some(done.action) == self.moving {
-                self.moving = None;
-            }
-        }
-        let view = View::read(&self.knowledge);
-        if view.complete() || self.moving.is_some() || view.places.is_empty() || view.sequence.is_empty() {
+        self.orders.observe(obs);
+        let view = View::read(&self.orders.knowledge);
+        if view.complete() || self.orders.moving() || view.places.is_empty() || view.sequence.is_empty() {
             return Vec::new();
         }
         let seed = self.seed(&view);
@@ -80,9 +60,9 @@ impl Agent for RandomPlayer {
         let choices = Self::choices(&view);
         let action = choices[rng.index(choices.len())].clone();
         if matches!(action, Action::GoTo(_) | Action::GoToBlock(_)) {
-            self.moving = Some(self.next_action);
+            self.orders.move_first();
         }
-        self.next_action += 1;
+        self.orders.returned(1);
         vec![action]
     }
 }
