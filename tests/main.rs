@@ -12,6 +12,9 @@ mod sim_rules;
 /// Properties over random play: deltas rebuild snapshots, determinism, a pinned digest.
 mod sim_properties;
 
+/// The kinematic motion against the stepped reference: the same matches, bit for bit.
+mod motion_agreement;
+
 /// Maps and their seeded random content.
 mod maps;
 

@@ -126,6 +126,7 @@ fn new_match(header: &ReplayHeader, map: &Map) -> Result<Match, ReplayError> {
         ticks_per_second: header.ticks_per_second,
         speed: header.speed,
         robot_collisions: header.robot_collisions,
+        ..MatchConfig::default()
     };
     Match::new(map, &config, header.seed).map_err(|e| ReplayError::Setup(e.to_string()))
 }

@@ -9,11 +9,26 @@ pub struct MatchConfig {
     pub speed: f32,
     /// Whether robots block each other outside rooms (off in the original).
     pub robot_collisions: bool,
+    /// How robots' moves reach the physics; every choice gives the same match, bit for bit.
+    pub motion: Motion,
+}
+
+/// How robots' moves reach rapier. Both give the same positions, outcomes and digests;
+/// they differ only in what a tick costs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Motion {
+    /// A robot has a body only when robots collide, and the world is stepped only then:
+    /// otherwise a tick costs the robots' shape casts against the static walls and guards.
+    #[default]
+    Kinematic,
+    /// Every robot has a kinematic body and the world is stepped every tick, as before
+    /// [`Motion::Kinematic`] existed: the reference the cheaper motion is checked against.
+    Stepped,
 }
 
 impl Default for MatchConfig {
     fn default() -> Self {
-        MatchConfig { ticks_per_second: 20, speed: 0.5, robot_collisions: false }
+        MatchConfig { ticks_per_second: 20, speed: 0.5, robot_collisions: false, motion: Motion::Kinematic }
     }
 }
 

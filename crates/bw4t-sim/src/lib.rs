@@ -17,7 +17,7 @@ mod stats;
 
 pub use action::{Accepted, Action, OrderEnd, OrderId, OrderOutcome, Receiver, Rejection, RobotId};
 pub use boundary::{Applied, Intent, Journal, Seats};
-pub use config::{ConfigError, MatchConfig};
+pub use config::{ConfigError, MatchConfig, Motion};
 pub use digest::Digest;
 pub use game::{BlockPlace, JoinError, MAX_NAME_LEN, Match, MatchError, REACH, RobotView, StepReport};
 pub use percept::{

@@ -6,6 +6,8 @@
 //! switched on or off and the broad phase stays untouched by door changes.
 
 use bw4t_map::{Map, ROBOT_SIZE, Vec2};
+
+use crate::config::Motion;
 use rapier2d::control::{CharacterLength, KinematicCharacterController};
 use rapier2d::prelude::*;
 
@@ -46,9 +48,9 @@ impl Tag {
     }
 }
 
-/// Handles of one robot's body and collider.
-/// A robot's kinematic body in rapier, when robots collide; without collisions robots are
-/// nothing to any query, so they have no body and the world never changes.
+/// A robot's kinematic body in rapier, when robots collide (or under [`Motion::Stepped`]);
+/// without collisions robots are nothing to any query, so they need no body and the world
+/// never changes.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct RobotBody {
     body: Option<RigidBodyHandle>,
@@ -69,11 +71,13 @@ pub(crate) struct Physics {
     controller: KinematicCharacterController,
     robot_shape: SharedShape,
     robots_collide: bool,
+    /// Whether robots have bodies and the world is stepped every tick.
+    stepped: bool,
 }
 
 impl Physics {
     /// Builds walls (with openings at doors) and door guards for every walled zone.
-    pub(crate) fn new(map: &Map, robots_collide: bool) -> Self {
+    pub(crate) fn new(map: &Map, robots_collide: bool, motion: Motion) -> Self {
         let mut world = PhysicsWorld::new();
         world.gravity = Vector::ZERO;
         for (idx, zone) in map.zones().iter().enumerate() {
@@ -110,12 +114,13 @@ impl Physics {
             controller,
             robot_shape: SharedShape::cuboid(ROBOT_HALF, ROBOT_HALF),
             robots_collide,
+            stepped: robots_collide || motion == Motion::Stepped,
         }
     }
 
-    /// Adds a robot's kinematic body at `pos` (none when robots do not collide).
+    /// Adds a robot's kinematic body at `pos` (none when the world is not stepped).
     pub(crate) fn add_robot(&mut self, id: u32, pos: Vec2) -> RobotBody {
-        if !self.robots_collide {
+        if !self.stepped {
             return RobotBody { body: None };
         }
         let body = self.world.insert_body(RigidBodyBuilder::kinematic_position_based().translation(pos));
@@ -180,10 +185,10 @@ impl Physics {
     }
 
     /// Advances rapier by one fixed step, bringing colliders and the broad phase up to date.
-    /// Without robot collisions the world holds walls and guards only, which never move:
-    /// there is nothing to step.
+    /// Under [`Motion::Kinematic`] without robot collisions the world holds walls and
+    /// guards only, which never move: there is nothing to step.
     pub(crate) fn step(&mut self) {
-        if self.robots_collide {
+        if self.stepped {
             self.world.step();
         }
     }

@@ -186,7 +186,7 @@ impl Match {
         let stats =
             MatchStats { completed_at: content.sequence.is_empty().then_some(0), ..MatchStats::default() };
         Ok(Match {
-            physics: Physics::new(map, config.robot_collisions),
+            physics: Physics::new(map, config.robot_collisions, config.motion),
             nav: Navigator::new(map),
             zone_names: map.zones().iter().map(|z| Arc::from(z.name.as_str())).collect(),
             sequence: content.sequence.into(),
