@@ -4,7 +4,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use bw4t_agents::MatchSetup;
-use bw4t_sim::{Match, MatchConfig, PlayCounts, RandomPlay, RobotId};
+use bw4t_sim::{Match, MatchConfig, Motion, PlayCounts, RandomPlay, RobotId};
 use clap::{Args, ValueEnum};
 use serde_json::json;
 
@@ -45,8 +45,38 @@ pub(crate) struct BenchArgs {
     /// Wall-clock seconds the `realtime` case measures for.
     #[arg(long, default_value_t = 5.0)]
     realtime_seconds: f64,
+    /// How robots' moves reach the physics in the `sim`, `match` and `scale` cases:
+    /// `stepped` is the reference motion that steps the whole world every tick.
+    #[arg(long, value_enum, default_value_t = MotionArg::Kinematic)]
+    motion: MotionArg,
     #[command(flatten)]
     arena: crate::bench_arena::ArenaArgs,
+}
+
+/// [`Motion`] on the command line.
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum MotionArg {
+    Kinematic,
+    Stepped,
+}
+
+impl BenchArgs {
+    /// The match configuration of the `sim`, `match` and `scale` cases.
+    fn config(&self) -> MatchConfig {
+        let motion = match self.motion {
+            MotionArg::Kinematic => Motion::Kinematic,
+            MotionArg::Stepped => Motion::Stepped,
+        };
+        MatchConfig { motion, ..MatchConfig::default() }
+    }
+
+    /// The motion's name in figures.
+    fn motion_name(&self) -> &'static str {
+        match self.motion {
+            MotionArg::Kinematic => "kinematic",
+            MotionArg::Stepped => "stepped",
+        }
+    }
 }
 
 /// A benchmark case.
@@ -133,7 +163,7 @@ fn sim(args: &BenchArgs, n_robots: usize) -> Result<serde_json::Value> {
     let started = Instant::now();
     while done < args.ticks {
         let seed = args.seed.wrapping_add(episode);
-        let mut game = Match::new(&map, &MatchConfig::default(), seed).context("cannot create the match")?;
+        let mut game = Match::new(&map, &args.config(), seed).context("cannot create the match")?;
         let robots: Vec<RobotId> = (0..n_robots)
             .map(|i| game.join(&format!("Bot{}", i + 1)))
             .collect::<Result<_, _>>()
@@ -163,6 +193,7 @@ fn sim(args: &BenchArgs, n_robots: usize) -> Result<serde_json::Value> {
     Ok(json!({
         "case": "sim",
         "map": map.name(),
+        "motion": args.motion_name(),
         "robots": n_robots,
         "ticks": args.ticks,
         "ticks_per_s": (args.ticks as f64 / seconds).round(),
@@ -181,6 +212,7 @@ fn matches(args: &BenchArgs) -> Result<serde_json::Value> {
     let map = crate::maps::load(&args.map)?;
     let mut setup = MatchSetup::builtin_team(map, 3, bw4t_agents::Strategy::Cooperative);
     setup.max_ticks = Some(20_000);
+    setup.game = args.config();
     let mut ticks = Vec::new();
     let mut completed = 0;
     let started = Instant::now();
@@ -195,6 +227,7 @@ fn matches(args: &BenchArgs) -> Result<serde_json::Value> {
     Ok(json!({
         "case": "match",
         "map": setup.map.name(),
+        "motion": args.motion_name(),
         "robots": 3,
         "matches": args.matches,
         "completed": completed,
@@ -213,7 +246,7 @@ const SCALE_CASES: [(usize, usize, usize); 4] = [
 
 fn scale(args: &BenchArgs, rows: usize, cols: usize, robots: usize) -> Result<serde_json::Value> {
     let map = bw4t_map::generate(cols, rows, robots, args.seed)?;
-    let mut game = Match::new(&map, &MatchConfig::default(), args.seed).context("cannot create the match")?;
+    let mut game = Match::new(&map, &args.config(), args.seed).context("cannot create the match")?;
     let ids: Vec<RobotId> = (0..robots)
         .map(|i| game.join(&format!("Bot{}", i + 1)))
         .collect::<Result<_, _>>()
@@ -232,6 +265,7 @@ fn scale(args: &BenchArgs, rows: usize, cols: usize, robots: usize) -> Result<se
     Ok(json!({
         "case": "scale",
         "map": map.name(),
+        "motion": args.motion_name(),
         "rooms": rows * cols,
         "robots": robots,
         "ticks": args.scale_ticks,

@@ -6,6 +6,7 @@
 
 mod action;
 mod boundary;
+mod clearance;
 mod config;
 mod digest;
 mod game;

@@ -7,6 +7,7 @@
 
 use bw4t_map::{Map, ROBOT_SIZE, Vec2};
 
+use crate::clearance::Clearance;
 use crate::config::Motion;
 use rapier2d::control::{CharacterLength, KinematicCharacterController};
 use rapier2d::prelude::*;
@@ -17,6 +18,12 @@ pub const ROBOT_HALF: f32 = ROBOT_SIZE / 2.0;
 pub(crate) const WALL_HALF: f32 = 0.05;
 /// The gap the character controller keeps to obstacles.
 pub(crate) const SKIN: f32 = 0.01;
+/// How far a move must keep from every wall and guard to skip the character controller:
+/// ten skins, so neither the controller's cast nor its rounding could have met anything.
+const OPEN_MARGIN: f32 = 10.0 * SKIN;
+/// A move shorter than this always goes through the controller, which treats a move of
+/// about 1e-5 or less as none (and then resolves penetrations instead).
+const OPEN_MIN_MOVE: f32 = 1e-3;
 
 /// What a collider stands for, stored in its `user_data`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -73,6 +80,9 @@ pub(crate) struct Physics {
     robots_collide: bool,
     /// Whether robots have bodies and the world is stepped every tick.
     stepped: bool,
+    /// Where walls and guards are not, for moves that need no controller; none when
+    /// every move goes through it (robots collide, or the stepped reference motion).
+    open: Option<Clearance>,
 }
 
 impl Physics {
@@ -80,18 +90,21 @@ impl Physics {
     pub(crate) fn new(map: &Map, robots_collide: bool, motion: Motion) -> Self {
         let mut world = PhysicsWorld::new();
         world.gravity = Vector::ZERO;
+        let mut obstacles = Vec::new();
         for (idx, zone) in map.zones().iter().enumerate() {
             if !zone.kind.is_walled() {
                 continue;
             }
             // Each edge overhangs its corners by half a wall, so corners close.
             for (centre, half) in bw4t_map::zone_walls(zone, WALL_HALF).iter().map(wall_box) {
+                obstacles.push((centre, half));
                 let wall =
                     ColliderBuilder::cuboid(half.x, half.y).translation(centre).user_data(Tag::Wall.encode());
                 world.insert_collider(wall, None);
             }
             for door in &zone.doors {
                 let half = door.rect().size / 2.0;
+                obstacles.push((door.centre, half));
                 let guard = ColliderBuilder::cuboid(half.x, half.y)
                     .translation(door.centre)
                     .user_data(Tag::Guard(idx).encode());
@@ -109,12 +122,14 @@ impl Physics {
             snap_to_ground: None,
             ..KinematicCharacterController::default()
         };
+        let stepped = robots_collide || motion == Motion::Stepped;
         Physics {
             world,
             controller,
             robot_shape: SharedShape::cuboid(ROBOT_HALF, ROBOT_HALF),
             robots_collide,
-            stepped: robots_collide || motion == Motion::Stepped,
+            stepped,
+            open: (!stepped).then(|| Clearance::new(&obstacles, OPEN_MARGIN)),
         }
     }
 
@@ -146,6 +161,10 @@ impl Physics {
         desired: Vec2,
         guard_closed: &dyn Fn(usize) -> bool,
     ) -> Moved {
+        if self.is_open(pos, desired) {
+            // The controller casts, finds nothing and adds the whole move to zero.
+            return Moved { translation: Vec2::ZERO + desired, blocked_by: None };
+        }
         let robots_collide = self.robots_collide;
         let passable = |_: ColliderHandle, c: &Collider| match Tag::decode(c.user_data) {
             Tag::Wall => true,
@@ -175,6 +194,15 @@ impl Physics {
             },
         );
         Moved { translation: result.translation, blocked_by }
+    }
+
+    /// Whether a move of a robot from `pos` by `desired` sweeps only open ground: then the
+    /// controller would return `desired` untouched, with nothing hit.
+    fn is_open(&self, pos: Vec2, desired: Vec2) -> bool {
+        let Some(open) = &self.open else { return false };
+        let half = Vec2::splat(ROBOT_HALF);
+        let (from, to) = (pos, pos + desired);
+        desired.length() >= OPEN_MIN_MOVE && open.is_open(from.min(to) - half, from.max(to) + half)
     }
 
     /// Places a robot's body at its new position for the next step.
