@@ -57,8 +57,7 @@ fn team_replay(map: &str, strategy: Strategy, robots: usize, seed: u64, motion: 
     let mut recorder = Recorder::new(Box::new(buffer.clone()), &blank, meta);
     let (game, reason) = bw4t_runner::play_headless(&setup, Some(&mut recorder)).expect("match plays");
     recorder.finish(&game, reason).expect("replay written");
-    let text = String::from_utf8(buffer.0.lock().expect("buffer").clone()).expect("utf-8");
-    text
+    String::from_utf8(buffer.0.lock().expect("buffer").clone()).expect("utf-8")
 }
 
 /// Random orders for `ticks` ticks: every order's end (arrival, collision, ...) and the
