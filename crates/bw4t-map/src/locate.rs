@@ -1,5 +1,5 @@
-//! Point location: which zones contain a point, answered from a grid of buckets so that the
-//! cost follows the zones near the point, not the size of the map.
+//! Point location: which zones contain a point, and which is nearest to it, answered from a
+//! grid of buckets so that the cost follows the zones near the point, not the size of the map.
 
 use crate::geometry::{Rect, Vec2};
 use crate::parts::{Zone, ZoneIdx, ZoneKind};
@@ -18,6 +18,9 @@ pub(crate) struct ZoneGrid {
     /// Cell `c`'s zones are `members[starts[c]..starts[c + 1]]`.
     starts: Vec<u32>,
     members: Vec<u32>,
+    /// The zones that can be nearest to a point of cell `c` (ascending), likewise.
+    near_starts: Vec<u32>,
+    near_members: Vec<u32>,
 }
 
 impl ZoneGrid {
@@ -34,8 +37,17 @@ impl ZoneGrid {
         let cell = if cell.is_finite() && cell > 0.0 { cell } else { 1.0 };
         let count = |length: f32| ((length / cell).ceil() as usize).max(1);
         let (columns, rows) = (count(extent.x), count(extent.y));
-        let mut grid =
-            ZoneGrid { origin: lo, end: hi, cell, columns, rows, starts: Vec::new(), members: Vec::new() };
+        let mut grid = ZoneGrid {
+            origin: lo,
+            end: hi,
+            cell,
+            columns,
+            rows,
+            starts: Vec::new(),
+            members: Vec::new(),
+            near_starts: vec![0],
+            near_members: Vec::new(),
+        };
         let mut cells = vec![Vec::new(); columns * rows];
         for (i, zone) in zones.iter().enumerate() {
             let ((c0, r0), (c1, r1)) = (grid.cell_of(zone.rect.min()), grid.cell_of(zone.rect.max()));
@@ -50,7 +62,51 @@ impl ZoneGrid {
             grid.members.extend(cell);
             grid.starts.push(grid.members.len() as u32);
         }
+        for row in 0..rows {
+            for column in 0..columns {
+                let near = grid.nearest_candidates(zones, column, row);
+                grid.near_members.extend(near);
+                grid.near_starts.push(grid.near_members.len() as u32);
+            }
+        }
         grid
+    }
+
+    /// The zones that may be nearest to some point of a cell: every zone whose box comes
+    /// as close to the cell as the farthest point of the cell is from the best zone. A zone
+    /// left out is farther than that zone from every point of the cell.
+    fn nearest_candidates(&self, zones: &[Zone], column: usize, row: usize) -> Vec<u32> {
+        // A point rounds into a cell from a hair outside it: grow the cell by that hair.
+        let slack = self.cell * 1e-3;
+        let min = self.origin + Vec2::new(column as f32, row as f32) * self.cell - slack;
+        let max = min + Vec2::splat(self.cell + 2.0 * slack);
+        let corners = [min, max, Vec2::new(min.x, max.y), Vec2::new(max.x, min.y)];
+        let farthest = |z: &Zone| corners.iter().map(|&c| z.rect.distance(c)).fold(0.0, f32::max);
+        let closest = |z: &Zone| {
+            let gap = (z.rect.min() - max).max(min - z.rect.max()).max(Vec2::ZERO);
+            gap.length()
+        };
+        let bound = zones.iter().map(farthest).fold(f32::INFINITY, f32::min);
+        let bound = bound + slack + bound * 1e-4;
+        (0..zones.len()).filter(|&i| closest(&zones[i]) <= bound).map(|i| i as u32).collect()
+    }
+
+    /// The zone nearest to `p` (0 inside), the lowest index on ties; zone 0 when there are
+    /// none.
+    pub(crate) fn nearest(&self, zones: &[Zone], p: Vec2) -> ZoneIdx {
+        let (lo, hi) = (self.origin, self.end);
+        let candidates: Box<dyn Iterator<Item = usize>> =
+            if lo.x <= p.x && p.x <= hi.x && lo.y <= p.y && p.y <= hi.y {
+                let (column, row) = self.cell_of(p);
+                let cell = row * self.columns + column;
+                let near =
+                    &self.near_members[self.near_starts[cell] as usize..self.near_starts[cell + 1] as usize];
+                Box::new(near.iter().map(|&i| i as usize))
+            } else {
+                Box::new(0..zones.len())
+            };
+        let dist = |i: &usize| zones[*i].rect.distance(p);
+        candidates.min_by(|a, b| dist(a).total_cmp(&dist(b))).unwrap_or(0)
     }
 
     /// The cell whose area holds `p`, clamped to the grid; monotonic in each coordinate,
@@ -125,6 +181,28 @@ mod tests {
                 let room_scan = zones.iter().position(|z| is_room(z) && z.rect.contains(p));
                 assert_eq!(grid.first(&zones, p, is_room), room_scan, "{n} zones, room at {p}");
             }
+        }
+    }
+
+    #[test]
+    fn the_grid_finds_the_nearest_zone_a_scan_finds() {
+        let mut rng = SeededRng::new(11);
+        for n in [1, 2, 5, 40, 300] {
+            let zones = scattered(&mut rng, n);
+            let grid = ZoneGrid::new(&zones);
+            let mut points: Vec<Vec2> = (0..3000)
+                .map(|_| Vec2::new(rng.below(4400) as f32 / 40.0 - 5.0, rng.below(4400) as f32 / 40.0 - 5.0))
+                .collect();
+            // Where two zones are equally near: midpoints between corners, and the corners.
+            points.extend(zones.windows(2).map(|w| (w[0].rect.max() + w[1].rect.min()) / 2.0));
+            points.extend(zones.iter().flat_map(|z| [z.rect.min(), z.rect.max()]));
+            let candidates = grid.near_members.len() as f32 / (grid.columns * grid.rows) as f32;
+            for p in points {
+                let dist = |i: &usize| zones[*i].rect.distance(p);
+                let scan = (0..zones.len()).min_by(|a, b| dist(a).total_cmp(&dist(b))).unwrap_or(0);
+                assert_eq!(grid.nearest(&zones, p), scan, "{n} zones, point {p}");
+            }
+            assert!(n < 40 || candidates < n as f32 / 4.0, "{n} zones: {candidates} candidates a cell");
         }
     }
 

@@ -89,6 +89,12 @@ impl Map {
         self.grid.first(&self.parts.zones, p, |_| true)
     }
 
+    /// The zone whose box is nearest to `p` (containing it, if any does), the first in file
+    /// order on ties.
+    pub fn nearest_zone(&self, p: Vec2) -> ZoneIdx {
+        self.grid.nearest(&self.parts.zones, p)
+    }
+
     /// The first room (in file order) whose box contains `p`.
     pub fn room_at(&self, p: Vec2) -> Option<ZoneIdx> {
         self.grid.first(&self.parts.zones, p, is_room)

@@ -157,7 +157,8 @@ pub struct Match {
     shared: SharedFacts,
     /// By robot id; `None` while no robot has the id. A joining robot takes the lowest
     /// free id, so this never holds more slots than robots were ever in the match at once.
-    robots: Vec<Option<Robot>>,
+    /// Boxed, so a robot taken out to move it through `self` is a pointer's move.
+    robots: Vec<Option<Box<Robot>>>,
     /// The last robot that left with each id now free, ascending by id.
     departed: Vec<Departed>,
     next_order: u64,
@@ -222,7 +223,7 @@ impl Match {
         let id = RobotId(slot as u32);
         let pos = spawns[spawn].pos;
         let body = self.physics.add_robot(id.0, pos);
-        let mut robot = Robot {
+        let mut robot = Box::new(Robot {
             id,
             name: Arc::from(name),
             body,
@@ -240,7 +241,7 @@ impl Match {
             told_shared: Arc::default(),
             left: Vec::new(),
             introduced: false,
-        };
+        });
         self.update_place(&mut robot);
         self.shared.changed();
         self.departed.retain(|d| d.id != id);
@@ -296,6 +297,14 @@ impl Match {
     pub fn step(&mut self) -> StepReport {
         self.tick += 1;
         for idx in 0..self.robots.len() {
+            // Idle robots are counted in place: only a moving robot is taken out.
+            match &mut self.robots[idx] {
+                Some(robot) if robot.plan.is_empty() => {
+                    robot.stats.idle_ticks += 1;
+                    continue;
+                }
+                _ => {}
+            }
             if let Some(mut robot) = self.robots[idx].take() {
                 self.advance(&mut robot);
                 self.robots[idx] = Some(robot);
@@ -447,15 +456,15 @@ impl Match {
     }
 
     fn live_robots(&self) -> impl Iterator<Item = &Robot> + '_ {
-        self.robots.iter().flatten()
+        self.robots.iter().flatten().map(|robot| &**robot)
     }
 
     fn robot(&self, id: RobotId) -> Option<&Robot> {
-        self.robots.get(id.0 as usize).and_then(Option::as_ref)
+        self.robots.get(id.0 as usize).and_then(Option::as_deref)
     }
 
     fn robot_mut(&mut self, id: RobotId) -> Option<&mut Robot> {
-        self.robots.get_mut(id.0 as usize).and_then(Option::as_mut)
+        self.robots.get_mut(id.0 as usize).and_then(Option::as_deref_mut)
     }
 
     fn block(&self, id: BlockId) -> Option<&Block> {

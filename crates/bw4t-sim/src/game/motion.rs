@@ -13,12 +13,8 @@ const ARRIVE_EPS: f32 = 1e-3;
 const STALL_FRACTION: f32 = 0.05;
 
 impl Match {
-    /// Moves one robot along its plan for one tick.
+    /// Moves one robot along its plan (not empty) for one tick.
     pub(super) fn advance(&mut self, robot: &mut Robot) {
-        if robot.plan.is_empty() {
-            robot.stats.idle_ticks += 1;
-            return;
-        }
         let start = robot.pos;
         let occupant = &self.occupant;
         let me = robot.id;
@@ -65,12 +61,9 @@ impl Match {
     /// Recomputes where a robot is and updates room occupancy.
     pub(super) fn update_place(&mut self, robot: &mut Robot) {
         let room = self.map.room_at(robot.pos);
-        robot.at = room.or_else(|| self.map.zone_at(robot.pos)).unwrap_or_else(|| {
-            // Free space: the nearest zone, lowest index on ties.
-            let zones = self.map.zones();
-            let dist = |i: &usize| zones[*i].rect.distance(robot.pos);
-            (0..zones.len()).min_by(|a, b| dist(a).total_cmp(&dist(b))).unwrap_or(0)
-        });
+        // Free space: the nearest zone.
+        robot.at =
+            room.or_else(|| self.map.zone_at(robot.pos)).unwrap_or_else(|| self.map.nearest_zone(robot.pos));
         if room == robot.room {
             return;
         }
