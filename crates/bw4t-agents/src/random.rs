@@ -31,7 +31,7 @@ impl RandomPlayer {
     }
 
     fn choices(view: &View) -> Vec<Action> {
-        let mut choices: Vec<Action> = view.places.iter().map(|p| Action::GoTo(p.clone())).collect();
+        let mut choices: Vec<Action> = view.places.iter().map(|p| Action::GoTo(p.to_string())).collect();
         match view.holding {
             Some(_) => choices.push(Action::PutDown),
             None => {

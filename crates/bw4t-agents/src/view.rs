@@ -2,6 +2,7 @@
 //! decision.
 
 use std::collections::{BTreeMap, BTreeSet};
+use std::sync::Arc;
 
 use bw4t_map::Colour;
 pub(crate) use bw4t_map::DROP_ZONE;
@@ -13,8 +14,9 @@ pub(crate) const FRONT_DROP_ZONE: &str = "FrontDropZone";
 /// The robot's situation, read from its knowledge.
 #[derive(Debug, Default)]
 pub(crate) struct View {
-    pub places: Vec<String>,
-    pub players: Vec<String>,
+    /// Names shared with the knowledge: a decision copies no name it does not keep.
+    pub places: Vec<Arc<str>>,
+    pub players: Vec<Arc<str>>,
     pub sequence: Vec<Colour>,
     pub index: usize,
     pub at: Option<String>,
@@ -29,8 +31,8 @@ pub(crate) struct View {
 impl View {
     pub(crate) fn read(knowledge: &Knowledge) -> View {
         View {
-            places: knowledge.places().map(str::to_string).collect(),
-            players: knowledge.players().map(str::to_string).collect(),
+            places: knowledge.place_names().cloned().collect(),
+            players: knowledge.player_names().to_vec(),
             sequence: knowledge.sequence().to_vec(),
             index: knowledge.sequence_index() as usize,
             at: knowledge.at().map(str::to_string),
@@ -46,9 +48,10 @@ impl View {
     /// spec's names (`RoomA1`...) start with `Room`, which every known map follows. On a map
     /// without such names every place but the drop zone is a candidate.
     pub(crate) fn rooms(&self) -> Vec<String> {
-        let named: Vec<String> = self.places.iter().filter(|p| p.starts_with("Room")).cloned().collect();
+        let named: Vec<String> =
+            self.places.iter().filter(|p| p.starts_with("Room")).map(|p| p.to_string()).collect();
         if named.is_empty() {
-            self.places.iter().filter(|p| p.as_str() != DROP_ZONE).cloned().collect()
+            self.places.iter().filter(|p| &***p != DROP_ZONE).map(|p| p.to_string()).collect()
         } else {
             named
         }
@@ -61,11 +64,16 @@ impl View {
 
     /// Where to wait outside the drop zone: its front corridor when the map has one.
     pub(crate) fn waiting_place(&self, fallback: Option<&String>) -> String {
-        if self.places.iter().any(|p| p == FRONT_DROP_ZONE) {
+        if self.has_place(FRONT_DROP_ZONE) {
             FRONT_DROP_ZONE.to_string()
         } else {
             fallback.cloned().unwrap_or_else(|| DROP_ZONE.to_string())
         }
+    }
+
+    /// Whether the map has a place of this name.
+    pub(crate) fn has_place(&self, name: &str) -> bool {
+        self.places.iter().any(|p| &**p == name)
     }
 
     /// The colour of a block held, from what the robot saw before taking it.
@@ -76,11 +84,11 @@ impl View {
 
 /// `items` rotated so that player `me` (by its rank among all players' names) starts at
 /// its own share, which spreads a team over the rooms without talking.
-pub(crate) fn rotated<T: Clone>(items: &[T], me: &str, players: &[String]) -> Vec<T> {
+pub(crate) fn rotated<T: Clone>(items: &[T], me: &str, players: &[Arc<str>]) -> Vec<T> {
     if items.is_empty() {
         return Vec::new();
     }
-    let mut names: Vec<&str> = players.iter().map(String::as_str).chain([me]).collect();
+    let mut names: Vec<&str> = players.iter().map(|p| &**p).chain([me]).collect();
     names.sort_unstable();
     names.dedup();
     let rank = names.iter().position(|n| *n == me).unwrap_or(0);

@@ -183,6 +183,9 @@ pub struct Cooperative {
     open_since: Option<u64>,
     /// The team stalled: claim only the next position until the sequence advances.
     urgent: bool,
+    /// [`Cooperative::next_wake`] as of the end of the last decision: everything it reads
+    /// changes only in a decision, and the driver asks for it every tick.
+    wake: Option<u64>,
     next_action: u64,
     /// The goTo/goToBlock in flight.
     moving: Option<u64>,
@@ -225,6 +228,7 @@ impl Cooperative {
             index_since: (0, 0),
             open_since: None,
             urgent: false,
+            wake: None,
             next_action: 0,
             moving: None,
             redirected: false,
@@ -332,7 +336,7 @@ impl Cooperative {
         let asker = Receiver::Player(from.to_string());
         let held = v.holding.and_then(|b| self.knowledge.colour_of(b));
         // Whether a question without an answer was surely put to this player alone.
-        let alone = v.players.iter().all(|p| p == from);
+        let alone = v.players.iter().all(|p| **p == *from);
         match heard {
             Heard::WhatIn(room) => match self.rooms.get(&room).cloned() {
                 Some(counts) => {
@@ -365,7 +369,7 @@ impl Cooperative {
                 }
             }
             Heard::GoTo { player, room } if player == self.name => {
-                if !v.places.contains(&room) {
+                if !v.has_place(&room) {
                     return self.tell(asker, Said::new("could_not"));
                 }
                 self.tell(asker, Said::new("ok"));
@@ -808,15 +812,13 @@ impl Cooperative {
             self.index_since = (v.index, self.tick);
             self.urgent = false;
         }
-        let present: BTreeSet<&String> = v.players.iter().chain([&self.name]).collect();
         let (me, now, advanced) = (&self.name, self.tick, self.index_since.1);
+        let present = |who: &String| who == me || v.players.iter().any(|p| **p == **who);
         let lapsed = |who: &String, since: u64, lapse: u64| {
             who != me && now.saturating_sub(since.max(advanced)) > lapse
         };
-        self.claims
-            .retain(|p, c| present.contains(&c.who) && *p >= v.index && !lapsed(&c.who, c.since, c.lapse));
-        self.exploring
-            .retain(|_, (who, since)| present.contains(who) && !lapsed(who, *since, CLAIM_LAPSE_TICKS));
+        self.claims.retain(|p, c| present(&c.who) && *p >= v.index && !lapsed(&c.who, c.since, c.lapse));
+        self.exploring.retain(|_, (who, since)| present(who) && !lapsed(who, *since, CLAIM_LAPSE_TICKS));
     }
 
     /// Notices a stall: the next position unclaimed, nobody looking into a room, for
@@ -920,10 +922,11 @@ impl Agent for Cooperative {
             actions.splice(0..0, messages);
         }
         self.next_action += actions.len() as u64;
+        self.wake = self.next_wake();
         actions
     }
 
     fn wake_at(&self) -> Option<u64> {
-        self.next_wake()
+        self.wake
     }
 }

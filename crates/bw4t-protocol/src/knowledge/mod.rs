@@ -295,7 +295,12 @@ impl Knowledge {
 
     /// Every place of the map (`place`), in name order.
     pub fn places(&self) -> impl Iterator<Item = &str> {
-        self.places.sorted().filter(|(_, p)| p.listed).map(|(name, _)| &**name)
+        self.place_names().map(|name| &**name)
+    }
+
+    /// [`Knowledge::places`] as the shared names the model holds, to keep without copying.
+    pub fn place_names(&self) -> impl Iterator<Item = &Arc<str>> {
+        self.places.sorted().filter(|(_, p)| p.listed).map(|(name, _)| name)
     }
 
     /// The places that are rooms (see [`is_room`]), in name order.
@@ -306,6 +311,11 @@ impl Knowledge {
     /// The other players in the match (`player`), in name order.
     pub fn players(&self) -> impl Iterator<Item = &str> {
         self.players.iter().map(|p| &**p)
+    }
+
+    /// [`Knowledge::players`] as the shared names the model holds.
+    pub fn player_names(&self) -> &[Arc<str>] {
+        &self.players
     }
 
     /// Every fact that holds, as percepts in their fixed order (messages are not facts).
