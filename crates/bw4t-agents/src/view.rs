@@ -15,7 +15,7 @@ pub(crate) const FRONT_DROP_ZONE: &str = "FrontDropZone";
 #[derive(Debug, Default)]
 pub(crate) struct View {
     /// Names shared with the knowledge: a decision copies no name it does not keep.
-    pub places: Vec<Arc<str>>,
+    pub places: Arc<[Arc<str>]>,
     pub players: Vec<Arc<str>>,
     pub sequence: Vec<Colour>,
     pub index: usize,
@@ -31,7 +31,7 @@ pub(crate) struct View {
 impl View {
     pub(crate) fn read(knowledge: &Knowledge) -> View {
         View {
-            places: knowledge.place_names().cloned().collect(),
+            places: knowledge.place_list(),
             players: knowledge.player_names().to_vec(),
             sequence: knowledge.sequence().to_vec(),
             index: knowledge.sequence_index() as usize,

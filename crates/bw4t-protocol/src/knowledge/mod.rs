@@ -17,7 +17,7 @@ mod places;
 mod tests;
 
 use std::collections::{BTreeMap, BTreeSet};
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 use bw4t_map::{Colour, DROP_ZONE, Map, ZoneIdx};
 use bw4t_sim::{BlockId, MoveState, Percept, PerceptDelta};
@@ -30,6 +30,9 @@ use places::{PlaceIdx, PlaceTable};
 pub struct Knowledge {
     /// Place names and what holds of each (`place`, `occupied`, the memory of rooms).
     places: PlaceTable,
+    /// The listed places' names in name order, built on the first ask after they changed:
+    /// players read them every decision, and they change about once a match.
+    listed: OnceLock<Arc<[Arc<str>]>>,
     name: Option<Arc<str>>,
     robot: Option<u32>,
     sequence: Option<Arc<[Colour]>>,
@@ -107,6 +110,7 @@ impl Knowledge {
 
     fn forget_facts(&mut self) {
         self.places.forget_facts();
+        self.listed.take();
         self.name = None;
         self.robot = None;
         self.sequence = None;
@@ -127,6 +131,7 @@ impl Knowledge {
             Percept::Place(name) => {
                 let i = self.places.number_shared(name);
                 self.places.get_mut(i).listed = true;
+                self.listed.take();
             }
             Percept::Player(name) => {
                 if let Err(at) = self.players.binary_search(name) {
@@ -173,6 +178,7 @@ impl Knowledge {
             Percept::Place(name) => {
                 if let Some(i) = self.places.find(name) {
                     self.places.get_mut(i).listed = false;
+                    self.listed.take();
                 }
             }
             Percept::Occupied(name) => {
@@ -295,12 +301,18 @@ impl Knowledge {
 
     /// Every place of the map (`place`), in name order.
     pub fn places(&self) -> impl Iterator<Item = &str> {
-        self.place_names().map(|name| &**name)
+        self.listed().iter().map(|name| &**name)
     }
 
-    /// [`Knowledge::places`] as the shared names the model holds, to keep without copying.
-    pub fn place_names(&self) -> impl Iterator<Item = &Arc<str>> {
-        self.places.sorted().filter(|(_, p)| p.listed).map(|(name, _)| name)
+    /// [`Knowledge::places`] as one shared list, to keep without copying.
+    pub fn place_list(&self) -> Arc<[Arc<str>]> {
+        self.listed().clone()
+    }
+
+    fn listed(&self) -> &Arc<[Arc<str>]> {
+        self.listed.get_or_init(|| {
+            self.places.sorted().filter(|(_, p)| p.listed).map(|(name, _)| name.clone()).collect()
+        })
     }
 
     /// The places that are rooms (see [`is_room`]), in name order.
