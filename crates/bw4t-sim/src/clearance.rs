@@ -12,8 +12,10 @@ pub(crate) struct Clearance {
     origin: Vec2,
     columns: usize,
     rows: usize,
-    /// Row-major: whether an obstacle, grown by the margin, reaches into the cell.
-    near: Vec<bool>,
+    /// The marked cells (those an obstacle grown by the margin reaches) above and left of
+    /// each grid corner, row-major over `(columns + 1) x (rows + 1)` corners: any box's
+    /// count is then four lookups.
+    marked_before: Vec<u32>,
 }
 
 impl Clearance {
@@ -30,15 +32,25 @@ impl Clearance {
             origin: lo,
             columns: span.x as usize + 1,
             rows: span.y as usize + 1,
-            near: Vec::new(),
+            marked_before: Vec::new(),
         };
-        clearance.near = vec![false; clearance.columns * clearance.rows];
+        let columns = clearance.columns;
+        let mut near = vec![false; columns * clearance.rows];
         for (min, max) in grown {
             let ((c0, r0), (c1, r1)) = (clearance.cell(min), clearance.cell(max));
             for row in r0..=r1 {
-                clearance.near[row * clearance.columns..][c0..=c1].fill(true);
+                near[row * columns..][c0..=c1].fill(true);
             }
         }
+        let mut sums = vec![0u32; (columns + 1) * (clearance.rows + 1)];
+        for row in 0..clearance.rows {
+            for column in 0..columns {
+                let at = (row + 1) * (columns + 1) + column + 1;
+                sums[at] = u32::from(near[row * columns + column]) + sums[at - 1] + sums[at - columns - 1]
+                    - sums[at - columns - 2];
+            }
+        }
+        clearance.marked_before = sums;
         clearance
     }
 
@@ -51,7 +63,7 @@ impl Clearance {
 
     /// Whether the box from `min` to `max` keeps more than the margin from every obstacle.
     pub(crate) fn is_open(&self, min: Vec2, max: Vec2) -> bool {
-        if self.near.is_empty() {
+        if self.marked_before.is_empty() {
             return true;
         }
         let end = self.origin + Vec2::new(self.columns as f32, self.rows as f32) * CELL;
@@ -64,7 +76,8 @@ impl Clearance {
             return false;
         }
         let ((c0, r0), (c1, r1)) = (self.cell(min), self.cell(max));
-        (r0..=r1).all(|row| !self.near[row * self.columns..][c0..=c1].contains(&true))
+        let before = |column: usize, row: usize| self.marked_before[row * (self.columns + 1) + column];
+        before(c1 + 1, r1 + 1) + before(c0, r0) == before(c0, r1 + 1) + before(c1 + 1, r0)
     }
 }
 
