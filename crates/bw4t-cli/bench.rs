@@ -281,7 +281,7 @@ fn scale(args: &BenchArgs, rows: usize, cols: usize, robots: usize) -> Result<se
 fn env(args: &BenchArgs) -> Result<()> {
     use bw4t_env::{EnvConfig, Figures};
     let map = crate::maps::load(&args.map)?;
-    let line = |setting: &str, f: &Figures| {
+    let line = |setting: &str, config: &EnvConfig, f: &Figures| {
         json!({
             "case": "env",
             "setting": setting,
@@ -293,34 +293,30 @@ fn env(args: &BenchArgs) -> Result<()> {
             "agent_steps": f.agent_steps,
             "episodes_ended": f.episodes_ended,
             "agent_steps_per_s": f.agent_steps_per_s().round(),
-            "ticks_per_step": bw4t_env::DEFAULT_TICKS_PER_STEP,
+            "ticks_per_step": config.ticks_per_step,
         })
     };
     let parallel = EnvConfig::parallel(map.clone(), 3);
     outln!("{}", env_memory(&parallel, args.seed)?);
     let single = EnvConfig::single(map.clone(), 2, bw4t_agents::Strategy::Cooperative);
+    let one_tick = EnvConfig { ticks_per_step: 1, ..parallel.clone() };
     let steps = args.env_steps * 20;
-    outln!("{}", line("parallel", &bw4t_env::bench_single(parallel.clone(), steps, args.seed)?));
-    let mut one_tick = parallel.clone();
-    one_tick.ticks_per_step = 1;
-    let figures = bw4t_env::bench_single(one_tick, steps, args.seed)?;
+    for config in [&parallel, &one_tick] {
+        outln!("{}", line("parallel", config, &bw4t_env::bench_single(config.clone(), steps, args.seed)?));
+    }
     outln!(
         "{}",
-        line("parallel", &figures)
-            .as_object()
-            .cloned()
-            .map(|mut o| {
-                o.insert("ticks_per_step".into(), 1.into());
-                serde_json::Value::Object(o)
-            })
-            .unwrap_or_default()
+        line("single_among_coop", &single, &bw4t_env::bench_single(single.clone(), steps, args.seed)?)
     );
-    outln!("{}", line("single_among_coop", &bw4t_env::bench_single(single, steps, args.seed)?));
-    for envs in [64, 256] {
-        for threads in [1, 2] {
-            let figures = bw4t_env::bench_vector(parallel.clone(), envs, threads, args.env_steps, args.seed)?;
-            outln!("{}", line("parallel", &figures));
-        }
+    for (envs, threads, config) in [
+        (64, 1, &parallel),
+        (64, 2, &parallel),
+        (256, 1, &parallel),
+        (256, 2, &parallel),
+        (256, 2, &one_tick),
+    ] {
+        let figures = bw4t_env::bench_vector(config.clone(), envs, threads, args.env_steps, args.seed)?;
+        outln!("{}", line("parallel", config, &figures));
     }
     Ok(())
 }
