@@ -98,9 +98,10 @@ enum Case {
     /// makes. One thread.
     Scale,
     /// The learning environments (`bw4t-env`): learner steps per second of one environment
-    /// (3 learners; 1 learner among 2 built-in teammates) and of vectors of 64 and 256
-    /// environments of 3 learners on 1 and 2 threads, every learner taking a random allowed
-    /// action, and the resident memory per environment.
+    /// (3 learners, at 10 and at 1 tick a step; 1 learner among 2 built-in teammates) and of
+    /// vectors of 64 and 256 environments of 3 learners on 1 and 2 threads (and 256 on 2 at
+    /// 1 tick a step), every learner taking a random allowed action, and the resident memory
+    /// per environment.
     Env,
     /// `tournament merge` of `--merge-rows` made-up rows (100,000) in `--merge-shards`
     /// shard directories (10): the configuration checks, the missing and doubled matches,
