@@ -47,11 +47,14 @@ impl Sim {
     fn collect(&mut self) {
         while let Some(t) = self.host.poll_transmit() {
             match t {
-                Transmit::Line { conn, line } => {
-                    let message = decode_server(line.trim_end()).expect("the host sends valid lines");
+                Transmit::Lines { conn, lines } => {
+                    assert!(!lines.is_empty(), "an empty batch for {conn}");
                     let inbox = self.inboxes.entry(conn).or_default();
-                    assert!(!inbox.closed && !inbox.killed, "a line after close to {conn}: {line}");
-                    inbox.messages.push(message);
+                    for line in lines {
+                        let message = decode_server(line.trim_end()).expect("the host sends valid lines");
+                        assert!(!inbox.closed && !inbox.killed, "a line after close to {conn}: {line}");
+                        inbox.messages.push(message);
+                    }
                 }
                 Transmit::Close { conn } => self.inboxes.entry(conn).or_default().closed = true,
                 Transmit::Kill { conn } => self.inboxes.entry(conn).or_default().killed = true,

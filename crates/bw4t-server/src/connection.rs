@@ -1,6 +1,7 @@
 //! Connections: an accept loop, and per client a reader (lines to events) and a writer
 //! (queued lines to the socket). Malformed input is answered here and never reaches the match.
 
+use std::io::IoSlice;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -18,7 +19,8 @@ use bw4t_host::{ConnId, bye_line, error_line, pong_line};
 
 use crate::arena::{Arena, QueueNews, Route, Routed, Waiting};
 use crate::budget::{SourceBudget, SourcePlace};
-use crate::events::{Event, Opened, Outbound};
+use crate::events::{Event, Opened};
+use crate::queue::{LineQueue, QueueReader, line_queue};
 
 /// How many connections the kernel may hold for a listener before they are accepted. The
 /// usual default (128) overflows under a burst of page loads, and clients then wait a
@@ -78,20 +80,25 @@ async fn refuse(mut stream: TcpStream, code: ErrorCode, why: String) {
 
 /// Where a connection's outgoing lines go: a TCP socket or a WebSocket.
 pub(crate) trait LineSink: Send + 'static {
-    /// Sends one encoded line; false when the peer is gone.
-    fn send_line(&mut self, line: Arc<str>) -> impl Future<Output = bool> + Send;
+    /// Sends encoded lines, in order, at once (a batch); false when the peer is gone.
+    fn send_lines(&mut self, lines: &[Arc<str>]) -> impl Future<Output = bool> + Send;
     /// Ends the connection's sending side.
     fn close(&mut self) -> impl Future<Output = ()> + Send;
 }
 
-impl LineSink for OwnedWriteHalf {
-    async fn send_line(&mut self, line: Arc<str>) -> bool {
-        self.write_all(line.as_bytes()).await.is_ok()
+/// Writes every line of a batch with as few system calls as the socket allows: one
+/// vectored write when it takes them all.
+async fn write_lines(writer: &mut OwnedWriteHalf, lines: &[Arc<str>]) -> std::io::Result<()> {
+    let mut slices: Vec<IoSlice<'_>> = lines.iter().map(|line| IoSlice::new(line.as_bytes())).collect();
+    let mut rest = &mut slices[..];
+    while !rest.is_empty() {
+        let written = writer.write_vectored(rest).await?;
+        if written == 0 {
+            return Err(std::io::ErrorKind::WriteZero.into());
+        }
+        IoSlice::advance_slices(&mut rest, written);
     }
-
-    async fn close(&mut self) {
-        let _ = self.shutdown().await;
-    }
+    Ok(())
 }
 
 /// A connection's outgoing side: its queue, the handles the match task keeps, and the
@@ -99,7 +106,7 @@ impl LineSink for OwnedWriteHalf {
 struct Outgoing {
     conn: ConnId,
     /// The queue of lines to send.
-    pub tx: mpsc::Sender<Outbound>,
+    pub tx: LineQueue,
     kill: Arc<Notify>,
     /// Becomes true when the writer has finished; the reader stops then.
     pub done: watch::Receiver<bool>,
@@ -113,31 +120,44 @@ impl Outgoing {
     }
 }
 
-/// Starts the writer: queued lines go to `sink` until `Close`, a kill or a dead peer.
-fn start_writer(conn: ConnId, queue: usize, mut sink: impl LineSink) -> Outgoing {
-    let (tx, mut rx) = mpsc::channel::<Outbound>(queue);
+/// Starts the writer: queued lines go to `sink` until the queue is closed, a kill or a
+/// dead peer.
+fn start_writer(conn: ConnId, queue: usize, sink: impl LineSink) -> Outgoing {
+    let (tx, queued) = line_queue(queue);
     let kill = Arc::new(Notify::new());
     let (done_tx, done) = watch::channel(false);
     let writer_kill = kill.clone();
     let task = tokio::spawn(async move {
-        loop {
-            let out = tokio::select! {
-                out = rx.recv() => out,
-                () = writer_kill.notified() => None,
-            };
-            match out {
-                Some(Outbound::Line(line)) => {
-                    if !sink.send_line(line).await {
-                        break;
-                    }
-                }
-                Some(Outbound::Close) | None => break,
-            }
-        }
-        sink.close().await;
+        write_queued(queued, sink, &writer_kill).await;
         let _ = done_tx.send(true);
     });
     Outgoing { conn, tx, kill, done, task }
+}
+
+/// The writer: each wake-up takes every line queued and sends it as one batch, until the
+/// queue is closed and empty, `kill` is notified (also while a write is under way: a client
+/// that does not read cannot hold its writer) or the peer is gone; then closes the sink.
+async fn write_queued(mut queued: QueueReader, mut sink: impl LineSink, kill: &Notify) {
+    let mut batch = Vec::new();
+    loop {
+        let more = tokio::select! {
+            more = queued.next_batch(&mut batch) => more,
+            () = kill.notified() => false,
+        };
+        if !more {
+            break;
+        }
+        let sent = tokio::select! {
+            sent = sink.send_lines(&batch) => sent,
+            () = kill.notified() => false,
+        };
+        batch.clear();
+        queued.written();
+        if !sent {
+            break;
+        }
+    }
+    sink.close().await;
 }
 
 /// What became of one incoming line.
@@ -154,17 +174,17 @@ enum Forwarded {
 async fn forward(
     conn: ConnId,
     line: Result<String, DecodeError>,
-    tx: &mpsc::Sender<Outbound>,
+    tx: &LineQueue,
     events: &mpsc::Sender<Event>,
 ) -> Forwarded {
     match line.and_then(|l| bw4t_protocol::decode_client(&l)) {
         Err(e) => {
-            let _ = tx.try_send(Outbound::Line(error_line(e.code, &e.message, false)));
+            tx.send(error_line(e.code, &e.message, false));
             let _ = events.try_send(Event::BadInput { conn });
             Forwarded::Handled
         }
         Ok(ClientMessage::Ping(ping)) => {
-            let _ = tx.try_send(Outbound::Line(pong_line(ping.id)));
+            tx.send(pong_line(ping.id));
             Forwarded::Handled
         }
         Ok(message) => match events.send(Event::Message { conn, message }).await {
@@ -177,7 +197,7 @@ async fn forward(
 /// Tells the match task the connection is gone and lets the writer flush.
 async fn finish(conn: ConnId, outgoing: Outgoing, events: &mpsc::Sender<Event>) {
     let _ = events.send(Event::Closed { conn }).await;
-    let _ = outgoing.tx.try_send(Outbound::Close);
+    outgoing.tx.close();
     drop(outgoing.tx);
     let _ = outgoing.task.await;
 }
@@ -237,13 +257,13 @@ struct PlacedWriter {
 }
 
 impl LineSink for PlacedWriter {
-    async fn send_line(&mut self, line: Arc<str>) -> bool {
-        self.writer.send_line(line).await
+    async fn send_lines(&mut self, lines: &[Arc<str>]) -> bool {
+        write_lines(&mut self.writer, lines).await.is_ok()
     }
 
     async fn close(&mut self) {
         self.place.take();
-        self.writer.close().await;
+        let _ = self.writer.shutdown().await;
     }
 }
 
@@ -267,7 +287,7 @@ pub(crate) async fn run(conn: ConnId, mut source: impl LineSource, sink: impl Li
     // `None`: the connection is over (it left, said `bye`, was refused or timed out).
     let Some(Joined { route, hello, rest }) = greet(&mut source, &tx, &mut done, arena).await else {
         drop(tx);
-        let _ = outgoing.tx.try_send(Outbound::Close);
+        outgoing.tx.close();
         drop(outgoing.tx);
         let _ = outgoing.task.await;
         return;
@@ -279,9 +299,9 @@ pub(crate) async fn run(conn: ConnId, mut source: impl LineSource, sink: impl Li
         || events.send(Event::Message { conn, message: hello }).await.is_err()
     {
         // The match ended as this connection was routed to it.
-        let _ = tx.try_send(Outbound::Line(bye_line(Leaving::MatchOver)));
+        tx.send(bye_line(Leaving::MatchOver));
         drop(tx);
-        let _ = outgoing.tx.try_send(Outbound::Close);
+        outgoing.tx.close();
         drop(outgoing.tx);
         let _ = outgoing.task.await;
         return;
@@ -320,7 +340,7 @@ pub(crate) async fn run(conn: ConnId, mut source: impl LineSource, sink: impl Li
 /// Reads until a `hello` is routed to a match.
 async fn greet(
     source: &mut impl LineSource,
-    tx: &mpsc::Sender<Outbound>,
+    tx: &LineQueue,
     done: &mut watch::Receiver<bool>,
     arena: &Arena,
 ) -> Option<Joined> {
@@ -345,7 +365,7 @@ async fn greet(
         while let Some(line) = lines.next() {
             let message = match line.and_then(|l| bw4t_protocol::decode_client(&l)) {
                 Err(e) => {
-                    let _ = tx.try_send(Outbound::Line(error_line(e.code, &e.message, false)));
+                    tx.send(error_line(e.code, &e.message, false));
                     continue;
                 }
                 Ok(message) => message,
@@ -353,16 +373,15 @@ async fn greet(
             let hello = match message {
                 ClientMessage::Hello(hello) => hello,
                 ClientMessage::Ping(ping) => {
-                    let _ = tx.try_send(Outbound::Line(pong_line(ping.id)));
+                    tx.send(pong_line(ping.id));
                     continue;
                 }
                 ClientMessage::Bye(_) => {
-                    let _ = tx.try_send(Outbound::Line(bye_line(Leaving::Goodbye)));
+                    tx.send(bye_line(Leaving::Goodbye));
                     return None;
                 }
                 _ => {
-                    let _ =
-                        tx.try_send(Outbound::Line(error_line(ErrorCode::NoHello, "say hello first", false)));
+                    tx.send(error_line(ErrorCode::NoHello, "say hello first", false));
                     continue;
                 }
             };
@@ -389,7 +408,7 @@ async fn greet(
 /// player leaves (or the server stops) first. Only `ping` and `bye` are taken meanwhile.
 async fn wait_in_queue(
     source: &mut impl LineSource,
-    tx: &mpsc::Sender<Outbound>,
+    tx: &LineQueue,
     done: &mut watch::Receiver<bool>,
     mut news: Waiting,
     mut place: usize,
@@ -397,7 +416,7 @@ async fn wait_in_queue(
 ) -> Option<Route> {
     loop {
         let lobby = Lobby { template: Some(template.to_string()), queued: Some(place), ..Lobby::default() };
-        let _ = tx.try_send(Outbound::Line(encode(&ServerMessage::Lobby(lobby)).into()));
+        tx.send(encode(&ServerMessage::Lobby(lobby)).into());
         loop {
             tokio::select! {
                 heard = news.recv() => match heard {
@@ -417,18 +436,18 @@ async fn wait_in_queue(
                         for line in lines {
                             match line.and_then(|l| bw4t_protocol::decode_client(&l)) {
                                 Ok(ClientMessage::Ping(ping)) => {
-                                    let _ = tx.try_send(Outbound::Line(pong_line(ping.id)));
+                                    tx.send(pong_line(ping.id));
                                 }
                                 Ok(ClientMessage::Bye(_)) => {
-                                    let _ = tx.try_send(Outbound::Line(bye_line(Leaving::Goodbye)));
+                                    tx.send(bye_line(Leaving::Goodbye));
                                     return None;
                                 }
                                 Ok(_) => {
                                     let why = "waiting for a seat in a match: only ping and bye until welcome";
-                                    let _ = tx.try_send(Outbound::Line(error_line(ErrorCode::NotAPlayer, why, false)));
+                                    tx.send(error_line(ErrorCode::NotAPlayer, why, false));
                                 }
                                 Err(e) => {
-                                    let _ = tx.try_send(Outbound::Line(error_line(e.code, &e.message, false)));
+                                    tx.send(error_line(e.code, &e.message, false));
                                 }
                             }
                         }
@@ -446,7 +465,6 @@ async fn wait_in_queue(
 }
 
 /// Queues a fatal `error` and its `bye` (best effort: the connection closes next anyway).
-fn refuse_fatally(tx: &mpsc::Sender<Outbound>, code: ErrorCode, message: &str) {
-    let _ = tx.try_send(Outbound::Line(error_line(code, message, true)));
-    let _ = tx.try_send(Outbound::Line(bye_line(code)));
+fn refuse_fatally(tx: &LineQueue, code: ErrorCode, message: &str) {
+    tx.send_all(vec![error_line(code, message, true), bye_line(code)]);
 }
