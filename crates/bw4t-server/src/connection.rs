@@ -468,3 +468,59 @@ async fn wait_in_queue(
 fn refuse_fatally(tx: &LineQueue, code: ErrorCode, message: &str) {
     tx.send_all(vec![error_line(code, message, true), bye_line(code)]);
 }
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Mutex;
+
+    use super::*;
+
+    /// A sink that records each batch it is handed, or never finishes a write.
+    #[derive(Clone, Default)]
+    struct RecordingSink {
+        batches: Arc<Mutex<Vec<Vec<String>>>>,
+        stalls: bool,
+    }
+
+    impl LineSink for RecordingSink {
+        async fn send_lines(&mut self, lines: &[Arc<str>]) -> bool {
+            if self.stalls {
+                std::future::pending::<()>().await;
+            }
+            let batch = lines.iter().map(|l| l.to_string()).collect();
+            self.batches.lock().expect("lock").push(batch);
+            true
+        }
+
+        async fn close(&mut self) {}
+    }
+
+    #[tokio::test]
+    async fn lines_queued_together_wake_the_writer_once_and_leave_in_one_write() {
+        let sink = RecordingSink::default();
+        let outgoing = start_writer(1, 16, sink.clone());
+        // The writer has not run yet (one thread, no await since it was spawned): the
+        // tick's lines and then the close are all queued when it first looks.
+        outgoing.tx.send_all(vec!["ack\n".into(), "ack\n".into(), "percepts\n".into()]);
+        assert!(outgoing.tx.close());
+        outgoing.task.await.expect("the writer ends");
+        let batches = sink.batches.lock().expect("lock").clone();
+        assert_eq!(batches, [["ack\n", "ack\n", "percepts\n"]]);
+        assert!(*outgoing.done.borrow());
+    }
+
+    #[tokio::test]
+    async fn a_kill_ends_the_writer_even_in_the_middle_of_a_write() {
+        let sink = RecordingSink { stalls: true, ..RecordingSink::default() };
+        let outgoing = start_writer(1, 16, sink);
+        outgoing.tx.send("percepts\n".into());
+        let mut done = outgoing.done.clone();
+        // Let the writer take the line and start its write, which never finishes.
+        tokio::task::yield_now().await;
+        assert_eq!(outgoing.tx.room(), 15, "the line being written still counts");
+        outgoing.kill.notify_one();
+        // A bound for the failure only: a writer that waits for its write never ends.
+        let ended = tokio::time::timeout(std::time::Duration::from_secs(10), done.wait_for(|d| *d)).await;
+        assert!(ended.is_ok(), "the killed writer is still writing");
+    }
+}
