@@ -160,7 +160,7 @@ async fn write_queued(mut queued: QueueReader, mut sink: impl LineSink, kill: &N
     sink.close().await;
 }
 
-/// What became of one incoming line.
+/// What became of incoming lines.
 enum Forwarded {
     /// Answered here or passed on.
     Handled,
@@ -168,30 +168,45 @@ enum Forwarded {
     Stop,
 }
 
-/// Handles one incoming line: bad input and `ping` are answered here (best effort: a
-/// client that sends garbage and does not read loses only its own replies), everything
-/// else goes to the match task.
+/// The most messages one event carries. An event holds what one read brought (at most
+/// the read buffer and one line carried over), so the event channel bounds memory about
+/// as it did with a message an event; this bounds the messages' own overhead.
+const MESSAGES_PER_EVENT: usize = 64;
+
+/// Handles the lines of one read: bad input and `ping` are answered here (best effort: a
+/// client that sends garbage and does not read loses only its own replies), the other
+/// messages go to the match task together, so it wakes once for them.
 async fn forward(
     conn: ConnId,
-    line: Result<String, DecodeError>,
+    lines: Vec<Result<String, DecodeError>>,
     tx: &LineQueue,
     events: &mpsc::Sender<Event>,
 ) -> Forwarded {
-    match line.and_then(|l| bw4t_protocol::decode_client(&l)) {
-        Err(e) => {
-            tx.send(error_line(e.code, &e.message, false));
-            let _ = events.try_send(Event::BadInput { conn });
-            Forwarded::Handled
+    let mut messages = Vec::new();
+    for line in lines {
+        match line.and_then(|l| bw4t_protocol::decode_client(&l)) {
+            Err(e) => {
+                tx.send(error_line(e.code, &e.message, false));
+                let _ = events.try_send(Event::BadInput { conn });
+            }
+            Ok(ClientMessage::Ping(ping)) => {
+                tx.send(pong_line(ping.id));
+            }
+            Ok(message) => {
+                messages.push(message);
+                if messages.len() == MESSAGES_PER_EVENT {
+                    let messages = std::mem::take(&mut messages);
+                    if events.send(Event::Messages { conn, messages }).await.is_err() {
+                        return Forwarded::Stop;
+                    }
+                }
+            }
         }
-        Ok(ClientMessage::Ping(ping)) => {
-            tx.send(pong_line(ping.id));
-            Forwarded::Handled
-        }
-        Ok(message) => match events.send(Event::Message { conn, message }).await {
-            Err(_) => Forwarded::Stop,
-            Ok(()) => Forwarded::Handled,
-        },
     }
+    if !messages.is_empty() && events.send(Event::Messages { conn, messages }).await.is_err() {
+        return Forwarded::Stop;
+    }
+    Forwarded::Handled
 }
 
 /// Tells the match task the connection is gone and lets the writer flush.
@@ -296,7 +311,7 @@ pub(crate) async fn run(conn: ConnId, mut source: impl LineSource, sink: impl Li
     let _claim = route.claim;
     let events = route.events;
     if events.send(Event::Opened(outgoing.opened())).await.is_err()
-        || events.send(Event::Message { conn, message: hello }).await.is_err()
+        || events.send(Event::Messages { conn, messages: vec![hello] }).await.is_err()
     {
         // The match ended as this connection was routed to it.
         tx.send(bye_line(Leaving::MatchOver));
@@ -306,13 +321,7 @@ pub(crate) async fn run(conn: ConnId, mut source: impl LineSource, sink: impl Li
         let _ = outgoing.task.await;
         return;
     }
-    let mut stopped = false;
-    for line in rest {
-        if let Forwarded::Stop = forward(conn, line, &tx, &events).await {
-            stopped = true;
-            break;
-        }
-    }
+    let mut stopped = matches!(forward(conn, rest, &tx, &events).await, Forwarded::Stop);
     while !stopped {
         let incoming = tokio::select! {
             incoming = source.next() => incoming,
@@ -326,12 +335,7 @@ pub(crate) async fn run(conn: ConnId, mut source: impl LineSource, sink: impl Li
             }
             Incoming::Closed => break,
         };
-        for line in lines {
-            if let Forwarded::Stop = forward(conn, line, &tx, &events).await {
-                stopped = true;
-                break;
-            }
-        }
+        stopped = matches!(forward(conn, lines, &tx, &events).await, Forwarded::Stop);
     }
     drop(tx);
     finish(conn, outgoing, &events).await;
@@ -507,6 +511,27 @@ mod tests {
         let batches = sink.batches.lock().expect("lock").clone();
         assert_eq!(batches, [["ack\n", "ack\n", "percepts\n"]]);
         assert!(*outgoing.done.borrow());
+    }
+
+    #[tokio::test]
+    async fn what_one_read_brought_reaches_the_match_as_one_event_in_bounded_pieces() {
+        let (events, mut received) = mpsc::channel(16);
+        let (queue, _reader) = line_queue(16);
+        let ready = r#"{"type": "ready", "tick": 0}"#;
+        let mut lines = vec![Ok(r#"{"type": "ping", "id": 1}"#.to_string()), Ok("nonsense".to_string())];
+        lines.extend(std::iter::repeat_n(Ok(ready.to_string()), MESSAGES_PER_EVENT + 1));
+        assert!(matches!(forward(7, lines, &queue, &events).await, Forwarded::Handled));
+        // Ping and bad input are answered here: a pong and an error for the client.
+        assert_eq!(queue.room(), 14);
+        let mut sizes = Vec::new();
+        while let Ok(event) = received.try_recv() {
+            match event {
+                Event::Messages { conn: 7, messages } => sizes.push(messages.len()),
+                Event::BadInput { conn: 7 } => sizes.push(0),
+                other => panic!("an unexpected event: {other:?}"),
+            }
+        }
+        assert_eq!(sizes, [0, MESSAGES_PER_EVENT, 1]);
     }
 
     #[tokio::test]

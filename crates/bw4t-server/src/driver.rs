@@ -176,7 +176,7 @@ fn take(
     closing: &mut Vec<watch::Receiver<bool>>,
 ) {
     let from = match &event {
-        Event::Message { conn, .. } | Event::BadInput { conn } => Some(*conn),
+        Event::BadInput { conn } => Some(*conn),
         _ => None,
     };
     let event = match event {
@@ -185,7 +185,15 @@ fn take(
             handles.insert(conn, Handles { tx, kill, done });
             HostEvent::Opened { conn, room }
         }
-        Event::Message { conn, message } => HostEvent::Message { conn, message },
+        Event::Messages { conn, messages } => {
+            // What one read brought arrived together: one room, one time for all of it.
+            tell_rooms(host, handles, Some(conn));
+            let now = Instant::now().into_std();
+            for message in messages {
+                host.handle_event(now, HostEvent::Message { conn, message });
+            }
+            return;
+        }
         Event::BadInput { conn } => HostEvent::BadInput { conn },
         Event::Closed { conn } => {
             // The end of the match waits for this writer too, so nothing queued is cut off.
@@ -201,16 +209,22 @@ fn take(
         Event::Control(Control::Stop) => return host.interrupt(),
         Event::Control(Control::Pause(paused)) => return host.set_paused(Instant::now().into_std(), paused),
     };
-    // While the match plays, what an event makes goes to its own connection (acks,
-    // errors); the lines to everyone go out at ticks, before which every room is told.
-    // A waiting match tells everyone who joins and leaves, so every room is told first.
+    tell_rooms(host, handles, from);
+    host.handle_event(Instant::now().into_std(), event);
+}
+
+/// Tells the host the rooms it needs before an event `from` a connection (or from none).
+/// While the match plays, what such an event makes goes to its own connection (acks,
+/// errors); the lines to everyone go out at ticks, before which every room is told. A
+/// waiting match tells everyone who joins and leaves, so every room is told first. (The
+/// host counts what it queues after a room is told, so one room serves many events.)
+fn tell_rooms(host: &mut MatchHost, handles: &BTreeMap<ConnId, Handles>, from: Option<ConnId>) {
     match from.and_then(|conn| Some((conn, handles.get(&conn)?))) {
         Some((conn, h)) if host.has_started() => {
             host.handle_event(Instant::now().into_std(), HostEvent::Room { conn, room: h.tx.room() });
         }
         _ => rooms(host, handles),
     }
-    host.handle_event(Instant::now().into_std(), event);
 }
 
 /// Tells the host how much room each connection's queue has now.

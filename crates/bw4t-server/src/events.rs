@@ -27,8 +27,9 @@ pub(crate) struct Opened {
 pub(crate) enum Event {
     /// A new connection.
     Opened(Opened),
-    /// A well-formed message (other than `ping`, answered by the connection itself).
-    Message { conn: ConnId, message: ClientMessage },
+    /// Well-formed messages that arrived together, in order (other than `ping`, answered
+    /// by the connection itself); never empty.
+    Messages { conn: ConnId, messages: Vec<ClientMessage> },
     /// The connection sent a line that is not a valid message.
     BadInput { conn: ConnId },
     /// The connection is gone.
