@@ -15,6 +15,8 @@ use crate::util::{lockstep, open_seats, shipped_map};
 #[derive(Default)]
 struct Inbox {
     messages: Vec<ServerMessage>,
+    /// How many lines each batch the host handed out for the connection held.
+    batches: Vec<usize>,
     closed: bool,
     killed: bool,
 }
@@ -47,11 +49,15 @@ impl Sim {
     fn collect(&mut self) {
         while let Some(t) = self.host.poll_transmit() {
             match t {
-                Transmit::Line { conn, line } => {
-                    let message = decode_server(line.trim_end()).expect("the host sends valid lines");
+                Transmit::Lines { conn, lines } => {
+                    assert!(!lines.is_empty(), "an empty batch for {conn}");
                     let inbox = self.inboxes.entry(conn).or_default();
-                    assert!(!inbox.closed && !inbox.killed, "a line after close to {conn}: {line}");
-                    inbox.messages.push(message);
+                    inbox.batches.push(lines.len());
+                    for line in lines {
+                        let message = decode_server(line.trim_end()).expect("the host sends valid lines");
+                        assert!(!inbox.closed && !inbox.killed, "a line after close to {conn}: {line}");
+                        inbox.messages.push(message);
+                    }
                 }
                 Transmit::Close { conn } => self.inboxes.entry(conn).or_default().closed = true,
                 Transmit::Kill { conn } => self.inboxes.entry(conn).or_default().killed = true,
@@ -185,6 +191,36 @@ fn lockstep_waits_for_ready_until_the_deadline_and_counts_late_players() {
     assert!(sim.host.tick() >= 1);
     let result = sim.finish();
     assert_eq!((late_ticks(&result, "Ann"), late_ticks(&result, "Bob")), (0, 1));
+}
+
+#[test]
+fn what_a_tick_tells_each_player_leaves_as_one_batch() {
+    let mut sim = Sim::new(lockstep_config(2));
+    sim.join(1, "Ann");
+    sim.join(2, "Bob");
+    let mut before = BTreeMap::new();
+    for conn in [1, 2] {
+        sim.say(conn, json!({"type": "say", "id": 1, "to": "all", "text": "hello"}));
+        sim.say(conn, json!({"type": "act", "id": 2, "action": "goTo", "args": ["RoomA1"]}));
+        sim.ready(conn);
+        before.insert(conn, (sim.inboxes[&conn].batches.len(), sim.messages(conn).len()));
+    }
+    sim.run_until(Duration::ZERO);
+    assert_eq!(sim.host.tick(), 1);
+    for conn in [1, 2] {
+        let (batches, messages) = before[&conn];
+        let told: Vec<&str> = sim.messages(conn)[messages..]
+            .iter()
+            .map(|m| match m {
+                ServerMessage::Ack(_) => "ack",
+                ServerMessage::Percepts(_) => "percepts",
+                _ => "other",
+            })
+            .collect();
+        assert_eq!(told, ["ack", "ack", "percepts"], "what {conn} was told at the tick");
+        // Both acks and the percepts in one batch: one wake-up of the connection's writer.
+        assert_eq!(sim.inboxes[&conn].batches[batches..], [3], "the batches {conn} got at the tick");
+    }
 }
 
 #[test]

@@ -75,12 +75,14 @@ pub enum HostEvent {
 /// What the host asks the driver to do.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum Transmit {
-    /// Queue one encoded line for the connection.
-    Line {
+    /// Queue these encoded lines for the connection, in order, as one batch: everything a
+    /// connection is sent at one moment (a player's acks, results and percepts of a tick)
+    /// comes as one, so its writer is woken once and can send it with one write.
+    Lines {
         /// The connection.
         conn: ConnId,
-        /// The line, with its newline.
-        line: Arc<str>,
+        /// The lines, each with its newline; never empty.
+        lines: Vec<Arc<str>>,
     },
     /// Close the connection after the lines queued before.
     Close {
@@ -147,6 +149,14 @@ enum Pending {
     Stop,
 }
 
+/// What a player is still to be told of the current tick.
+struct TickNews {
+    robot: RobotId,
+    /// Acks and results of the boundary, in the order they arose, for the connection each
+    /// was meant for.
+    replies: Vec<(ConnId, ServerMessage)>,
+}
+
 /// Who asked for an action: a remote player (with the id its `ack` names) or an in-process
 /// agent (with its driver's number).
 enum Tag {
@@ -155,13 +165,13 @@ enum Tag {
 }
 
 /// The host's players as the tick boundary sees them. Replies wait in `replies` until the
-/// boundary is done, in the order they arose.
+/// boundary is done, each robot's in the order they arose.
 struct HostSeats<'a> {
     /// The tick the boundary applies actions after.
     tick: u64,
     players: &'a mut BTreeMap<RobotId, Player>,
     frame_messages: &'a mut Vec<FrameMessage>,
-    replies: Vec<(ConnId, ServerMessage)>,
+    replies: BTreeMap<RobotId, Vec<(ConnId, ServerMessage)>>,
     /// Remote players acked or sent a `result` at this boundary.
     told: BTreeSet<RobotId>,
 }
@@ -221,7 +231,7 @@ impl Seats for HostSeats<'_> {
             },
         };
         if let (Some(conn), None) = (player.conn, &player.local) {
-            self.replies.push((conn, ServerMessage::Ack(ack)));
+            self.replies.entry(robot).or_default().push((conn, ServerMessage::Ack(ack)));
         }
     }
 
@@ -234,7 +244,7 @@ impl Seats for HostSeats<'_> {
         if let Some(conn) = player.conn {
             self.told.insert(end.robot);
             let result = ActResult { id, outcome: end.outcome.into(), tick };
-            self.replies.push((conn, ServerMessage::Result(result)));
+            self.replies.entry(end.robot).or_default().push((conn, ServerMessage::Result(result)));
         }
     }
 }
@@ -366,8 +376,8 @@ pub struct MatchHost {
     end: Option<EndReason>,
     sessions: u64,
     outbox: VecDeque<Transmit>,
-    /// Players whose percepts of the current tick are still to be made.
-    percepts_due: VecDeque<RobotId>,
+    /// Players still to be told the current tick (its replies, then its percepts).
+    news_due: VecDeque<TickNews>,
     recorder: Option<Recorder>,
     /// Names of reserved seats whose player will not come.
     abandoned: BTreeSet<String>,
@@ -476,7 +486,7 @@ impl MatchHost {
             end: None,
             sessions: 0,
             outbox: VecDeque::new(),
-            percepts_due: VecDeque::new(),
+            news_due: VecDeque::new(),
             recorder,
             abandoned: BTreeSet::new(),
             gone: BTreeMap::new(),
@@ -592,24 +602,33 @@ impl MatchHost {
     pub fn poll_transmit(&mut self) -> Option<Transmit> {
         loop {
             if let Some(transmit) = self.outbox.pop_front() {
-                if let Transmit::Line { conn, .. } = &transmit {
+                if let Transmit::Lines { conn, lines } = &transmit {
                     if let Some(c) = self.conns.get_mut(conn) {
-                        c.unsent = c.unsent.saturating_sub(1);
+                        c.unsent = c.unsent.saturating_sub(lines.len());
                     }
                 }
                 return Some(transmit);
             }
-            let id = self.percepts_due.pop_front()?;
-            self.send_percepts(id, Delivery::Tick);
+            let news = self.news_due.pop_front()?;
+            self.tell(news);
         }
     }
 
-    /// Makes the percepts of the tick not yet taken by [`Self::poll_transmit`], so that
-    /// what comes next sees every player as told.
+    /// Makes what the tick has for the players not yet taken by [`Self::poll_transmit`],
+    /// so that what comes next sees every player as told.
     fn settle(&mut self) {
-        while let Some(id) = self.percepts_due.pop_front() {
-            self.send_percepts(id, Delivery::Tick);
+        while let Some(news) = self.news_due.pop_front() {
+            self.tell(news);
         }
+    }
+
+    /// Tells a player its tick: the replies of the boundary, then its percepts, so what it
+    /// is sent at a tick leaves in one batch.
+    fn tell(&mut self, news: TickNews) {
+        for (conn, reply) in news.replies {
+            self.send(conn, &reply);
+        }
+        self.send_percepts(news.robot, Delivery::Tick);
     }
 
     /// Whether a dropped player's grace period is over.
@@ -911,24 +930,26 @@ impl MatchHost {
             tick: self.game.tick(),
             players: &mut self.players,
             frame_messages: &mut self.frame_messages,
-            replies: Vec::new(),
+            replies: BTreeMap::new(),
             told: BTreeSet::new(),
         };
         let tick = self.game.boundary(&mut seats, &mut self.recorder);
-        let HostSeats { replies, told, .. } = seats;
+        let HostSeats { mut replies, told, .. } = seats;
         // A new tick: players are awaited again only if they are sent something now. One
         // acked at this boundary, or whose order ended, always gets this tick's `percepts`,
         // so its next actions land at a boundary its own script decides.
         for (id, player) in &mut self.players {
             player.awaiting = told.contains(id) && player.conn.is_some();
         }
-        for (conn, reply) in replies {
-            self.send(conn, &reply);
-        }
         self.tick_sent_at = self.now;
-        // Each player's percepts are made as the driver takes them (`poll_transmit`), so
-        // the first player's are on their way while the others' are still being made.
-        self.percepts_due = self.players.keys().copied().collect();
+        // Each player's replies and percepts are made as the driver takes them
+        // (`poll_transmit`), so the first player's are on their way while the others' are
+        // still being made. Replies come from players, so every one has a place here.
+        self.news_due = self
+            .players
+            .keys()
+            .map(|&robot| TickNews { robot, replies: replies.remove(&robot).unwrap_or_default() })
+            .collect();
         self.observe_locals();
         self.send_frames(false);
         if self.any_expired() {
@@ -1215,7 +1236,11 @@ impl MatchHost {
         }
         c.unsent += 1;
         c.queued += 1;
-        self.outbox.push_back(Transmit::Line { conn, line });
+        // Lines for the connection the last batch is for join it.
+        match self.outbox.back_mut() {
+            Some(Transmit::Lines { conn: last, lines }) if *last == conn => lines.push(line),
+            _ => self.outbox.push_back(Transmit::Lines { conn, lines: vec![line] }),
+        }
     }
 
     /// Sends an `error`; a fatal one is followed by `bye` with its code and the close.

@@ -1,6 +1,7 @@
 //! Connections: an accept loop, and per client a reader (lines to events) and a writer
 //! (queued lines to the socket). Malformed input is answered here and never reaches the match.
 
+use std::io::IoSlice;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -18,7 +19,8 @@ use bw4t_host::{ConnId, bye_line, error_line, pong_line};
 
 use crate::arena::{Arena, QueueNews, Route, Routed, Waiting};
 use crate::budget::{SourceBudget, SourcePlace};
-use crate::events::{Event, Opened, Outbound};
+use crate::events::{Event, Opened};
+use crate::queue::{LineQueue, QueueReader, line_queue};
 
 /// How many connections the kernel may hold for a listener before they are accepted. The
 /// usual default (128) overflows under a burst of page loads, and clients then wait a
@@ -78,20 +80,25 @@ async fn refuse(mut stream: TcpStream, code: ErrorCode, why: String) {
 
 /// Where a connection's outgoing lines go: a TCP socket or a WebSocket.
 pub(crate) trait LineSink: Send + 'static {
-    /// Sends one encoded line; false when the peer is gone.
-    fn send_line(&mut self, line: Arc<str>) -> impl Future<Output = bool> + Send;
+    /// Sends encoded lines, in order, at once (a batch); false when the peer is gone.
+    fn send_lines(&mut self, lines: &[Arc<str>]) -> impl Future<Output = bool> + Send;
     /// Ends the connection's sending side.
     fn close(&mut self) -> impl Future<Output = ()> + Send;
 }
 
-impl LineSink for OwnedWriteHalf {
-    async fn send_line(&mut self, line: Arc<str>) -> bool {
-        self.write_all(line.as_bytes()).await.is_ok()
+/// Writes every line of a batch with as few system calls as the socket allows: one
+/// vectored write when it takes them all.
+async fn write_lines(writer: &mut OwnedWriteHalf, lines: &[Arc<str>]) -> std::io::Result<()> {
+    let mut slices: Vec<IoSlice<'_>> = lines.iter().map(|line| IoSlice::new(line.as_bytes())).collect();
+    let mut rest = &mut slices[..];
+    while !rest.is_empty() {
+        let written = writer.write_vectored(rest).await?;
+        if written == 0 {
+            return Err(std::io::ErrorKind::WriteZero.into());
+        }
+        IoSlice::advance_slices(&mut rest, written);
     }
-
-    async fn close(&mut self) {
-        let _ = self.shutdown().await;
-    }
+    Ok(())
 }
 
 /// A connection's outgoing side: its queue, the handles the match task keeps, and the
@@ -99,7 +106,7 @@ impl LineSink for OwnedWriteHalf {
 struct Outgoing {
     conn: ConnId,
     /// The queue of lines to send.
-    pub tx: mpsc::Sender<Outbound>,
+    pub tx: LineQueue,
     kill: Arc<Notify>,
     /// Becomes true when the writer has finished; the reader stops then.
     pub done: watch::Receiver<bool>,
@@ -113,34 +120,47 @@ impl Outgoing {
     }
 }
 
-/// Starts the writer: queued lines go to `sink` until `Close`, a kill or a dead peer.
-fn start_writer(conn: ConnId, queue: usize, mut sink: impl LineSink) -> Outgoing {
-    let (tx, mut rx) = mpsc::channel::<Outbound>(queue);
+/// Starts the writer: queued lines go to `sink` until the queue is closed, a kill or a
+/// dead peer.
+fn start_writer(conn: ConnId, queue: usize, sink: impl LineSink) -> Outgoing {
+    let (tx, queued) = line_queue(queue);
     let kill = Arc::new(Notify::new());
     let (done_tx, done) = watch::channel(false);
     let writer_kill = kill.clone();
     let task = tokio::spawn(async move {
-        loop {
-            let out = tokio::select! {
-                out = rx.recv() => out,
-                () = writer_kill.notified() => None,
-            };
-            match out {
-                Some(Outbound::Line(line)) => {
-                    if !sink.send_line(line).await {
-                        break;
-                    }
-                }
-                Some(Outbound::Close) | None => break,
-            }
-        }
-        sink.close().await;
+        write_queued(queued, sink, &writer_kill).await;
         let _ = done_tx.send(true);
     });
     Outgoing { conn, tx, kill, done, task }
 }
 
-/// What became of one incoming line.
+/// The writer: each wake-up takes every line queued and sends it as one batch, until the
+/// queue is closed and empty, `kill` is notified (also while a write is under way: a client
+/// that does not read cannot hold its writer) or the peer is gone; then closes the sink.
+async fn write_queued(mut queued: QueueReader, mut sink: impl LineSink, kill: &Notify) {
+    let mut batch = Vec::new();
+    loop {
+        let more = tokio::select! {
+            more = queued.next_batch(&mut batch) => more,
+            () = kill.notified() => false,
+        };
+        if !more {
+            break;
+        }
+        let sent = tokio::select! {
+            sent = sink.send_lines(&batch) => sent,
+            () = kill.notified() => false,
+        };
+        batch.clear();
+        queued.written();
+        if !sent {
+            break;
+        }
+    }
+    sink.close().await;
+}
+
+/// What became of incoming lines.
 enum Forwarded {
     /// Answered here or passed on.
     Handled,
@@ -148,36 +168,51 @@ enum Forwarded {
     Stop,
 }
 
-/// Handles one incoming line: bad input and `ping` are answered here (best effort: a
-/// client that sends garbage and does not read loses only its own replies), everything
-/// else goes to the match task.
+/// The most messages one event carries. An event holds what one read brought (at most
+/// the read buffer and one line carried over), so the event channel bounds memory about
+/// as it did with a message an event; this bounds the messages' own overhead.
+const MESSAGES_PER_EVENT: usize = 64;
+
+/// Handles the lines of one read: bad input and `ping` are answered here (best effort: a
+/// client that sends garbage and does not read loses only its own replies), the other
+/// messages go to the match task together, so it wakes once for them.
 async fn forward(
     conn: ConnId,
-    line: Result<String, DecodeError>,
-    tx: &mpsc::Sender<Outbound>,
+    lines: Vec<Result<String, DecodeError>>,
+    tx: &LineQueue,
     events: &mpsc::Sender<Event>,
 ) -> Forwarded {
-    match line.and_then(|l| bw4t_protocol::decode_client(&l)) {
-        Err(e) => {
-            let _ = tx.try_send(Outbound::Line(error_line(e.code, &e.message, false)));
-            let _ = events.try_send(Event::BadInput { conn });
-            Forwarded::Handled
+    let mut messages = Vec::new();
+    for line in lines {
+        match line.and_then(|l| bw4t_protocol::decode_client(&l)) {
+            Err(e) => {
+                tx.send(error_line(e.code, &e.message, false));
+                let _ = events.try_send(Event::BadInput { conn });
+            }
+            Ok(ClientMessage::Ping(ping)) => {
+                tx.send(pong_line(ping.id));
+            }
+            Ok(message) => {
+                messages.push(message);
+                if messages.len() == MESSAGES_PER_EVENT {
+                    let messages = std::mem::take(&mut messages);
+                    if events.send(Event::Messages { conn, messages }).await.is_err() {
+                        return Forwarded::Stop;
+                    }
+                }
+            }
         }
-        Ok(ClientMessage::Ping(ping)) => {
-            let _ = tx.try_send(Outbound::Line(pong_line(ping.id)));
-            Forwarded::Handled
-        }
-        Ok(message) => match events.send(Event::Message { conn, message }).await {
-            Err(_) => Forwarded::Stop,
-            Ok(()) => Forwarded::Handled,
-        },
     }
+    if !messages.is_empty() && events.send(Event::Messages { conn, messages }).await.is_err() {
+        return Forwarded::Stop;
+    }
+    Forwarded::Handled
 }
 
 /// Tells the match task the connection is gone and lets the writer flush.
 async fn finish(conn: ConnId, outgoing: Outgoing, events: &mpsc::Sender<Event>) {
     let _ = events.send(Event::Closed { conn }).await;
-    let _ = outgoing.tx.try_send(Outbound::Close);
+    outgoing.tx.close();
     drop(outgoing.tx);
     let _ = outgoing.task.await;
 }
@@ -237,13 +272,13 @@ struct PlacedWriter {
 }
 
 impl LineSink for PlacedWriter {
-    async fn send_line(&mut self, line: Arc<str>) -> bool {
-        self.writer.send_line(line).await
+    async fn send_lines(&mut self, lines: &[Arc<str>]) -> bool {
+        write_lines(&mut self.writer, lines).await.is_ok()
     }
 
     async fn close(&mut self) {
         self.place.take();
-        self.writer.close().await;
+        let _ = self.writer.shutdown().await;
     }
 }
 
@@ -267,7 +302,7 @@ pub(crate) async fn run(conn: ConnId, mut source: impl LineSource, sink: impl Li
     // `None`: the connection is over (it left, said `bye`, was refused or timed out).
     let Some(Joined { route, hello, rest }) = greet(&mut source, &tx, &mut done, arena).await else {
         drop(tx);
-        let _ = outgoing.tx.try_send(Outbound::Close);
+        outgoing.tx.close();
         drop(outgoing.tx);
         let _ = outgoing.task.await;
         return;
@@ -276,23 +311,17 @@ pub(crate) async fn run(conn: ConnId, mut source: impl LineSource, sink: impl Li
     let _claim = route.claim;
     let events = route.events;
     if events.send(Event::Opened(outgoing.opened())).await.is_err()
-        || events.send(Event::Message { conn, message: hello }).await.is_err()
+        || events.send(Event::Messages { conn, messages: vec![hello] }).await.is_err()
     {
         // The match ended as this connection was routed to it.
-        let _ = tx.try_send(Outbound::Line(bye_line(Leaving::MatchOver)));
+        tx.send(bye_line(Leaving::MatchOver));
         drop(tx);
-        let _ = outgoing.tx.try_send(Outbound::Close);
+        outgoing.tx.close();
         drop(outgoing.tx);
         let _ = outgoing.task.await;
         return;
     }
-    let mut stopped = false;
-    for line in rest {
-        if let Forwarded::Stop = forward(conn, line, &tx, &events).await {
-            stopped = true;
-            break;
-        }
-    }
+    let mut stopped = matches!(forward(conn, rest, &tx, &events).await, Forwarded::Stop);
     while !stopped {
         let incoming = tokio::select! {
             incoming = source.next() => incoming,
@@ -306,12 +335,7 @@ pub(crate) async fn run(conn: ConnId, mut source: impl LineSource, sink: impl Li
             }
             Incoming::Closed => break,
         };
-        for line in lines {
-            if let Forwarded::Stop = forward(conn, line, &tx, &events).await {
-                stopped = true;
-                break;
-            }
-        }
+        stopped = matches!(forward(conn, lines, &tx, &events).await, Forwarded::Stop);
     }
     drop(tx);
     finish(conn, outgoing, &events).await;
@@ -320,7 +344,7 @@ pub(crate) async fn run(conn: ConnId, mut source: impl LineSource, sink: impl Li
 /// Reads until a `hello` is routed to a match.
 async fn greet(
     source: &mut impl LineSource,
-    tx: &mpsc::Sender<Outbound>,
+    tx: &LineQueue,
     done: &mut watch::Receiver<bool>,
     arena: &Arena,
 ) -> Option<Joined> {
@@ -345,7 +369,7 @@ async fn greet(
         while let Some(line) = lines.next() {
             let message = match line.and_then(|l| bw4t_protocol::decode_client(&l)) {
                 Err(e) => {
-                    let _ = tx.try_send(Outbound::Line(error_line(e.code, &e.message, false)));
+                    tx.send(error_line(e.code, &e.message, false));
                     continue;
                 }
                 Ok(message) => message,
@@ -353,16 +377,15 @@ async fn greet(
             let hello = match message {
                 ClientMessage::Hello(hello) => hello,
                 ClientMessage::Ping(ping) => {
-                    let _ = tx.try_send(Outbound::Line(pong_line(ping.id)));
+                    tx.send(pong_line(ping.id));
                     continue;
                 }
                 ClientMessage::Bye(_) => {
-                    let _ = tx.try_send(Outbound::Line(bye_line(Leaving::Goodbye)));
+                    tx.send(bye_line(Leaving::Goodbye));
                     return None;
                 }
                 _ => {
-                    let _ =
-                        tx.try_send(Outbound::Line(error_line(ErrorCode::NoHello, "say hello first", false)));
+                    tx.send(error_line(ErrorCode::NoHello, "say hello first", false));
                     continue;
                 }
             };
@@ -389,7 +412,7 @@ async fn greet(
 /// player leaves (or the server stops) first. Only `ping` and `bye` are taken meanwhile.
 async fn wait_in_queue(
     source: &mut impl LineSource,
-    tx: &mpsc::Sender<Outbound>,
+    tx: &LineQueue,
     done: &mut watch::Receiver<bool>,
     mut news: Waiting,
     mut place: usize,
@@ -397,7 +420,7 @@ async fn wait_in_queue(
 ) -> Option<Route> {
     loop {
         let lobby = Lobby { template: Some(template.to_string()), queued: Some(place), ..Lobby::default() };
-        let _ = tx.try_send(Outbound::Line(encode(&ServerMessage::Lobby(lobby)).into()));
+        tx.send(encode(&ServerMessage::Lobby(lobby)).into());
         loop {
             tokio::select! {
                 heard = news.recv() => match heard {
@@ -417,18 +440,18 @@ async fn wait_in_queue(
                         for line in lines {
                             match line.and_then(|l| bw4t_protocol::decode_client(&l)) {
                                 Ok(ClientMessage::Ping(ping)) => {
-                                    let _ = tx.try_send(Outbound::Line(pong_line(ping.id)));
+                                    tx.send(pong_line(ping.id));
                                 }
                                 Ok(ClientMessage::Bye(_)) => {
-                                    let _ = tx.try_send(Outbound::Line(bye_line(Leaving::Goodbye)));
+                                    tx.send(bye_line(Leaving::Goodbye));
                                     return None;
                                 }
                                 Ok(_) => {
                                     let why = "waiting for a seat in a match: only ping and bye until welcome";
-                                    let _ = tx.try_send(Outbound::Line(error_line(ErrorCode::NotAPlayer, why, false)));
+                                    tx.send(error_line(ErrorCode::NotAPlayer, why, false));
                                 }
                                 Err(e) => {
-                                    let _ = tx.try_send(Outbound::Line(error_line(e.code, &e.message, false)));
+                                    tx.send(error_line(e.code, &e.message, false));
                                 }
                             }
                         }
@@ -446,7 +469,83 @@ async fn wait_in_queue(
 }
 
 /// Queues a fatal `error` and its `bye` (best effort: the connection closes next anyway).
-fn refuse_fatally(tx: &mpsc::Sender<Outbound>, code: ErrorCode, message: &str) {
-    let _ = tx.try_send(Outbound::Line(error_line(code, message, true)));
-    let _ = tx.try_send(Outbound::Line(bye_line(code)));
+fn refuse_fatally(tx: &LineQueue, code: ErrorCode, message: &str) {
+    tx.send_all(vec![error_line(code, message, true), bye_line(code)]);
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Mutex;
+
+    use super::*;
+
+    /// A sink that records each batch it is handed, or never finishes a write.
+    #[derive(Clone, Default)]
+    struct RecordingSink {
+        batches: Arc<Mutex<Vec<Vec<String>>>>,
+        stalls: bool,
+    }
+
+    impl LineSink for RecordingSink {
+        async fn send_lines(&mut self, lines: &[Arc<str>]) -> bool {
+            if self.stalls {
+                std::future::pending::<()>().await;
+            }
+            let batch = lines.iter().map(|l| l.to_string()).collect();
+            self.batches.lock().expect("lock").push(batch);
+            true
+        }
+
+        async fn close(&mut self) {}
+    }
+
+    #[tokio::test]
+    async fn lines_queued_together_wake_the_writer_once_and_leave_in_one_write() {
+        let sink = RecordingSink::default();
+        let outgoing = start_writer(1, 16, sink.clone());
+        // The writer has not run yet (one thread, no await since it was spawned): the
+        // tick's lines and then the close are all queued when it first looks.
+        outgoing.tx.send_all(vec!["ack\n".into(), "ack\n".into(), "percepts\n".into()]);
+        assert!(outgoing.tx.close());
+        outgoing.task.await.expect("the writer ends");
+        let batches = sink.batches.lock().expect("lock").clone();
+        assert_eq!(batches, [["ack\n", "ack\n", "percepts\n"]]);
+        assert!(*outgoing.done.borrow());
+    }
+
+    #[tokio::test]
+    async fn what_one_read_brought_reaches_the_match_as_one_event_in_bounded_pieces() {
+        let (events, mut received) = mpsc::channel(16);
+        let (queue, _reader) = line_queue(16);
+        let ready = r#"{"type": "ready", "tick": 0}"#;
+        let mut lines = vec![Ok(r#"{"type": "ping", "id": 1}"#.to_string()), Ok("nonsense".to_string())];
+        lines.extend(std::iter::repeat_n(Ok(ready.to_string()), MESSAGES_PER_EVENT + 1));
+        assert!(matches!(forward(7, lines, &queue, &events).await, Forwarded::Handled));
+        // Ping and bad input are answered here: a pong and an error for the client.
+        assert_eq!(queue.room(), 14);
+        let mut sizes = Vec::new();
+        while let Ok(event) = received.try_recv() {
+            match event {
+                Event::Messages { conn: 7, messages } => sizes.push(messages.len()),
+                Event::BadInput { conn: 7 } => sizes.push(0),
+                other => panic!("an unexpected event: {other:?}"),
+            }
+        }
+        assert_eq!(sizes, [0, MESSAGES_PER_EVENT, 1]);
+    }
+
+    #[tokio::test]
+    async fn a_kill_ends_the_writer_even_in_the_middle_of_a_write() {
+        let sink = RecordingSink { stalls: true, ..RecordingSink::default() };
+        let outgoing = start_writer(1, 16, sink);
+        outgoing.tx.send("percepts\n".into());
+        let mut done = outgoing.done.clone();
+        // Let the writer take the line and start its write, which never finishes.
+        tokio::task::yield_now().await;
+        assert_eq!(outgoing.tx.room(), 15, "the line being written still counts");
+        outgoing.kill.notify_one();
+        // A bound for the failure only: a writer that waits for its write never ends.
+        let ended = tokio::time::timeout(std::time::Duration::from_secs(10), done.wait_for(|d| *d)).await;
+        assert!(ended.is_ok(), "the killed writer is still writing");
+    }
 }

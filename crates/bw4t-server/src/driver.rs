@@ -16,8 +16,9 @@ use bw4t_protocol::ErrorCode;
 
 use bw4t_host::{ConnId, HostEvent, MatchHost, Transmit, bye_line, error_line};
 
-use crate::events::{Control, Event, Opened, Outbound};
+use crate::events::{Control, Event, Opened};
 use crate::lateness::TickLateness;
+use crate::queue::LineQueue;
 
 /// Capacity of the channel from connections to the match task.
 pub(crate) const EVENT_QUEUE: usize = 4096;
@@ -30,7 +31,7 @@ const YIELD_EVERY: u64 = 64;
 
 /// A connection's handles, kept by the driver.
 struct Handles {
-    tx: mpsc::Sender<Outbound>,
+    tx: LineQueue,
     kill: Arc<Notify>,
     done: watch::Receiver<bool>,
 }
@@ -121,8 +122,8 @@ pub(crate) async fn run(
     events.close();
     while let Ok(event) = events.try_recv() {
         if let Event::Opened(Opened { tx, kill, done, .. }) = event {
-            let _ = tx.try_send(Outbound::Line(bye_line(bw4t_protocol::Leaving::MatchOver)));
-            if tx.try_send(Outbound::Close).is_err() {
+            tx.send(bye_line(bw4t_protocol::Leaving::MatchOver));
+            if !tx.close() {
                 kill.notify_one();
             }
             closing.push(done);
@@ -133,9 +134,8 @@ pub(crate) async fn run(
         let error =
             error_line(ErrorCode::MatchFailed, &format!("the match failed in the server: {why}"), true);
         for h in std::mem::take(&mut handles).into_values() {
-            let _ = h.tx.try_send(Outbound::Line(error.clone()));
-            let _ = h.tx.try_send(Outbound::Line(bye_line(ErrorCode::MatchFailed)));
-            if h.tx.try_send(Outbound::Close).is_err() {
+            h.tx.send_all(vec![error.clone(), bye_line(ErrorCode::MatchFailed)]);
+            if !h.tx.close() {
                 h.kill.notify_one();
             }
             closing.push(h.done);
@@ -176,16 +176,24 @@ fn take(
     closing: &mut Vec<watch::Receiver<bool>>,
 ) {
     let from = match &event {
-        Event::Message { conn, .. } | Event::BadInput { conn } => Some(*conn),
+        Event::BadInput { conn } => Some(*conn),
         _ => None,
     };
     let event = match event {
         Event::Opened(Opened { conn, tx, kill, done }) => {
-            let room = tx.capacity();
+            let room = tx.room();
             handles.insert(conn, Handles { tx, kill, done });
             HostEvent::Opened { conn, room }
         }
-        Event::Message { conn, message } => HostEvent::Message { conn, message },
+        Event::Messages { conn, messages } => {
+            // What one read brought arrived together: one room, one time for all of it.
+            tell_rooms(host, handles, Some(conn));
+            let now = Instant::now().into_std();
+            for message in messages {
+                host.handle_event(now, HostEvent::Message { conn, message });
+            }
+            return;
+        }
         Event::BadInput { conn } => HostEvent::BadInput { conn },
         Event::Closed { conn } => {
             // The end of the match waits for this writer too, so nothing queued is cut off.
@@ -201,23 +209,29 @@ fn take(
         Event::Control(Control::Stop) => return host.interrupt(),
         Event::Control(Control::Pause(paused)) => return host.set_paused(Instant::now().into_std(), paused),
     };
-    // While the match plays, what an event makes goes to its own connection (acks,
-    // errors); the lines to everyone go out at ticks, before which every room is told.
-    // A waiting match tells everyone who joins and leaves, so every room is told first.
+    tell_rooms(host, handles, from);
+    host.handle_event(Instant::now().into_std(), event);
+}
+
+/// Tells the host the rooms it needs before an event `from` a connection (or from none).
+/// While the match plays, what such an event makes goes to its own connection (acks,
+/// errors); the lines to everyone go out at ticks, before which every room is told. A
+/// waiting match tells everyone who joins and leaves, so every room is told first. (The
+/// host counts what it queues after a room is told, so one room serves many events.)
+fn tell_rooms(host: &mut MatchHost, handles: &BTreeMap<ConnId, Handles>, from: Option<ConnId>) {
     match from.and_then(|conn| Some((conn, handles.get(&conn)?))) {
         Some((conn, h)) if host.has_started() => {
-            host.handle_event(Instant::now().into_std(), HostEvent::Room { conn, room: h.tx.capacity() });
+            host.handle_event(Instant::now().into_std(), HostEvent::Room { conn, room: h.tx.room() });
         }
         _ => rooms(host, handles),
     }
-    host.handle_event(Instant::now().into_std(), event);
 }
 
 /// Tells the host how much room each connection's queue has now.
 fn rooms(host: &mut MatchHost, handles: &BTreeMap<ConnId, Handles>) {
     let now = Instant::now().into_std();
     for (conn, h) in handles {
-        host.handle_event(now, HostEvent::Room { conn: *conn, room: h.tx.capacity() });
+        host.handle_event(now, HostEvent::Room { conn: *conn, room: h.tx.room() });
     }
 }
 
@@ -228,8 +242,9 @@ fn record_lateness(host: &mut MatchHost, lateness: Option<&TickLateness>) {
     }
 }
 
-/// Hands every pending transmit to its connection's queue. The host only queues a line
-/// when it knows there is room, so `try_send` fails only for a connection already gone.
+/// Hands every pending transmit to its connection's queue, each batch of lines at once (one
+/// wake-up of the connection's writer). The host only queues a line when it knows there is
+/// room, so a line is refused only by a connection already gone.
 fn flush(
     host: &mut MatchHost,
     handles: &mut BTreeMap<ConnId, Handles>,
@@ -237,14 +252,14 @@ fn flush(
 ) {
     while let Some(transmit) = host.poll_transmit() {
         match transmit {
-            Transmit::Line { conn, line } => {
+            Transmit::Lines { conn, lines } => {
                 if let Some(h) = handles.get(&conn) {
-                    let _ = h.tx.try_send(Outbound::Line(line));
+                    h.tx.send_all(lines);
                 }
             }
             Transmit::Close { conn } => {
                 if let Some(h) = handles.remove(&conn) {
-                    if h.tx.try_send(Outbound::Close).is_err() {
+                    if !h.tx.close() {
                         h.kill.notify_one();
                     }
                     park(closing, h.done);

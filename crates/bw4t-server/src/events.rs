@@ -1,20 +1,13 @@
-//! What connections and the server tell a match's task, and what the task tells a
-//! connection's writer: the channel vocabulary between the layers above the driver.
+//! What connections and the server tell a match's task, and the handles it reaches a
+//! connection's writer with: the channel vocabulary between the layers above the driver.
 
 use std::sync::Arc;
 
 use bw4t_host::{ConnId, HostStatus};
 use bw4t_protocol::ClientMessage;
-use tokio::sync::{Notify, mpsc, watch};
+use tokio::sync::{Notify, watch};
 
-/// What a connection's writer sends.
-#[derive(Debug)]
-pub(crate) enum Outbound {
-    /// One encoded line.
-    Line(Arc<str>),
-    /// Flush and close the connection.
-    Close,
-}
+use crate::queue::LineQueue;
 
 /// A new connection's handles.
 #[derive(Debug)]
@@ -22,7 +15,7 @@ pub(crate) struct Opened {
     /// Its id.
     pub conn: ConnId,
     /// Its queue of outgoing lines.
-    pub tx: mpsc::Sender<Outbound>,
+    pub tx: LineQueue,
     /// Closes it at once, queued lines or not (for clients that do not read).
     pub kill: Arc<Notify>,
     /// Becomes true when its writer has finished (flushed and closed).
@@ -34,8 +27,9 @@ pub(crate) struct Opened {
 pub(crate) enum Event {
     /// A new connection.
     Opened(Opened),
-    /// A well-formed message (other than `ping`, answered by the connection itself).
-    Message { conn: ConnId, message: ClientMessage },
+    /// Well-formed messages that arrived together, in order (other than `ping`, answered
+    /// by the connection itself); never empty.
+    Messages { conn: ConnId, messages: Vec<ClientMessage> },
     /// The connection sent a line that is not a valid message.
     BadInput { conn: ConnId },
     /// The connection is gone.

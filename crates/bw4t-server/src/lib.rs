@@ -3,7 +3,8 @@
 //!
 //! Layers, each using only those below it: the server's policy and errors (`config`),
 //! places per source address (`budget`),
-//! the channel vocabulary (`events`), the driver that runs one sans-IO
+//! the channel vocabulary (`events`) and each connection's queue of outgoing lines
+//! (`queue`), the driver that runs one sans-IO
 //! [`MatchHost`](bw4t_host::MatchHost) as a task (`driver`), the [`Arena`] of every match
 //! (`arena`), the connections (`connection`), HTTP on hyper (`http`: the page, the API,
 //! WebSockets, and the [`Routes`] mounted beside them), and
@@ -18,6 +19,7 @@ mod driver;
 mod events;
 mod http;
 mod lateness;
+mod queue;
 mod secret;
 mod serve;
 

@@ -177,12 +177,18 @@ impl LineSource for WsLines {
     }
 }
 
-/// The sending half of a WebSocket, as a line sink: a line is a text frame.
+/// The sending half of a WebSocket, as a line sink: a line is a text frame, and a batch
+/// is flushed once.
 struct WsSink(SplitSink<Socket, Message>);
 
 impl LineSink for WsSink {
-    async fn send_line(&mut self, line: Arc<str>) -> bool {
-        self.0.send(Message::text(line.trim_end().to_string())).await.is_ok()
+    async fn send_lines(&mut self, lines: &[Arc<str>]) -> bool {
+        for line in lines {
+            if self.0.feed(Message::text(line.trim_end().to_string())).await.is_err() {
+                return false;
+            }
+        }
+        self.0.flush().await.is_ok()
     }
 
     async fn close(&mut self) {
