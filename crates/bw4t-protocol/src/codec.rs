@@ -49,6 +49,12 @@ pub fn decode_server(line: &str) -> Result<ServerMessage, DecodeError> {
 }
 
 fn decode<T: serde::de::DeserializeOwned>(line: &str, known: &[&str]) -> Result<T, DecodeError> {
+    // A good line parses straight into its message; only a bad one is parsed again, as a
+    // `Value`, to say what is wrong with it. (Everything the second way accepts, the first
+    // accepts too or hands over to it.)
+    if let Ok(message) = serde_json::from_str(line) {
+        return Ok(message);
+    }
     let value: Value = serde_json::from_str(line)
         .map_err(|e| DecodeError::new(ErrorCode::BadJson, format!("not JSON: {e}")))?;
     let Some(object) = value.as_object() else {
