@@ -128,6 +128,16 @@ impl ZoneGrid {
         &self.members[self.starts[cell] as usize..self.starts[cell + 1] as usize]
     }
 
+    /// The first zone and the first room, in file order, whose box contains `p`: one pass
+    /// for both, which a moving robot needs every tick.
+    pub(crate) fn first_zone_and_room(&self, zones: &[Zone], p: Vec2) -> (Option<ZoneIdx>, Option<ZoneIdx>) {
+        let mut containing =
+            self.candidates(p).iter().map(|&i| i as usize).filter(|&i| zones[i].rect.contains(p));
+        let Some(zone) = containing.next() else { return (None, None) };
+        let room = if is_room(&zones[zone]) { Some(zone) } else { containing.find(|&i| is_room(&zones[i])) };
+        (Some(zone), room)
+    }
+
     /// The first zone, in file order, of those `wanted` accepts whose box contains `p`.
     pub(crate) fn first(&self, zones: &[Zone], p: Vec2, wanted: impl Fn(&Zone) -> bool) -> Option<ZoneIdx> {
         let contains = |z: &Zone| wanted(z) && Rect::contains(&z.rect, p);
@@ -180,6 +190,7 @@ mod tests {
                 assert_eq!(grid.first(&zones, p, |_| true), scan, "{n} zones, point {p}");
                 let room_scan = zones.iter().position(|z| is_room(z) && z.rect.contains(p));
                 assert_eq!(grid.first(&zones, p, is_room), room_scan, "{n} zones, room at {p}");
+                assert_eq!(grid.first_zone_and_room(&zones, p), (scan, room_scan), "{n} zones, both at {p}");
             }
         }
     }

@@ -89,6 +89,11 @@ impl Map {
         self.grid.first(&self.parts.zones, p, |_| true)
     }
 
+    /// [`Map::zone_at`] and [`Map::room_at`] together, in one look.
+    pub fn zone_and_room_at(&self, p: Vec2) -> (Option<ZoneIdx>, Option<ZoneIdx>) {
+        self.grid.first_zone_and_room(&self.parts.zones, p)
+    }
+
     /// The zone whose box is nearest to `p` (containing it, if any does), the first in file
     /// order on ties.
     pub fn nearest_zone(&self, p: Vec2) -> ZoneIdx {

@@ -60,10 +60,10 @@ impl Match {
 
     /// Recomputes where a robot is and updates room occupancy.
     pub(super) fn update_place(&mut self, robot: &mut Robot) {
-        let room = self.map.room_at(robot.pos);
-        // Free space: the nearest zone.
-        robot.at =
-            room.or_else(|| self.map.zone_at(robot.pos)).unwrap_or_else(|| self.map.nearest_zone(robot.pos));
+        let (zone, room) = self.map.zone_and_room_at(robot.pos);
+        // In a room, that room (even where another zone overlaps it first); in free space,
+        // the nearest zone.
+        robot.at = room.or(zone).unwrap_or_else(|| self.map.nearest_zone(robot.pos));
         if room == robot.room {
             return;
         }
