@@ -2,6 +2,7 @@
 
 use std::collections::BTreeMap;
 use std::fmt;
+use std::sync::Arc;
 
 use crate::colour::Colour;
 use crate::geometry::Vec2;
@@ -11,8 +12,16 @@ use crate::problem::Problem;
 use crate::rules::rule_problems;
 
 /// A validated map: names resolve, exactly one drop zone, doors on their room's edges.
+/// Cloning one shares it: the many matches of a server or a vector of environments on one
+/// map read one copy (and keep it in cache).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Map {
+    shared: Arc<Layout>,
+}
+
+/// What a map is once built; never changed.
+#[derive(Debug, PartialEq)]
+struct Layout {
     parts: MapParts,
     adjacency: Vec<Vec<ZoneIdx>>,
     drop_zone: ZoneIdx,
@@ -51,88 +60,88 @@ impl Map {
         let drop_zone = index[DROP_ZONE];
         let names = index.into_iter().map(|(name, i)| (name.to_string(), i)).collect();
         let grid = ZoneGrid::new(&parts.zones);
-        Ok(Map { parts, adjacency, drop_zone, names, grid })
+        Ok(Map { shared: Arc::new(Layout { parts, adjacency, drop_zone, names, grid }) })
     }
 
     /// The map's short name.
     pub fn name(&self) -> &str {
-        &self.parts.name
+        &self.shared.parts.name
     }
 
     /// Width and height of the world.
     pub fn area(&self) -> Vec2 {
-        self.parts.area
+        self.shared.parts.area
     }
 
     /// All zones, in file order; a [`ZoneIdx`] indexes this slice.
     pub fn zones(&self) -> &[Zone] {
-        &self.parts.zones
+        &self.shared.parts.zones
     }
 
     /// The zones reachable in one step from `zone`, in index order.
     pub fn neighbours(&self, zone: ZoneIdx) -> &[ZoneIdx] {
-        &self.adjacency[zone]
+        &self.shared.adjacency[zone]
     }
 
     /// The drop zone's index.
     pub fn drop_zone(&self) -> ZoneIdx {
-        self.drop_zone
+        self.shared.drop_zone
     }
 
     /// The zone with this exact name.
     pub fn zone_named(&self, name: &str) -> Option<ZoneIdx> {
-        self.names.get(name).copied()
+        self.shared.names.get(name).copied()
     }
 
     /// The first zone (in file order) whose box contains `p`.
     pub fn zone_at(&self, p: Vec2) -> Option<ZoneIdx> {
-        self.grid.first(&self.parts.zones, p, |_| true)
+        self.shared.grid.first(&self.shared.parts.zones, p, |_| true)
     }
 
     /// [`Map::zone_at`] and [`Map::room_at`] together, in one look.
     pub fn zone_and_room_at(&self, p: Vec2) -> (Option<ZoneIdx>, Option<ZoneIdx>) {
-        self.grid.first_zone_and_room(&self.parts.zones, p)
+        self.shared.grid.first_zone_and_room(&self.shared.parts.zones, p)
     }
 
     /// The zone whose box is nearest to `p` (containing it, if any does), the first in file
     /// order on ties.
     pub fn nearest_zone(&self, p: Vec2) -> ZoneIdx {
-        self.grid.nearest(&self.parts.zones, p)
+        self.shared.grid.nearest(&self.shared.parts.zones, p)
     }
 
     /// The first room (in file order) whose box contains `p`.
     pub fn room_at(&self, p: Vec2) -> Option<ZoneIdx> {
-        self.grid.first(&self.parts.zones, p, is_room)
+        self.shared.grid.first(&self.shared.parts.zones, p, is_room)
     }
 
     /// Spawn points in the order robots take them.
     pub fn spawns(&self) -> &[Spawn] {
-        &self.parts.spawns
+        &self.shared.parts.spawns
     }
 
     /// The fixed part of the goal sequence.
     pub fn sequence(&self) -> &[Colour] {
-        &self.parts.sequence
+        &self.shared.parts.sequence
     }
 
     /// How many random colours are appended to the sequence.
     pub fn random_sequence(&self) -> u32 {
-        self.parts.random_sequence
+        self.shared.parts.random_sequence
     }
 
     /// How many extra random blocks are placed.
     pub fn random_blocks(&self) -> u32 {
-        self.parts.random_blocks
+        self.shared.parts.random_blocks
     }
 
     /// The map's own seed for random content, if it fixes one.
     pub fn seed(&self) -> Option<u64> {
-        self.parts.seed
+        self.shared.parts.seed
     }
 
     /// Everything the map says, as given to [`Map::new`].
     pub fn parts(&self) -> &MapParts {
-        &self.parts
+        &self.shared.parts
     }
 }
 
