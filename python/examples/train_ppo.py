@@ -8,7 +8,7 @@ The actor's logits are masked with the environment's action mask (an action that
 valid now gets a large negative logit), both when sampling and in the loss.
 
     pip install "bw4t[train]"            # jax and optax
-    python examples/train_ppo.py         # the default run (about 3 minutes on 2 cores)
+    python examples/train_ppo.py         # the default run (under 2 minutes on 2 cores)
     python examples/train_ppo.py --smoke # a few seconds: checks everything runs
 
 Each update prints one JSON line (a learning curve: ``mean_episode_return`` and
