@@ -103,11 +103,17 @@ fn bench_env_reports_steps_per_second_and_memory() {
     let lines = json_lines(&out);
     assert_eq!(lines[0]["case"], "env_memory", "{lines:?}");
     assert!(lines[0]["kb_per_env"].as_f64().is_some_and(|kb| kb > 0.0), "{}", lines[0]);
-    let runs: Vec<(u64, u64)> = lines[1..]
+    let runs: Vec<(u64, u64, u64)> = lines[1..]
         .iter()
-        .map(|l| (l["envs"].as_u64().expect("envs"), l["threads"].as_u64().expect("threads")))
+        .map(|l| {
+            let number = |key: &str| l[key].as_u64().unwrap_or_else(|| panic!("{key} in {l}"));
+            (number("envs"), number("threads"), number("ticks_per_step"))
+        })
         .collect();
-    assert_eq!(runs, [(1, 1), (1, 1), (1, 1), (64, 1), (64, 2), (256, 1), (256, 2)]);
+    assert_eq!(
+        runs,
+        [(1, 1, 10), (1, 1, 1), (1, 1, 10), (64, 1, 10), (64, 2, 10), (256, 1, 10), (256, 2, 10), (256, 2, 1)]
+    );
     for line in &lines[1..] {
         let steps = line["steps"].as_u64().expect("steps") * line["envs"].as_u64().expect("envs");
         assert_eq!(
