@@ -2,23 +2,27 @@
 # shellcheck disable=SC2015 # `A && B || C` here means "C unless both A and B succeed"
 # The one test command: every test of the project, from a fresh checkout.
 #
-#   ./test.sh
+#   ./test.sh              every stage
+#   ./test.sh STAGE...     only these stages: rust, python, javascript, browser, slurm
 #
-# Set-up first: checks the tools (a Rust toolchain, Python 3.9+, Node.js 20+, npm) and
-# installs what the suites need: a virtualenv under target/ (the system's Python is left
-# alone) with maturin, pytest, NumPy, Gymnasium, PettingZoo, SuperSuit, JAX and optax, the browser
-# tests' npm packages, and Debian's Chromium and Caddy (through apt-get, as root or with
-# sudo that needs no password). What it cannot install it names, in one line, with how
-# to get it, and stops.
-# Then: the release binary, the Python package's wheel (built here and installed into the
-# virtualenv), the Rust tests, the Python suite (against the wheel), the JavaScript client
-# suite, the browser tests, and a tournament as a Slurm job array on a one-node cluster
-# it starts (Debian's Slurm and munge, as root or with sudo). A failing stage does not
-# stop the later ones;
-# the exit status is 0 only when every stage passed.
+# Set-up first, for the stages chosen only: checks the tools (a Rust toolchain; Python
+# 3.9+ for rust, python and slurm; Node.js 20+ for rust, javascript and browser; npm for
+# browser) and installs what those stages need: for python, a virtualenv under target/
+# (the system's Python is left alone) with maturin, pytest, NumPy, Gymnasium, PettingZoo,
+# SuperSuit, JAX and optax and the rest, and the package's wheel built and installed into
+# it; for browser, the browser tests' npm packages and Debian's Chromium and Caddy
+# (through apt-get, as root or with sudo that needs no password); for python, javascript,
+# browser and slurm, the release binary. `rust` needs none of these. What it cannot
+# install it names, in one line, with how to get it, and stops.
+# Then the stages, in this order: the Rust tests, the Python suite (against the wheel),
+# the JavaScript client suite, the browser tests, and a tournament as a Slurm job array
+# on a one-node cluster it starts (Debian's Slurm and munge, as root or with sudo). A
+# failing stage does not stop the later ones; the exit status is 0 only when every stage
+# run passed (2 for a usage error or a missing tool).
 #
 # BW4T_ORIGINAL_MAPS=DIR also runs the Rust tests on the original BW4T map files in DIR
-# (without it they are listed as ignored). Runs unattended (CI=true, no input).
+# with the rust stage (without it they are listed as ignored). Runs unattended (CI=true,
+# no input).
 set -euo pipefail
 
 # Resolve the original maps folder against the caller's directory, before moving.
@@ -30,6 +34,32 @@ if [ -n "$original_maps" ]; then
     fi
     original_maps=$(cd "$original_maps" && pwd)
 fi
+
+# The stages, in the order they run; no argument chooses them all.
+all_stages=(rust python javascript browser slurm)
+chosen=()
+for arg in "$@"; do
+    case $arg in
+        -h | --help)
+            sed -n '3,/^set -euo/{/^#/{s/^# \{0,1\}//;p}}' "$0"
+            exit 0
+            ;;
+        rust | python | javascript | browser | slurm) chosen+=("$arg") ;;
+        *)
+            echo "test.sh: unknown stage '$arg'; the stages are: ${all_stages[*]} (none for all)" >&2
+            exit 2
+            ;;
+    esac
+done
+[ ${#chosen[@]} -gt 0 ] || chosen=("${all_stages[@]}")
+# Whether any of the named stages was chosen.
+wants() {
+    local stage
+    for stage in "$@"; do
+        case " ${chosen[*]} " in *" $stage "*) return 0 ;; esac
+    done
+    return 1
+}
 
 cd "$(dirname "$0")"
 root=$PWD
@@ -68,76 +98,90 @@ apt_install() {
     } >"$apt_log" 2>&1
 }
 
-heading "Set-up: tools and test dependencies"
+heading "Set-up: tools and test dependencies (stages: ${chosen[*]})"
 command -v cargo >/dev/null ||
     missing "cargo: install a Rust toolchain (1.87 or newer) from https://rustup.rs"
-command -v python3 >/dev/null && python3 -c 'import sys; sys.exit(sys.version_info < (3, 9))' ||
-    missing "Python 3.9 or newer as python3: apt-get install python3 python3-venv (or https://www.python.org)"
-command -v node >/dev/null && node -e 'process.exit(Number(process.versions.node.split(".")[0]) >= 20 ? 0 : 1)' ||
-    missing "Node.js 20 or newer as node: https://nodejs.org (or apt-get install nodejs npm on Debian 13)"
-command -v npm >/dev/null || missing "npm (it comes with Node.js): apt-get install npm, or https://nodejs.org"
+if wants rust python slurm; then
+    command -v python3 >/dev/null && python3 -c 'import sys; sys.exit(sys.version_info < (3, 9))' ||
+        missing "Python 3.9 or newer as python3: apt-get install python3 python3-venv (or https://www.python.org)"
+fi
+if wants rust javascript browser; then
+    command -v node >/dev/null && node -e 'process.exit(Number(process.versions.node.split(".")[0]) >= 20 ? 0 : 1)' ||
+        missing "Node.js 20 or newer as node: https://nodejs.org (or apt-get install nodejs npm on Debian 13)"
+fi
+if wants browser; then
+    command -v npm >/dev/null || missing "npm (it comes with Node.js): apt-get install npm, or https://nodejs.org"
+fi
 
-# Python: the tools to build the wheel and the test suite's packages, in a virtualenv.
-venv=$target/test-venv
-python=$venv/bin/python
-# A virtualenv left by a Python that is gone is made anew.
-[ -x "$python" ] && "$python" -c '' 2>/dev/null || rm -rf "$venv"
-if [ ! -x "$python" ]; then
-    mkdir -p "$target"
-    if ! python3 -m venv "$venv" >/dev/null 2>&1; then
-        rm -rf "$venv"
-        # Debian keeps venv in its own package.
-        apt_install python3-venv && python3 -m venv "$venv" >/dev/null 2>&1 || rm -rf "$venv"
+if wants python; then
+    # Python: the tools to build the wheel and the test suite's packages, in a virtualenv.
+    venv=$target/test-venv
+    python=$venv/bin/python
+    # A virtualenv left by a Python that is gone is made anew.
+    [ -x "$python" ] && "$python" -c '' 2>/dev/null || rm -rf "$venv"
+    if [ ! -x "$python" ]; then
+        mkdir -p "$target"
+        if ! python3 -m venv "$venv" >/dev/null 2>&1; then
+            rm -rf "$venv"
+            # Debian keeps venv in its own package.
+            apt_install python3-venv && python3 -m venv "$venv" >/dev/null 2>&1 || rm -rf "$venv"
+        fi
+    fi
+    pip_log=$target/test-pip.log
+    if [ -x "$python" ]; then
+        pip=("$python" -m pip install --quiet --disable-pip-version-check --no-input)
+        # What the package needs (python/pyproject.toml), its test and training extras, maturin.
+        if ! "${pip[@]}" 'maturin>=1.9,<2' pytest numpy 'gymnasium>=1.1' 'pettingzoo>=1.24' 'supersuit>=3.9' jax optax 'mcp>=2.3; python_version >= "3.10"' 'minari[hdf5]>=0.5; python_version >= "3.11"' 'pillow; python_version >= "3.11"' 'kubernetes-validate>=1.30' \
+            >"$pip_log" 2>&1; then
+            missing "maturin, pytest, numpy, gymnasium, pettingzoo, supersuit, jax, optax, mcp, minari or kubernetes-validate in $venv: pip could not install them from PyPI (see $pip_log)"
+        fi
+        echo "    Python: $("$python" --version), with maturin, pytest, NumPy, Gymnasium, PettingZoo, SuperSuit, JAX, the MCP SDK, Minari and kubernetes-validate in $venv"
+    else
+        missing "python3 -m venv: apt-get install python3-venv"
     fi
 fi
-pip_log=$target/test-pip.log
-if [ -x "$python" ]; then
-    pip=("$python" -m pip install --quiet --disable-pip-version-check --no-input)
-    # What the package needs (python/pyproject.toml), its test and training extras, maturin.
-    if ! "${pip[@]}" 'maturin>=1.9,<2' pytest numpy 'gymnasium>=1.1' 'pettingzoo>=1.24' 'supersuit>=3.9' jax optax 'mcp>=2.3; python_version >= "3.10"' 'minari[hdf5]>=0.5; python_version >= "3.11"' 'pillow; python_version >= "3.11"' 'kubernetes-validate>=1.30' \
-        >"$pip_log" 2>&1; then
-        missing "maturin, pytest, numpy, gymnasium, pettingzoo, supersuit, jax, optax, mcp, minari or kubernetes-validate in $venv: pip could not install them from PyPI (see $pip_log)"
+
+if wants browser; then
+    # Browser tests: Debian's Chromium (where the tests look for it) and playwright-core.
+    chromium=/usr/bin/chromium
+    if [ ! -x "$chromium" ]; then
+        echo "    installing Debian's chromium (apt-get)"
+        apt_install chromium && [ -x "$chromium" ] ||
+            missing "Chromium at $chromium: sudo apt-get install chromium (Debian's package; this try's output is in $apt_log)"
     fi
-    echo "    Python: $("$python" --version), with maturin, pytest, NumPy, Gymnasium, PettingZoo, SuperSuit, JAX, the MCP SDK, Minari and kubernetes-validate in $venv"
-else
-    missing "python3 -m venv: apt-get install python3-venv"
+    echo "    Chromium: $("$chromium" --version 2>/dev/null || echo "$chromium")"
+    # The deployment test (tests/browser/deploy.test.js) puts Debian's Caddy in front of bw4t.
+    if ! command -v caddy >/dev/null; then
+        echo "    installing Debian's caddy (apt-get)"
+        apt_install caddy && command -v caddy >/dev/null ||
+            missing "caddy: sudo apt-get install caddy (Debian's package; this try's output is in $apt_log)"
+    fi
+    echo "    Caddy: $(caddy version 2>/dev/null | head -n 1)"
+    browser=tests/browser
+    if [ ! "$browser/node_modules/.package-lock.json" -nt "$browser/package-lock.json" ]; then
+        (cd "$browser" && PLAYWRIGHT_SKIP_BROWSER_DOWNLOAD=1 npm ci --no-audit --no-fund --silent) ||
+            missing "the browser tests' npm packages: (cd $browser && npm ci) failed; the npm registry must be reachable"
+    fi
+    echo "    Node.js $(node --version), playwright-core and the MCP Inspector in $browser/node_modules"
 fi
-
-# Browser tests: Debian's Chromium (where the tests look for it) and playwright-core.
-chromium=/usr/bin/chromium
-if [ ! -x "$chromium" ]; then
-    echo "    installing Debian's chromium (apt-get)"
-    apt_install chromium && [ -x "$chromium" ] ||
-        missing "Chromium at $chromium: sudo apt-get install chromium (Debian's package; this try's output is in $apt_log)"
-fi
-echo "    Chromium: $("$chromium" --version 2>/dev/null || echo "$chromium")"
-# The deployment test (tests/browser/deploy.test.js) puts Debian's Caddy in front of bw4t.
-if ! command -v caddy >/dev/null; then
-    echo "    installing Debian's caddy (apt-get)"
-    apt_install caddy && command -v caddy >/dev/null ||
-        missing "caddy: sudo apt-get install caddy (Debian's package; this try's output is in $apt_log)"
-fi
-echo "    Caddy: $(caddy version 2>/dev/null | head -n 1)"
-browser=tests/browser
-if [ ! "$browser/node_modules/.package-lock.json" -nt "$browser/package-lock.json" ]; then
-    (cd "$browser" && PLAYWRIGHT_SKIP_BROWSER_DOWNLOAD=1 npm ci --no-audit --no-fund --silent) ||
-        missing "the browser tests' npm packages: (cd $browser && npm ci) failed; the npm registry must be reachable"
-fi
-echo "    Node.js $(node --version), playwright-core and the MCP Inspector in $browser/node_modules"
 took
 
-heading "Build the release binary: cargo build --release --locked"
-cargo build --release --locked
-export BW4T_BIN=$target/release/bw4t
-took
+if wants python javascript browser slurm; then
+    heading "Build the release binary: cargo build --release --locked"
+    cargo build --release --locked
+    export BW4T_BIN=$target/release/bw4t
+    took
+fi
 
-heading "Build and install the Python package: maturin build (python/), pip install the wheel"
-wheels=$target/wheels
-rm -f "$wheels"/bw4t-*.whl
-(cd python && "$venv/bin/maturin" build --release --locked --quiet -o "$wheels")
-"${pip[@]}" --force-reinstall --no-deps "$wheels"/bw4t-*.whl
-echo "    $(basename "$wheels"/bw4t-*.whl) installed in $venv"
-took
+if wants python; then
+    heading "Build and install the Python package: maturin build (python/), pip install the wheel"
+    wheels=$target/wheels
+    rm -f "$wheels"/bw4t-*.whl
+    (cd python && "$venv/bin/maturin" build --release --locked --quiet -o "$wheels")
+    "${pip[@]}" --force-reinstall --no-deps "$wheels"/bw4t-*.whl
+    echo "    $(basename "$wheels"/bw4t-*.whl) installed in $venv"
+    took
+fi
 
 passed=()
 failed=()
@@ -149,33 +193,43 @@ stage() {
     took
 }
 
-heading "Rust tests: cargo test --workspace --locked"
-stage rust cargo test --workspace --locked
+if wants rust; then
+    heading "Rust tests: cargo test --workspace --locked"
+    stage rust cargo test --workspace --locked
 
-if [ -n "$original_maps" ]; then
-    heading "Rust tests on the original BW4T maps in $original_maps"
-    stage original-maps env BW4T_ORIGINAL_MAPS="$original_maps" \
-        cargo test --locked --test main -- --ignored original_maps::
-else
-    heading "Rust tests on the original BW4T maps: skipped"
-    echo "    BW4T_ORIGINAL_MAPS is not set; the original_maps:: tests above are listed as ignored."
-    echo "    Set it to the folder of the original BW4T map files to run them."
+    if [ -n "$original_maps" ]; then
+        heading "Rust tests on the original BW4T maps in $original_maps"
+        stage original-maps env BW4T_ORIGINAL_MAPS="$original_maps" \
+            cargo test --locked --test main -- --ignored original_maps::
+    else
+        heading "Rust tests on the original BW4T maps: skipped"
+        echo "    BW4T_ORIGINAL_MAPS is not set; the original_maps:: tests above are listed as ignored."
+        echo "    Set it to the folder of the original BW4T map files to run them."
+    fi
 fi
 
-heading "Python package: pytest python/tests (the installed wheel: environments, match, client, command)"
-# The virtualenv's pytest script (not `python -m`), so `bw4t` is the wheel, not python/bw4t.
-stage python "$venv/bin/pytest" -q -p no:cacheprovider python/tests
+if wants python; then
+    heading "Python package: pytest python/tests (the installed wheel: environments, match, client, command)"
+    # The virtualenv's pytest script (not `python -m`), so `bw4t` is the wheel, not python/bw4t.
+    stage python "$venv/bin/pytest" -q -p no:cacheprovider python/tests
+fi
 
-heading "JavaScript client: node --test protocol/clients/js/test/"
-stage javascript node --test protocol/clients/js/test/
+if wants javascript; then
+    heading "JavaScript client: node --test protocol/clients/js/test/"
+    stage javascript node --test protocol/clients/js/test/
+fi
 
-heading "Browser tests: node --test tests/browser/ (screenshots in test-output/browser/)"
-stage browser node --test "$browser/"
+if wants browser; then
+    heading "Browser tests: node --test tests/browser/ (screenshots in test-output/browser/)"
+    stage browser node --test "$browser/"
+fi
 
-heading "Slurm: a tournament as a job array on a one-node cluster (tests/cluster/slurm-tournament.sh)"
-# Installs Debian's Slurm and munge and starts them (as root or with sudo; skipped, and
-# said so, without), and stops them again.
-stage slurm bash tests/cluster/slurm-tournament.sh
+if wants slurm; then
+    heading "Slurm: a tournament as a job array on a one-node cluster (tests/cluster/slurm-tournament.sh)"
+    # Installs Debian's Slurm and munge and starts them (as root or with sudo; skipped, and
+    # said so, without), and stops them again.
+    stage slurm bash tests/cluster/slurm-tournament.sh
+fi
 
 printf '\n==> Done in %d s\n' $((SECONDS - started))
 if [ ${#passed[@]} -gt 0 ]; then echo "    passed: ${passed[*]}"; fi
