@@ -112,7 +112,16 @@ fn bench_env_reports_steps_per_second_and_memory() {
         .collect();
     assert_eq!(
         runs,
-        [(1, 1, 10), (1, 1, 1), (1, 1, 10), (64, 1, 10), (64, 2, 10), (256, 1, 10), (256, 2, 10), (256, 2, 1)]
+        [
+            (1, 1, 10),
+            (1, 1, 1),
+            (1, 1, 10),
+            (64, 1, 10),
+            (64, 2, 10),
+            (256, 1, 10),
+            (256, 2, 10),
+            (256, 2, 1)
+        ]
     );
     for line in &lines[1..] {
         let steps = line["steps"].as_u64().expect("steps") * line["envs"].as_u64().expect("envs");
@@ -566,4 +575,46 @@ fn bench_merge_merges_every_made_up_row_with_none_missing() {
         lines[0]
     );
     assert!(lines[0]["seconds"].as_f64().is_some_and(|s| s >= 0.0));
+}
+
+#[test]
+fn bench_sim_counts_the_same_play_under_both_motions() {
+    let counts = |motion: &str| -> Vec<serde_json::Value> {
+        let out = bw4t(&["bench", "sim", "--ticks", "400", "--motion", motion]);
+        assert!(out.status.success(), "{}", stderr(&out));
+        String::from_utf8_lossy(&out.stdout)
+            .lines()
+            .map(|l| {
+                let mut line: serde_json::Value = serde_json::from_str(l).expect("a JSON object per line");
+                assert_eq!(line["motion"], motion);
+                let object = line.as_object_mut().expect("an object");
+                object.remove("ticks_per_s");
+                object.remove("motion");
+                line
+            })
+            .collect()
+    };
+    let kinematic = counts("kinematic");
+    assert!(kinematic.iter().all(|l| l["moves"].as_u64().is_some_and(|m| m > 0)), "{kinematic:?}");
+    assert_eq!(kinematic, counts("stepped"));
+    let out = bw4t(&["bench", "sim", "--motion", "sideways"]);
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("sideways"), "{}", stderr(&out));
+}
+
+/// `./test.sh` refuses a stage it does not have, naming every one it has, and says how
+/// to choose them; neither sets anything up.
+#[test]
+fn test_sh_names_an_unknown_stage_and_lists_its_stages() {
+    let script = concat!(env!("CARGO_MANIFEST_DIR"), "/test.sh");
+    let out = Command::new("bash").args([script, "rust", "nope"]).output().expect("run test.sh");
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    let said = stderr(&out);
+    assert!(said.contains("unknown stage 'nope'"), "{said}");
+    for stage in ["rust", "python", "javascript", "browser", "slurm"] {
+        assert!(said.contains(stage), "{stage} missing from: {said}");
+    }
+    let help = Command::new("bash").args([script, "--help"]).output().expect("run test.sh --help");
+    assert!(help.status.success(), "{}", stderr(&help));
+    assert!(String::from_utf8_lossy(&help.stdout).contains("./test.sh STAGE..."));
 }
