@@ -48,6 +48,9 @@ mod host_clock;
 /// The conformance suite: example transcripts replayed against the server.
 mod conformance;
 
+/// The documents against the tree: every path they name exists, every crate is mapped.
+mod tidy;
+
 /// The protocol documents: schemas and examples checked against the Rust types.
 mod protocol_docs;
 

@@ -1,0 +1,137 @@
+//! The documents tell the truth about the tree: every repository path they name exists,
+//! and every crate has its section in ARCHITECTURE.md's code map.
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+
+/// Where the repository is.
+fn root() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Folders that are made, not kept: never part of what the documents may name.
+const MADE: [&str; 4] = ["target", ".git", "node_modules", "test-output"];
+
+/// Every file and folder of the repository, relative to its root, with `/` separators.
+fn tree() -> BTreeSet<String> {
+    let mut found = BTreeSet::new();
+    let mut pending = vec![PathBuf::new()];
+    while let Some(relative) = pending.pop() {
+        let entries =
+            std::fs::read_dir(root().join(&relative)).unwrap_or_else(|e| panic!("{relative:?}: {e}"));
+        for entry in entries {
+            let entry = entry.expect("a directory entry");
+            let name = entry.file_name().to_string_lossy().into_owned();
+            if MADE.contains(&name.as_str()) {
+                continue;
+            }
+            let path = relative.join(&name);
+            found.insert(path.to_string_lossy().replace('\\', "/"));
+            if entry.file_type().expect("a file type").is_dir() {
+                pending.push(path);
+            }
+        }
+    }
+    found
+}
+
+/// The documents whose paths are checked.
+fn documents() -> Vec<String> {
+    let mut docs: Vec<String> =
+        ["README.md", "ARCHITECTURE.md", "python/README.md", "maps/README.md", "fuzz/README.md"]
+            .map(str::to_string)
+            .to_vec();
+    for folder in ["docs", "protocol"] {
+        for entry in std::fs::read_dir(root().join(folder)).expect("a docs folder") {
+            let name = entry.expect("an entry").file_name().to_string_lossy().into_owned();
+            if name.ends_with(".md") {
+                docs.push(format!("{folder}/{name}"));
+            }
+        }
+    }
+    docs
+}
+
+/// What a code span names, if it is a path: path characters only, ending in a file
+/// extension or `/`, and no placeholder such as `DIR` or `OUT` in it.
+fn named_path(span: &str) -> Option<&str> {
+    const EXTENSIONS: [&str; 14] = [
+        ".rs", ".md", ".toml", ".py", ".js", ".json", ".jsonl", ".sh", ".yaml", ".yml", ".html", ".css",
+        ".svg", ".txt",
+    ];
+    let path = span.strip_prefix("./").unwrap_or(span);
+    let path_like = !path.is_empty()
+        && path.chars().all(|c| c.is_ascii_alphanumeric() || "_.-/".contains(c))
+        && (EXTENSIONS.iter().any(|e| path.ends_with(e)) || path.ends_with('/'));
+    let placeholder =
+        path.split('/').any(|part| part.len() > 1 && part.chars().all(|c| c.is_ascii_uppercase()));
+    (path_like && !placeholder).then_some(path)
+}
+
+/// Whether `path`, named in `document`, is in the tree: from the document's folder or the
+/// root; a repository path (one whose first folder is the root's) only so; a Rust module
+/// (`game/motion.rs`) also as the end of a path.
+fn exists(tree: &BTreeSet<String>, document: &str, path: &str) -> Result<(), String> {
+    let path = path.trim_end_matches('/');
+    let folder = Path::new(document).parent().map(|p| p.to_string_lossy().into_owned()).unwrap_or_default();
+    let from_folder = if folder.is_empty() { path.to_string() } else { format!("{folder}/{path}") };
+    if tree.contains(path) || tree.contains(&from_folder) {
+        return Ok(());
+    }
+    let first = path.split('/').next().unwrap_or_default();
+    let repository_path = path.contains('/') && tree.contains(first);
+    let module = path.ends_with(".rs") && tree.iter().any(|p| p.ends_with(&format!("/{path}")));
+    if !repository_path && (module || !path.ends_with(".rs")) {
+        return Ok(());
+    }
+    Err(format!("{document} names `{path}`, which is not in the repository"))
+}
+
+#[test]
+fn every_path_the_documents_name_exists() {
+    let tree = tree();
+    let mut checked = 0;
+    let mut missing = Vec::new();
+    for document in documents() {
+        let text =
+            std::fs::read_to_string(root().join(&document)).unwrap_or_else(|e| panic!("{document}: {e}"));
+        for span in text.split('`').skip(1).step_by(2) {
+            if let Some(path) = named_path(span) {
+                checked += 1;
+                missing.extend(exists(&tree, &document, path).err());
+            }
+        }
+    }
+    assert!(checked > 200, "only {checked} paths found: the reading is broken");
+    assert!(missing.is_empty(), "{}", missing.join("\n"));
+}
+
+#[test]
+fn a_renamed_file_is_caught() {
+    let tree = tree();
+    assert!(exists(&tree, "ARCHITECTURE.md", "crates/bw4t-sim/src/physics.rs").is_ok());
+    assert!(exists(&tree, "ARCHITECTURE.md", "game/motion.rs").is_ok());
+    assert!(exists(&tree, "python/README.md", "examples/train_ppo.py").is_ok());
+    assert!(exists(&tree, "ARCHITECTURE.md", "coop.rs").is_err());
+    assert!(exists(&tree, "ARCHITECTURE.md", "crates/bw4t-sim/src/gone.rs").is_err());
+    assert!(exists(&tree, "README.md", "docs/GONE.md").is_err());
+    assert_eq!(named_path("OUT/row.json"), None);
+    assert_eq!(named_path("bw4t run --seed 3"), None);
+    assert_eq!(named_path("./test.sh"), Some("test.sh"));
+}
+
+#[test]
+fn every_crate_has_its_section_in_the_code_map() {
+    let architecture = std::fs::read_to_string(root().join("ARCHITECTURE.md")).expect("ARCHITECTURE.md");
+    let mut crates = 0;
+    for entry in std::fs::read_dir(root().join("crates")).expect("crates/") {
+        let name = entry.expect("an entry").file_name().to_string_lossy().into_owned();
+        crates += 1;
+        let heading = format!("\n### `{name}`");
+        let has_section = architecture
+            .match_indices(&heading)
+            .any(|(at, _)| architecture[at + heading.len()..].starts_with(['\n', ' ']));
+        assert!(has_section, "ARCHITECTURE.md has no section `### `{name}``");
+    }
+    assert!(crates >= 10, "{crates} crates");
+}
