@@ -37,10 +37,16 @@ fn tree() -> BTreeSet<String> {
 
 /// The documents whose paths are checked.
 fn documents() -> Vec<String> {
-    let mut docs: Vec<String> =
-        ["README.md", "ARCHITECTURE.md", "python/README.md", "maps/README.md", "fuzz/README.md"]
-            .map(str::to_string)
-            .to_vec();
+    let mut docs: Vec<String> = [
+        "README.md",
+        "ARCHITECTURE.md",
+        "CHANGELOG.md",
+        "python/README.md",
+        "maps/README.md",
+        "fuzz/README.md",
+    ]
+    .map(str::to_string)
+    .to_vec();
     for folder in ["docs", "protocol"] {
         for entry in std::fs::read_dir(root().join(folder)).expect("a docs folder") {
             let name = entry.expect("an entry").file_name().to_string_lossy().into_owned();
@@ -104,6 +110,66 @@ fn every_path_the_documents_name_exists() {
     }
     assert!(checked > 200, "only {checked} paths found: the reading is broken");
     assert!(missing.is_empty(), "{}", missing.join("\n"));
+}
+
+/// The relative targets of a document's Markdown links (`[text](target)`), without anchors.
+fn link_targets(text: &str) -> Vec<&str> {
+    text.split("](")
+        .skip(1)
+        .filter_map(|rest| rest.split(')').next())
+        .map(|target| target.split('#').next().unwrap_or_default())
+        .filter(|target| !target.is_empty() && !target.contains(':') && !target.contains(' '))
+        .collect()
+}
+
+#[test]
+fn every_relative_link_of_the_documents_leads_somewhere() {
+    let tree = tree();
+    let mut checked = 0;
+    let mut broken = Vec::new();
+    for document in documents() {
+        let text =
+            std::fs::read_to_string(root().join(&document)).unwrap_or_else(|e| panic!("{document}: {e}"));
+        let folder = Path::new(&document).parent().unwrap_or(Path::new(""));
+        for target in link_targets(&text) {
+            checked += 1;
+            let path = folder.join(target);
+            let normal = path.components().fold(PathBuf::new(), |mut at, part| {
+                match part {
+                    std::path::Component::ParentDir => {
+                        at.pop();
+                    }
+                    std::path::Component::CurDir => {}
+                    other => at.push(other),
+                }
+                at
+            });
+            let normal = normal.to_string_lossy().replace('\\', "/");
+            if !tree.contains(normal.trim_end_matches('/')) {
+                broken.push(format!("{document} links to `{target}`, which is not in the repository"));
+            }
+        }
+    }
+    assert!(checked > 30, "only {checked} links found: the reading is broken");
+    assert!(broken.is_empty(), "{}", broken.join("\n"));
+}
+
+#[test]
+fn the_index_of_guides_names_every_guide() {
+    let index = std::fs::read_to_string(root().join("docs/README.md")).expect("docs/README.md");
+    let linked = link_targets(&index);
+    for entry in std::fs::read_dir(root().join("docs")).expect("docs/") {
+        let name = entry.expect("an entry").file_name().to_string_lossy().into_owned();
+        if name.ends_with(".md") && name != "README.md" {
+            assert!(linked.contains(&name.as_str()), "docs/README.md does not link {name}");
+        }
+    }
+    for guide in
+        ["../protocol/PROTOCOL.md", "../protocol/README.md", "../python/README.md", "../maps/README.md"]
+    {
+        assert!(linked.contains(&guide), "docs/README.md does not link {guide}");
+    }
+    assert_eq!(link_targets("[a](b.md#x) [c](https://e.org) [d](../f/)"), ["b.md", "../f/"]);
 }
 
 #[test]
