@@ -201,3 +201,42 @@ fn every_crate_has_its_section_in_the_code_map() {
     }
     assert!(crates >= 10, "{crates} crates");
 }
+
+/// The commands a `--help` lists (without `help`).
+fn commands_in_help(args: &[&str]) -> Vec<String> {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_bw4t"))
+        .args(args)
+        .arg("--help")
+        .output()
+        .expect("bw4t");
+    assert!(out.status.success(), "bw4t {args:?} --help failed");
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    text.split("\nCommands:\n")
+        .nth(1)
+        .map(|list| {
+            list.lines()
+                .take_while(|line| !line.trim().is_empty())
+                .filter_map(|line| line.split_whitespace().next())
+                .filter(|name| *name != "help")
+                .map(str::to_string)
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+#[test]
+fn the_command_reference_names_every_command() {
+    let reference = std::fs::read_to_string(root().join("docs/COMMANDS.md")).expect("docs/COMMANDS.md");
+    let commands = commands_in_help(&[]);
+    assert!(commands.len() >= 9, "{commands:?}");
+    let mut named = 0;
+    for command in &commands {
+        let mut lines = vec![format!("bw4t {command}")];
+        lines.extend(commands_in_help(&[command]).iter().map(|sub| format!("bw4t {command} {sub}")));
+        for line in lines {
+            named += 1;
+            assert!(reference.contains(&format!("| `{line}` |")), "docs/COMMANDS.md has no row for `{line}`");
+        }
+    }
+    assert!(named > 20, "{named} commands");
+}
