@@ -20,7 +20,7 @@ from typing import Any, Dict, Iterable, List, Optional, Sequence, Union
 
 import numpy as np
 
-from .env import _spec
+from . import _spec
 
 PathLike = Union[str, Path]
 

@@ -26,7 +26,7 @@ from typing import Any, Callable, Dict, List, Optional
 import numpy as np
 
 from . import _native
-from .env import _spec
+from . import _spec
 
 Policy = Callable[[Dict[str, Dict[str, np.ndarray]]], Dict[str, int]]
 

@@ -25,7 +25,7 @@ import numpy as np
 
 from . import _native
 from .beliefs import BeliefBase
-from .env import _spec
+from . import _spec
 
 #: An action as the protocol names it: ``("goTo", ["RoomA1"])``, ``("pickUp", [])``,
 #: ``["putDown"]``, or ``None`` to leave the robot be.

@@ -41,7 +41,7 @@ def test_a_policy_is_played_on_every_task_and_scored(tmp_path):
 
 
 def test_a_tier_without_messages_refuses_a_say_action():
-    from bw4t.env import _spec
+    from bw4t import _spec
 
     task = bw4t_eval.tasks("silent")[0]
     seats = ["learner" if s == "agent" else s.split(":", 1)[1] for s in task["seats"]]

@@ -53,9 +53,15 @@ original was, bit for bit, and goes on alike (its seed generator is copied too).
 
 from __future__ import annotations
 
-import gymnasium
+try:
+    import gymnasium
+    import pettingzoo  # noqa: F401 (the parallel environment's base)
+except ImportError as missing:
+    raise ImportError(
+        f"bw4t.env needs Gymnasium and PettingZoo ({missing.name} is not installed): pip install 'bw4t[rl]'"
+    ) from missing
 
-from ._spec import Rewards
+from .._spec import Rewards
 from .parallel import Bw4tParallelEnv
 from .single import Bw4tEnv
 from .vector import Bw4tVectorEnv, single_vector_env

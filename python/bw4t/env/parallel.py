@@ -11,7 +11,7 @@ from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
 from .. import _native
-from . import _check, _spec
+from .. import _check, _spec
 from ._copying import Replayable
 from ._render import MatchViews, Renderer
 

@@ -9,7 +9,7 @@ import gymnasium
 import numpy as np
 
 from .. import _native
-from . import _check, _spec
+from .. import _check, _spec
 from ._copying import Replayable
 from ._render import MatchViews, Renderer
 from .parallel import _symbolic_infos

@@ -12,7 +12,7 @@ from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
 from .. import _native
-from . import _check, _spec
+from .. import _check, _spec
 
 
 class Bw4tVectorEnv(gymnasium.vector.VectorEnv):

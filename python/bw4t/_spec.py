@@ -6,11 +6,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import List, Optional, Sequence
 
-import numpy as np
-from gymnasium import spaces
+from typing import TYPE_CHECKING
 
-from .. import _native
-from . import _check
+import numpy as np
+
+from . import _check, _native
+
+if TYPE_CHECKING:
+    from gymnasium import spaces
 
 #: Segments whose values are counts (unbounded above); every other one is 0/1 or [0, 1].
 COUNT_SEGMENTS = ("room_colours", "messages")
@@ -72,8 +75,10 @@ def seats(learners: int, teammates: int, strategy: str) -> List[str]:
     return ["learner"] * learners + [strategy] * teammates
 
 
-def observation_space(spec: "_native.EnvSpec") -> spaces.Dict:
+def observation_space(spec: "_native.EnvSpec") -> "spaces.Dict":
     """``{"observation": Box(obs_len), "action_mask": Box(n_actions, int8)}``."""
+    from gymnasium import spaces
+
     high = np.ones(spec.obs_len, dtype=np.float32)
     for name, offset, length in spec.obs_layout:
         if name in COUNT_SEGMENTS:
@@ -86,8 +91,10 @@ def observation_space(spec: "_native.EnvSpec") -> spaces.Dict:
     )
 
 
-def state_space(spec: "_native.EnvSpec") -> spaces.Box:
+def state_space(spec: "_native.EnvSpec") -> "spaces.Box":
     """The global state (``state_layout``): 0/1 or [0, 1], counts unbounded above."""
+    from gymnasium import spaces
+
     high = np.ones(spec.state_len, dtype=np.float32)
     for name, offset, length in spec.state_layout:
         if name in spec.state_count_segments:
@@ -95,8 +102,10 @@ def state_space(spec: "_native.EnvSpec") -> spaces.Box:
     return spaces.Box(0.0, high, dtype=np.float32)
 
 
-def action_space(spec: "_native.EnvSpec") -> spaces.Discrete:
+def action_space(spec: "_native.EnvSpec") -> "spaces.Discrete":
     """One of ``n_actions`` (``bw4t.env`` documents the segments)."""
+    from gymnasium import spaces
+
     return spaces.Discrete(spec.n_actions)
 
 
