@@ -131,11 +131,11 @@ if wants python; then
     if [ -x "$python" ]; then
         pip=("$python" -m pip install --quiet --disable-pip-version-check --no-input)
         # What the package needs (python/pyproject.toml), its test and training extras, maturin.
-        if ! "${pip[@]}" 'maturin>=1.9,<2' pytest numpy 'gymnasium>=1.1' 'pettingzoo>=1.24' 'supersuit>=3.9' jax optax 'mcp>=2.3; python_version >= "3.10"' 'minari[hdf5]>=0.5; python_version >= "3.11"' 'pillow; python_version >= "3.11"' 'kubernetes-validate>=1.30' \
+        if ! "${pip[@]}" 'maturin>=1.9,<2' pytest numpy 'gymnasium>=1.1' 'pettingzoo>=1.24' 'supersuit>=3.9' jax optax 'mcp>=2.3; python_version >= "3.10"' 'minari[hdf5]>=0.5; python_version >= "3.11"' 'pillow; python_version >= "3.11"' 'kubernetes-validate>=1.30' 'auditwheel>=6' \
             >"$pip_log" 2>&1; then
-            missing "maturin, pytest, numpy, gymnasium, pettingzoo, supersuit, jax, optax, mcp, minari or kubernetes-validate in $venv: pip could not install them from PyPI (see $pip_log)"
+            missing "maturin, pytest, numpy, gymnasium, pettingzoo, supersuit, jax, optax, mcp, minari, kubernetes-validate or auditwheel in $venv: pip could not install them from PyPI (see $pip_log)"
         fi
-        echo "    Python: $("$python" --version), with maturin, pytest, NumPy, Gymnasium, PettingZoo, SuperSuit, JAX, the MCP SDK, Minari and kubernetes-validate in $venv"
+        echo "    Python: $("$python" --version), with maturin, pytest, NumPy, Gymnasium, PettingZoo, SuperSuit, JAX, the MCP SDK, Minari, kubernetes-validate and auditwheel in $venv"
     else
         missing "python3 -m venv: apt-get install python3-venv"
     fi
@@ -180,6 +180,9 @@ if wants python; then
     (cd python && "$venv/bin/maturin" build --release --locked --quiet -o "$wheels")
     "${pip[@]}" --force-reinstall --no-deps "$wheels"/bw4t-*.whl
     echo "    $(basename "$wheels"/bw4t-*.whl) installed in $venv"
+    # The packaging tests check this very file (its manylinux tag).
+    BW4T_WHEEL=$(ls "$wheels"/bw4t-*.whl)
+    export BW4T_WHEEL
     took
 fi
 

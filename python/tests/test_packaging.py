@@ -1,8 +1,10 @@
 """What `pip install bw4t` gives without the `rl` extra: the client, `bw4t.sim` and the
 command work with Gymnasium and PettingZoo absent, and `bw4t.env` says how to get them."""
 
+import os
 import subprocess
 import sys
+import tarfile
 import textwrap
 from pathlib import Path
 
@@ -48,3 +50,34 @@ def test_the_base_install_asks_only_for_numpy():
     assert sorted(d.split(">")[0] for d in rl) == ["gymnasium", "pettingzoo"]
     for extra in ("test", "train"):
         assert "bw4t[rl]" in project["optional-dependencies"][extra], extra
+
+
+def test_the_wheel_has_a_manylinux_tag_its_symbols_allow():
+    wheel = os.environ.get("BW4T_WHEEL")
+    if not wheel:
+        pytest.skip("BW4T_WHEEL (the wheel ./test.sh builds) is not set")
+    pytest.importorskip("auditwheel", reason="auditwheel is not installed")
+    shown = subprocess.run(
+        [sys.executable, "-m", "auditwheel", "show", wheel], capture_output=True, text=True, timeout=120
+    )
+    assert shown.returncode == 0, shown.stderr
+    said = " ".join(shown.stdout.split())
+    tag = Path(wheel).name.rsplit("-", 1)[1].removesuffix(".whl")
+    assert tag.startswith("manylinux_"), tag
+    assert f'is consistent with the following platform tag: "{tag}"' in said, said
+
+
+def test_an_sdist_builds_with_the_rust_half_in_it(tmp_path):
+    maturin = Path(sys.executable).parent / "maturin"
+    if not maturin.exists():
+        pytest.skip("maturin is not installed beside this Python")
+    package = Path(__file__).resolve().parents[1]
+    built = subprocess.run(
+        [str(maturin), "sdist", "-o", str(tmp_path)], cwd=package, capture_output=True, text=True, timeout=300
+    )
+    assert built.returncode == 0, built.stderr
+    (sdist,) = tmp_path.glob("bw4t-*.tar.gz")
+    with tarfile.open(sdist) as archive:
+        names = {name.split("/", 1)[-1] for name in archive.getnames()}
+    for needed in ("pyproject.toml", "Cargo.lock", "crates/bw4t-py/Cargo.toml", "bw4t/__init__.py", "maps/default.toml"):
+        assert needed in names, f"{needed} is not in {sdist.name}"
