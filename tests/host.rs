@@ -1,5 +1,4 @@
 use std::net::SocketAddr;
-use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use bw4t_map::SeededRng;
@@ -162,27 +161,13 @@ async fn the_match_admits_at_most_its_players() {
     assert_eq!(names, [(0, "Ann", true), (1, "Cat", true)]);
 }
 
-/// A replay written into memory.
-#[derive(Clone, Default)]
-struct SharedBuffer(Arc<Mutex<Vec<u8>>>);
-
-impl std::io::Write for SharedBuffer {
-    fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
-        self.0.lock().expect("lock").extend_from_slice(b);
-        Ok(b.len())
-    }
-    fn flush(&mut self) -> std::io::Result<()> {
-        Ok(())
-    }
-}
-
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn thousands_of_joins_and_leaves_leave_no_robots_behind() {
     const CYCLES: usize = 3000;
     let (mut setup, mut config) = lockstep("fixed", 11, 2);
     config.mode = Mode::Realtime;
     setup.game.ticks_per_second = 100;
-    let replay = SharedBuffer::default();
+    let replay = crate::util::SharedBuffer::default();
     let extras = bw4t_server::Extras {
         replay: Some(Box::new(replay.clone())),
         program: "test".into(),
@@ -212,7 +197,7 @@ async fn thousands_of_joins_and_leaves_leave_no_robots_behind() {
         result.per_robot.iter().map(|r| (r.id, r.name.as_str(), r.present)).collect();
     assert_eq!(names, [(0, "Ann", true), (1, "Guest", false)], "one record per seat");
     assert_eq!(result.robots, 2);
-    let text = String::from_utf8(replay.0.lock().expect("lock").clone()).expect("utf-8");
+    let text = replay.text();
     assert_eq!(text.matches("\"kind\":\"leave\"").count(), CYCLES, "every leave is recorded");
     let (verdict, summary) = bw4t_runner::verify_replay(&text).expect("a readable replay");
     assert!(matches!(verdict, bw4t_runner::Verdict::Matches { .. }), "{verdict:?}");

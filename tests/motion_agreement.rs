@@ -3,14 +3,11 @@
 //! The tolerance is zero: both motions run the same character controller against the same
 //! static colliders, and a robot's body only ever mirrors the position the controller gave.
 
-use std::io::Write;
-use std::sync::{Arc, Mutex};
-
 use bw4t_agents::{MatchSetup, Strategy};
 use bw4t_protocol::{Recorder, ReplayMeta};
 use bw4t_sim::{Match, MatchConfig, Motion, OrderEnd, RandomPlay};
 
-use crate::util::shipped_map;
+use crate::util::{SharedBuffer, shipped_map};
 
 /// Every map in `maps/`, by name.
 fn shipped_maps() -> Vec<String> {
@@ -31,20 +28,6 @@ fn config(motion: Motion) -> MatchConfig {
     MatchConfig { motion, ..MatchConfig::default() }
 }
 
-/// A replay written to memory.
-#[derive(Clone, Default)]
-struct Buffer(Arc<Mutex<Vec<u8>>>);
-
-impl Write for Buffer {
-    fn write(&mut self, bytes: &[u8]) -> std::io::Result<usize> {
-        self.0.lock().expect("buffer").extend_from_slice(bytes);
-        Ok(bytes.len())
-    }
-    fn flush(&mut self) -> std::io::Result<()> {
-        Ok(())
-    }
-}
-
 /// A built-in team's whole match as its replay, with the digest after every tick.
 fn team_replay(map: &str, strategy: Strategy, robots: usize, seed: u64, motion: Motion) -> String {
     let mut setup = MatchSetup::builtin_team(shipped_map(map), robots, strategy);
@@ -52,12 +35,12 @@ fn team_replay(map: &str, strategy: Strategy, robots: usize, seed: u64, motion: 
     setup.game = config(motion);
     setup.max_ticks = Some(4000);
     let blank = Match::new(&setup.map, &setup.game, seed).expect("match");
-    let buffer = Buffer::default();
+    let buffer = SharedBuffer::default();
     let meta = ReplayMeta { digest_every: 1, max_ticks: setup.max_ticks, ..ReplayMeta::default() };
     let mut recorder = Recorder::new(Box::new(buffer.clone()), &blank, meta);
     let (game, reason) = bw4t_runner::play_headless(&setup, Some(&mut recorder)).expect("match plays");
     recorder.finish(&game, reason).expect("replay written");
-    String::from_utf8(buffer.0.lock().expect("buffer").clone()).expect("utf-8")
+    buffer.text()
 }
 
 /// Random orders for `ticks` ticks: every order's end (arrival, collision, ...) and the

@@ -58,6 +58,18 @@ fn documents() -> Vec<String> {
     docs
 }
 
+/// Each checked document with its text.
+fn document_texts() -> Vec<(String, String)> {
+    documents()
+        .into_iter()
+        .map(|document| {
+            let text =
+                std::fs::read_to_string(root().join(&document)).unwrap_or_else(|e| panic!("{document}: {e}"));
+            (document, text)
+        })
+        .collect()
+}
+
 /// What a code span names, if it is a path: path characters only, ending in a file
 /// extension or `/`, and no placeholder such as `DIR` or `OUT` in it.
 fn named_path(span: &str) -> Option<&str> {
@@ -98,9 +110,7 @@ fn every_path_the_documents_name_exists() {
     let tree = tree();
     let mut checked = 0;
     let mut missing = Vec::new();
-    for document in documents() {
-        let text =
-            std::fs::read_to_string(root().join(&document)).unwrap_or_else(|e| panic!("{document}: {e}"));
+    for (document, text) in document_texts() {
         for span in text.split('`').skip(1).step_by(2) {
             if let Some(path) = named_path(span) {
                 checked += 1;
@@ -127,9 +137,7 @@ fn every_relative_link_of_the_documents_leads_somewhere() {
     let tree = tree();
     let mut checked = 0;
     let mut broken = Vec::new();
-    for document in documents() {
-        let text =
-            std::fs::read_to_string(root().join(&document)).unwrap_or_else(|e| panic!("{document}: {e}"));
+    for (document, text) in document_texts() {
         let folder = Path::new(&document).parent().unwrap_or(Path::new(""));
         for target in link_targets(&text) {
             checked += 1;

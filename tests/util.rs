@@ -4,6 +4,27 @@ use bw4t_map::{Map, MapParts};
 use bw4t_protocol::Knowledge;
 use bw4t_sim::{Action, Match, MatchConfig, OrderOutcome, Percept, Receiver, RobotId};
 
+/// Bytes written through clones of it (a replay recorder's output), read back as text.
+#[derive(Clone, Default)]
+pub struct SharedBuffer(std::sync::Arc<std::sync::Mutex<Vec<u8>>>);
+
+impl SharedBuffer {
+    /// Everything written so far, as UTF-8.
+    pub fn text(&self) -> String {
+        String::from_utf8(self.0.lock().expect("lock").clone()).expect("utf-8")
+    }
+}
+
+impl std::io::Write for SharedBuffer {
+    fn write(&mut self, bytes: &[u8]) -> std::io::Result<usize> {
+        self.0.lock().expect("lock").extend_from_slice(bytes);
+        Ok(bytes.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
 /// A map shipped in `maps/`, by file name without extension.
 pub fn shipped_map(name: &str) -> Map {
     let path = format!("{}/maps/{name}.toml", env!("CARGO_MANIFEST_DIR"));

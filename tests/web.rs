@@ -379,22 +379,12 @@ async fn the_page_speaks_the_protocol_over_websocket() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_replay_viewer_serves_every_ticks_frame() {
     // Record a short headless match.
-    let buffer = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
-    struct Shared(std::sync::Arc<std::sync::Mutex<Vec<u8>>>);
-    impl std::io::Write for Shared {
-        fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
-            self.0.lock().expect("lock").extend_from_slice(b);
-            Ok(b.len())
-        }
-        fn flush(&mut self) -> std::io::Result<()> {
-            Ok(())
-        }
-    }
+    let buffer = crate::util::SharedBuffer::default();
     let map = crate::util::shipped_map("fixed");
     let config = bw4t_sim::MatchConfig::default();
     let blank = bw4t_sim::Match::new(&map, &config, 3).expect("match");
     let mut recorder = bw4t_protocol::Recorder::new(
-        Box::new(Shared(buffer.clone())),
+        Box::new(buffer.clone()),
         &blank,
         bw4t_protocol::ReplayMeta {
             program: "test".into(),
@@ -409,7 +399,7 @@ async fn the_replay_viewer_serves_every_ticks_frame() {
     setup.max_ticks = Some(400);
     let (game, reason) = bw4t_runner::play_headless(&setup, Some(&mut recorder)).expect("play");
     recorder.finish(&game, reason).expect("written");
-    let text = String::from_utf8(buffer.lock().expect("lock").clone()).expect("utf-8");
+    let text = buffer.text();
     fn frame_at(frames: &mut bw4t_runner::ReplayFrames, tick: u64) -> Value {
         serde_json::from_str(&frames.frame_json(tick).expect("a frame")).expect("json")
     }

@@ -71,11 +71,8 @@ impl BenchArgs {
     }
 
     /// The motion's name in figures.
-    fn motion_name(&self) -> &'static str {
-        match self.motion {
-            MotionArg::Kinematic => "kinematic",
-            MotionArg::Stepped => "stepped",
-        }
+    fn motion_name(&self) -> String {
+        self.motion.to_possible_value().map(|v| v.get_name().to_string()).unwrap_or_default()
     }
 }
 

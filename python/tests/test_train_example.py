@@ -79,7 +79,7 @@ REFERENCE = PYTHON_DIR.parent / "eval" / "reference.jsonl"
 
 @pytest.mark.skipif(
     not os.environ.get("BW4T_SLOW_TESTS"),
-    reason="trains the default run (about 3 minutes); set BW4T_SLOW_TESTS=1 to check the committed PPO rows",
+    reason="trains the default run (about 2 minutes); set BW4T_SLOW_TESTS=1 to check the committed PPO rows",
 )
 def test_the_default_run_reproduces_its_reference_rows(tmp_path):
     committed = [json.loads(l) for l in REFERENCE.read_text().splitlines()]

@@ -94,19 +94,20 @@ impl ZoneGrid {
     /// The zone nearest to `p` (0 inside), the lowest index on ties; zone 0 when there are
     /// none.
     pub(crate) fn nearest(&self, zones: &[Zone], p: Vec2) -> ZoneIdx {
-        let (lo, hi) = (self.origin, self.end);
-        let candidates: Box<dyn Iterator<Item = usize>> =
-            if lo.x <= p.x && p.x <= hi.x && lo.y <= p.y && p.y <= hi.y {
-                let (column, row) = self.cell_of(p);
-                let cell = row * self.columns + column;
-                let near =
-                    &self.near_members[self.near_starts[cell] as usize..self.near_starts[cell + 1] as usize];
-                Box::new(near.iter().map(|&i| i as usize))
-            } else {
-                Box::new(0..zones.len())
-            };
         let dist = |i: &usize| zones[*i].rect.distance(p);
-        candidates.min_by(|a, b| dist(a).total_cmp(&dist(b))).unwrap_or(0)
+        let nearest = |candidates: &mut dyn Iterator<Item = usize>| {
+            candidates.min_by(|a, b| dist(a).total_cmp(&dist(b))).unwrap_or(0)
+        };
+        let (lo, hi) = (self.origin, self.end);
+        if lo.x <= p.x && p.x <= hi.x && lo.y <= p.y && p.y <= hi.y {
+            let (column, row) = self.cell_of(p);
+            let cell = row * self.columns + column;
+            let near =
+                &self.near_members[self.near_starts[cell] as usize..self.near_starts[cell + 1] as usize];
+            nearest(&mut near.iter().map(|&i| i as usize))
+        } else {
+            nearest(&mut (0..zones.len()))
+        }
     }
 
     /// The cell whose area holds `p`, clamped to the grid; monotonic in each coordinate,
