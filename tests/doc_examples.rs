@@ -768,3 +768,23 @@ fn servers_listen_on_free_ports() {
     assert_eq!(rewrite("study s.toml --simulate 10"), (None, "study s.toml --simulate 10".into()));
     assert_eq!(rewrite("mcp --map fixed"), (None, "mcp --map fixed".into()));
 }
+
+/// An example may write beside the links of its sandbox, but not through them into the
+/// repository's folders, nor anywhere by an absolute path.
+#[test]
+fn examples_stay_in_their_sandbox() {
+    let dir = sandbox(usize::MAX);
+    let verdicts: Vec<bool> = [
+        "/shared/runs/ladder",
+        "/dev/null",
+        "maps/new.toml",
+        "maps/README.md",
+        "k8s/",
+        "python3 tests/agents/tiny_agent.py",
+    ]
+    .iter()
+    .map(|value| reaches_outside(&dir, value))
+    .collect();
+    let _ = std::fs::remove_dir_all(&dir);
+    assert_eq!(verdicts, [true, false, true, false, false, false]);
+}
