@@ -51,6 +51,10 @@ mod conformance;
 /// The documents against the tree: every path they name exists, every crate is mapped.
 mod tidy;
 
+/// The documents' shell examples, run: `bw4t` commands for real, other programs named with
+/// the test that covers them.
+mod doc_examples;
+
 /// The protocol documents: schemas and examples checked against the Rust types.
 mod protocol_docs;
 
