@@ -3,7 +3,8 @@
 # The one test command: every test of the project, from a fresh checkout.
 #
 #   ./test.sh              every stage
-#   ./test.sh STAGE...     only these stages: rust, python, javascript, browser, slurm
+#   ./test.sh STAGE...     only these stages: rust, python, javascript, browser, slurm,
+#                          container, install
 #
 # Set-up first, for the stages chosen only: checks the tools (a Rust toolchain; Python
 # 3.9+ for rust, python and slurm; Node.js 20+ for rust, javascript and browser; npm for
@@ -12,12 +13,14 @@
 # SuperSuit, JAX and optax and the rest, and the package's wheel built and installed into
 # it; for browser, the browser tests' npm packages and Debian's Chromium and Caddy
 # (through apt-get, as root or with sudo that needs no password); for python, javascript,
-# browser and slurm, the release binary. `rust` needs none of these. What it cannot
-# install it names, in one line, with how to get it, and stops.
+# browser, slurm, container and install, the release binary; for container, Debian's buildah
+# and debootstrap. `rust` needs none of these. What it cannot install it names, in one line,
+# with how to get it, and stops.
 # Then the stages, in this order: the Rust tests, the Python suite (against the wheel),
 # the JavaScript client suite, the browser tests, and a tournament as a Slurm job array
-# on a one-node cluster it starts (Debian's Slurm and munge, as root or with sudo). A
-# failing stage does not stop the later ones; the exit status is 0 only when every stage
+# on a one-node cluster it starts (Debian's Slurm and munge, as root or with sudo), the
+# container image built and run (container/build.sh, as root), and `cargo install` of the
+# command into target/install from the release build. A failing stage does not stop the later ones; the exit status is 0 only when every stage
 # run passed (2 for a usage error or a missing tool).
 #
 # BW4T_ORIGINAL_MAPS=DIR also runs the Rust tests on the original BW4T map files in DIR
@@ -36,7 +39,7 @@ if [ -n "$original_maps" ]; then
 fi
 
 # The stages, in the order they run; no argument chooses them all.
-all_stages=(rust python javascript browser slurm)
+all_stages=(rust python javascript browser slurm container install)
 chosen=()
 for arg in "$@"; do
     case $arg in
@@ -44,7 +47,7 @@ for arg in "$@"; do
             sed -n '3,/^set -euo/{/^#/{s/^# \{0,1\}//;p}}' "$0"
             exit 0
             ;;
-        rust | python | javascript | browser | slurm) chosen+=("$arg") ;;
+        rust | python | javascript | browser | slurm | container | install) chosen+=("$arg") ;;
         *)
             echo "test.sh: unknown stage '$arg'; the stages are: ${all_stages[*]} (none for all)" >&2
             exit 2
@@ -166,7 +169,7 @@ if wants browser; then
 fi
 took
 
-if wants python javascript browser slurm; then
+if wants python javascript browser slurm container install; then
     heading "Build the release binary: cargo build --release --locked"
     cargo build --release --locked
     export BW4T_BIN=$target/release/bw4t
@@ -232,6 +235,31 @@ if wants slurm; then
     # Installs Debian's Slurm and munge and starts them (as root or with sudo; skipped, and
     # said so, without), and stops them again.
     stage slurm bash tests/cluster/slurm-tournament.sh
+fi
+
+if wants container; then
+    heading "Container image: the Containerfile built with buildah and run (container/build.sh)"
+    # buildah keeps its images in root's storage; without root it says so and is skipped.
+    if [ "$(id -u)" != 0 ]; then
+        echo "    skipped: building the image needs root (buildah's storage and debootstrap)"
+    elif command -v buildah >/dev/null && command -v debootstrap >/dev/null ||
+        apt_install buildah debootstrap; then
+        stage container container/build.sh
+    else
+        echo "    buildah or debootstrap could not be installed (apt-get; its output is in $apt_log)" >&2
+        failed+=(container)
+    fi
+fi
+
+if wants install; then
+    heading "Install: cargo install --path crates/bw4t-cli --locked (into target/install)"
+    # The release build's target directory, so the install reuses what it built.
+    install_command() {
+        CARGO_TARGET_DIR=$target cargo install --quiet --locked --force \
+            --path crates/bw4t-cli --root "$target/install" &&
+            echo "    installed: $("$target/install/bin/bw4t" --version)"
+    }
+    stage install install_command
 fi
 
 printf '\n==> Done in %d s\n' $((SECONDS - started))

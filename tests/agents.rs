@@ -17,7 +17,7 @@ fn team(map: &Map, seed: u64, strategy: Strategy, n: usize) -> MatchSetup {
 
 /// Every map shipped in `maps/`, by file stem.
 pub fn shipped_maps() -> Vec<(String, Map)> {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("maps");
+    let dir = std::path::Path::new(repo_root!()).join("maps");
     let mut names: Vec<String> = std::fs::read_dir(&dir)
         .expect("maps dir")
         .filter_map(|e| e.ok())

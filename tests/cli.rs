@@ -291,7 +291,7 @@ fn with_closed_stdout(args: &[&str], lines_read: usize) -> (std::process::ExitSt
     use std::process::Stdio;
     let (reader, writer) = std::io::pipe().expect("a pipe");
     let mut command = Command::new(env!("CARGO_BIN_EXE_bw4t"));
-    command.args(args).current_dir(env!("CARGO_MANIFEST_DIR")).stderr(Stdio::piped());
+    command.args(args).current_dir(repo_root!()).stderr(Stdio::piped());
     if lines_read == 0 {
         drop(reader);
         command.stdout(writer);
@@ -606,12 +606,12 @@ fn bench_sim_counts_the_same_play_under_both_motions() {
 /// to choose them; neither sets anything up.
 #[test]
 fn test_sh_names_an_unknown_stage_and_lists_its_stages() {
-    let script = concat!(env!("CARGO_MANIFEST_DIR"), "/test.sh");
+    let script = concat!(repo_root!(), "/test.sh");
     let out = Command::new("bash").args([script, "rust", "nope"]).output().expect("run test.sh");
     assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
     let said = stderr(&out);
     assert!(said.contains("unknown stage 'nope'"), "{said}");
-    for stage in ["rust", "python", "javascript", "browser", "slurm"] {
+    for stage in ["rust", "python", "javascript", "browser", "slurm", "container", "install"] {
         assert!(said.contains(stage), "{stage} missing from: {said}");
     }
     let help = Command::new("bash").args([script, "--help"]).output().expect("run test.sh --help");

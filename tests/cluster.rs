@@ -31,7 +31,7 @@ fn temp(tag: &str) -> PathBuf {
 /// `bw4t ARGS` with the variables `env` set (and no job-array variables of the caller).
 fn bw4t_env(args: &[&str], env: &[(&str, &str)]) -> Output {
     let mut command = std::process::Command::new(env!("CARGO_BIN_EXE_bw4t"));
-    command.args(args).current_dir(env!("CARGO_MANIFEST_DIR"));
+    command.args(args).current_dir(repo_root!());
     for var in [
         "SLURM_ARRAY_TASK_ID",
         "SLURM_ARRAY_TASK_COUNT",
@@ -257,6 +257,18 @@ fn the_slurm_and_kubernetes_job_files_run_every_shard_then_the_merge() {
     let container = &job["spec"]["template"]["spec"]["containers"][0];
     assert_eq!(container["env"][0], serde_json::json!({"name": "BW4T_SHARDS", "value": "5"}));
     assert_eq!(container["image"], "lab/bw4t:1");
+    // The pods run as the image's own user, which the Containerfile makes numeric.
+    let containerfile =
+        std::fs::read_to_string(concat!(repo_root!(), "/Containerfile")).expect("Containerfile");
+    let image_user = containerfile.lines().find_map(|line| line.strip_prefix("USER ")).expect("a USER line");
+    let pod_security = &job["spec"]["template"]["spec"]["securityContext"];
+    assert_eq!(pod_security["runAsNonRoot"], true);
+    assert_eq!(
+        format!("{0}:{0}", pod_security["fsGroup"]),
+        image_user,
+        "fsGroup is the image's user and group"
+    );
+    assert_eq!(container["securityContext"]["allowPrivilegeEscalation"], false);
     let command: Vec<&str> =
         container["command"].as_array().expect("command").iter().filter_map(Value::as_str).collect();
     assert_eq!(command[..6], ["bw4t", "tournament", "/config/tournament.toml", "--shard", "auto", "--out"]);

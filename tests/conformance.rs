@@ -69,7 +69,7 @@ async fn replay(file: &Path) {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_example_transcripts_replay_against_the_server() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("protocol/examples");
+    let dir = Path::new(repo_root!()).join("protocol/examples");
     let mut files: Vec<_> =
         std::fs::read_dir(&dir).expect("examples").filter_map(|e| Some(e.ok()?.path())).collect();
     files.sort();

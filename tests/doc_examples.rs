@@ -48,8 +48,13 @@ const ELSEWHERE: &[(&str, &str)] = &[
     ),
     (
         "kubectl",
-        "needs a Kubernetes cluster: tests/cluster.rs runs the written jobs' commands, python/tests/test_cluster.py validates the manifests against the Kubernetes schemas",
+        "needs a Kubernetes cluster: container/build.sh (./test.sh's container stage) runs the written jobs' commands in the image, python/tests/test_cluster.py validates the manifests against the Kubernetes schemas",
     ),
+    (
+        "buildah build",
+        "./test.sh's container stage (container/build.sh) builds the Containerfile with buildah the same way, then runs the image",
+    ),
+    ("buildah push", "needs a registry: ./test.sh's container stage builds and runs the image locally"),
     // DEPLOY.md's host set-up: system accounts, packages and services of a real host.
     ("sudo apt-get install caddy", "./test.sh's browser stage installs Debian's Caddy the same way"),
     ("sudo useradd", "a host's service account: nothing to test without one"),
@@ -84,6 +89,10 @@ const NOT_RUN: &[(&str, &str)] = &[
         "the agent needs a language model's endpoint: python/tests/test_llm_agent.py plays it against a scripted one",
     ),
     (
+        "python3 agent.py",
+        "README's agent needs the Python package: python/tests/test_readme_examples.py saves README's block as agent.py and plays it with this command, in the virtualenv that has the package",
+    ),
+    (
         "/shared/",
         "a cluster's shared file system: tests/cluster.rs writes, merges and resumes shards in a temporary directory",
     ),
@@ -98,7 +107,7 @@ const LIMIT: Duration = Duration::from_secs(120);
 
 /// Where the repository is.
 fn root() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
+    Path::new(repo_root!())
 }
 
 /// The documents whose examples run: README.md and every docs/*.md.
@@ -411,8 +420,8 @@ const MCP_OPENING: &str = concat!(
     "\n"
 );
 
-/// A fresh directory in which every top-level entry of the repository (but target/ and
-/// .git) is a link to the real one, so examples find maps/, examples/, tests/... and write
+/// A fresh directory in which every top-level entry of the repository (but .git and the
+/// ignored outputs target/, runs/ and test-output/) is a link to the real one, so examples find maps/, examples/, tests/... and write
 /// their own files beside them.
 fn sandbox(tag: usize) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("bw4t-doc-examples-{}-{tag}", std::process::id()));
@@ -420,7 +429,7 @@ fn sandbox(tag: usize) -> PathBuf {
     std::fs::create_dir_all(&dir).expect("a sandbox directory");
     for entry in std::fs::read_dir(root()).expect("the repository") {
         let name = entry.expect("an entry").file_name();
-        if name != "target" && name != ".git" {
+        if !["target", ".git", "runs", "test-output"].contains(&name.to_str().unwrap_or_default()) {
             std::os::unix::fs::symlink(root().join(&name), dir.join(&name)).expect("a link in the sandbox");
         }
     }
@@ -582,15 +591,29 @@ fn reaches_outside(dir: &Path, value: &str) -> bool {
         && !dir.join(path).exists()
 }
 
-/// Runs one block's commands in order in a sandbox of its own; records what became of each.
-fn run_block(block: &Block, tag: usize, tally: &Tally) {
-    let steps = match steps(block) {
-        Ok(steps) => steps,
-        Err(why) => return tally.fail(format!("{}: {why}", block.file)),
-    };
+/// Runs one document's blocks in order in a sandbox of their own, as a reader following the
+/// guide would (a later block may use what an earlier one wrote); records what became of
+/// each command.
+fn run_document(blocks: &[Block], tag: usize, tally: &Tally) {
     let dir = sandbox(tag);
     let mut failures = Vec::new();
-    for step in &steps {
+    for block in blocks {
+        match steps(block) {
+            Ok(steps) => run_steps(block, &steps, &dir, tally, &mut failures),
+            Err(why) => failures.push(format!("{}: {why}", block.file)),
+        }
+    }
+    if failures.is_empty() {
+        let _ = std::fs::remove_dir_all(&dir);
+    } else {
+        failures.push(format!("  (its sandbox is kept in {})", dir.display()));
+        tally.fail(failures.join("\n"));
+    }
+}
+
+/// Runs one block's commands in order in `dir`, adding what failed to `failures`.
+fn run_steps(block: &Block, steps: &[Step], dir: &Path, tally: &Tally, failures: &mut Vec<String>) {
+    for step in steps {
         let at = format!("{}:{}: `{}`", block.file, step.line, step.text);
         let Some((program, args)) = step.words.split_first() else { continue };
         if !BW4T.contains(&program.as_str()) {
@@ -614,7 +637,7 @@ fn run_block(block: &Block, tag: usize, tally: &Tally) {
         let outside = args
             .iter()
             .map(|a| a.split_once('=').map_or(a.as_str(), |(_, value)| value))
-            .find(|value| reaches_outside(&dir, value));
+            .find(|value| reaches_outside(dir, value));
         if let Some(path) = outside {
             failures.push(format!(
                 "{at}: names {path}, outside its sandbox or new inside the repository's folders: use a path of its own, or list it in NOT_RUN with the reason"
@@ -632,7 +655,7 @@ fn run_block(block: &Block, tag: usize, tally: &Tally) {
             None => step.status,
         };
         let input = (serves.is_none() && args.first().is_some_and(|a| a == "mcp")).then_some(MCP_OPENING);
-        let ran = match run_bw4t(&dir, step, &args, input, serves.as_ref()) {
+        let ran = match run_bw4t(dir, step, &args, input, serves.as_ref()) {
             Ok(ran) => ran,
             Err(why) => {
                 failures.push(format!("{at}: {why}"));
@@ -666,22 +689,16 @@ fn run_block(block: &Block, tag: usize, tally: &Tally) {
         let counter = if serves.is_some() { &tally.served } else { &tally.ran };
         counter.fetch_add(1, Ordering::Relaxed);
     }
-    if failures.is_empty() {
-        let _ = std::fs::remove_dir_all(&dir);
-    } else {
-        failures.push(format!("  (its sandbox is kept in {})", dir.display()));
-        tally.fail(failures.join("\n"));
-    }
 }
 
 /// Every example block of the documents, run (several at once): each `bw4t` command exits
 /// as its document says, or serves and stops on SIGTERM; every other program is covered.
 #[test]
 fn every_shell_example_of_the_documents_runs() {
-    let mut all = Vec::new();
+    let mut all: Vec<Vec<Block>> = Vec::new();
     for file in documents() {
         let text = std::fs::read_to_string(root().join(&file)).unwrap_or_else(|e| panic!("{file}: {e}"));
-        all.extend(blocks(&file, &text));
+        all.push(blocks(&file, &text));
     }
     let tally = Tally::default();
     let next = AtomicUsize::new(0);
@@ -691,16 +708,17 @@ fn every_shell_example_of_the_documents_runs() {
             scope.spawn(|| {
                 loop {
                     let i = next.fetch_add(1, Ordering::Relaxed);
-                    let Some(block) = all.get(i) else { break };
-                    run_block(block, i, &tally);
+                    let Some(document) = all.get(i) else { break };
+                    run_document(document, i, &tally);
                 }
             });
         }
     });
     let (ran, served) = (tally.ran.into_inner(), tally.served.into_inner());
+    let block_count: usize = all.iter().map(Vec::len).sum();
     eprintln!(
         "{} example blocks: {ran} bw4t commands ran to their end, {served} served and stopped, {} covered elsewhere (ELSEWHERE), {} not run (NOT_RUN)",
-        all.len(),
+        block_count,
         tally.elsewhere.into_inner(),
         tally.not_run.into_inner()
     );
@@ -709,8 +727,7 @@ fn every_shell_example_of_the_documents_runs() {
     assert!(failures.is_empty(), "document examples that fail:\n{}", failures.join("\n"));
     assert!(
         ran + served > 0,
-        "no bw4t command ran from {} example blocks: is the extraction broken?",
-        all.len()
+        "no bw4t command ran from {block_count} example blocks: is the extraction broken?"
     );
 }
 

@@ -43,7 +43,7 @@ fn comparable(mut row: Value) -> Value {
 
 #[test]
 fn the_reference_rows_of_the_easiest_tier_reproduce_from_their_seeds() {
-    let text = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("eval/reference.jsonl"))
+    let text = std::fs::read_to_string(Path::new(repo_root!()).join("eval/reference.jsonl"))
         .expect("eval/reference.jsonl");
     let rows: Vec<Value> = text.lines().map(|l| serde_json::from_str(l).expect("a row")).collect();
     let solo: Vec<&Value> = rows.iter().filter(|r| r["tier"] == "solo").collect();
@@ -215,7 +215,7 @@ fn tasks_list_every_match_with_its_seats_and_tick_limit() {
 
 #[test]
 fn the_guide_shows_the_tiers_and_reference_rows_as_they_are() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let root = Path::new(repo_root!());
     let guide = std::fs::read_to_string(root.join("docs/EVAL.md")).expect("docs/EVAL.md");
     let tiers = bw4t(&["eval", "tiers"]);
     assert!(tiers.status.success());

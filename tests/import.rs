@@ -235,7 +235,7 @@ fn parse_detects_the_format() {
     assert_eq!(from_xml.name(), "xml");
     assert_eq!(from_xml.zones(), fixture("fixed-content.xml").zones());
 
-    let native_path = format!("{}/maps/default.toml", env!("CARGO_MANIFEST_DIR"));
+    let native_path = format!("{}/maps/default.toml", repo_root!());
     let native = std::fs::read_to_string(&native_path).expect("maps/default.toml");
     // A native file's own name wins over the given one.
     let from_native = Map::parse(&native, "other").expect("native");

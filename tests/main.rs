@@ -3,6 +3,14 @@
 // Helpers are shared between test modules; which of them a module uses is not an API.
 #![allow(unreachable_pub)]
 
+/// The repository's root, as a string literal: these are the tests of the `bw4t` package
+/// (`crates/bw4t-cli`), two folders down from it.
+macro_rules! repo_root {
+    () => {
+        concat!(env!("CARGO_MANIFEST_DIR"), "/../..")
+    };
+}
+
 /// Shared helpers: loading maps, and the scenario runner the rule tests are written in.
 mod util;
 

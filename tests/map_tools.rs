@@ -12,7 +12,7 @@ pub fn read(path: &str) -> String {
 }
 
 fn fixed_text() -> String {
-    read(&format!("{}/maps/fixed.toml", env!("CARGO_MANIFEST_DIR")))
+    read(&format!("{}/maps/fixed.toml", repo_root!()))
 }
 
 pub fn bw4t(args: &[&str]) -> Output {
@@ -83,7 +83,7 @@ fn every_fixture_and_shipped_map_checks_as_expected() {
         assert_eq!(found, expected, "{file}");
     }
     for name in ["default", "fixed"] {
-        let text = read(&format!("{}/maps/{name}.toml", env!("CARGO_MANIFEST_DIR")));
+        let text = read(&format!("{}/maps/{name}.toml", repo_root!()));
         let found = problems(&text, Some(12));
         assert!(found.is_empty(), "{name}:{}", listed(&found));
     }
@@ -531,8 +531,8 @@ fn map_render_draws_rooms_blocks_and_the_sequence_deterministically() {
     assert!(a.contains("<title>default, seed 1: 28 blocks, a sequence of 6</title>"));
 
     // The blocks are the seed's blocks, in their colours.
-    let map = Map::parse(&read(&format!("{}/maps/default.toml", env!("CARGO_MANIFEST_DIR"))), "default")
-        .expect("default map");
+    let map =
+        Map::parse(&read(&format!("{}/maps/default.toml", repo_root!())), "default").expect("default map");
     let content = map.content(1).expect("content");
     for (i, block) in content.blocks.iter().enumerate() {
         assert!(a.contains(&format!("<title>block {}: {}</title>", i + 1, block.colour)), "block {}", i + 1);
@@ -557,7 +557,7 @@ fn the_committed_default_picture_is_up_to_date() {
     let fresh = dir.join("default.svg");
     let out = bw4t(&["map", "render", "default", "-o", path_str(&fresh), "--seed", "1"]);
     assert!(out.status.success(), "{}", stderr(&out));
-    let committed = read(&format!("{}/maps/default.svg", env!("CARGO_MANIFEST_DIR")));
+    let committed = read(&format!("{}/maps/default.svg", repo_root!()));
     let fresh = read(path_str(&fresh));
     let _ = std::fs::remove_dir_all(&dir);
     assert!(
@@ -618,7 +618,7 @@ fn map_show_summarises_rooms_content_and_sequence() {
     }
     let out = bw4t(&["map", "show", "default", "--seed", "1"]);
     let text = stdout(&out);
-    let sequence = Map::parse(&read(&format!("{}/maps/default.toml", env!("CARGO_MANIFEST_DIR"))), "default")
+    let sequence = Map::parse(&read(&format!("{}/maps/default.toml", repo_root!())), "default")
         .expect("default")
         .content(1)
         .expect("content")

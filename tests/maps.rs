@@ -60,8 +60,7 @@ fn default_content_is_six_colours_and_twenty_eight_blocks_from_the_seed() {
 
 #[test]
 fn a_fixed_map_seed_overrides_the_match_seed() {
-    let text =
-        std::fs::read_to_string(format!("{}/maps/default.toml", env!("CARGO_MANIFEST_DIR"))).expect("read");
+    let text = std::fs::read_to_string(format!("{}/maps/default.toml", repo_root!())).expect("read");
     let map =
         Map::from_native(&text.replace("random_blocks = 22", "random_blocks = 22\nseed = 5")).expect("map");
     assert_eq!(map.content(1), map.content(2));
@@ -77,7 +76,7 @@ fn the_fixed_map_has_its_fixed_content() {
 
 #[test]
 fn every_shipped_map_loads_and_writes_back_unchanged() {
-    let dir = format!("{}/maps", env!("CARGO_MANIFEST_DIR"));
+    let dir = format!("{}/maps", repo_root!());
     let mut count = 0;
     for entry in std::fs::read_dir(&dir).expect("maps dir") {
         let path = entry.expect("entry").path();

@@ -11,7 +11,7 @@ use crate::util::{SharedBuffer, shipped_map};
 
 /// Every map in `maps/`, by name.
 fn shipped_maps() -> Vec<String> {
-    let dir = format!("{}/maps", env!("CARGO_MANIFEST_DIR"));
+    let dir = format!("{}/maps", repo_root!());
     let mut names: Vec<String> = std::fs::read_dir(&dir)
         .unwrap_or_else(|e| panic!("{dir}: {e}"))
         .filter_map(|entry| {

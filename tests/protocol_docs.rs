@@ -5,7 +5,7 @@ use bw4t_protocol::{decode_client, decode_server, schemas};
 use serde_json::Value;
 
 fn protocol_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("protocol")
+    Path::new(repo_root!()).join("protocol")
 }
 
 fn files_under(dir: &Path, out: &mut Vec<PathBuf>) {

@@ -475,7 +475,7 @@ fn bench_scale_reports_ticks_per_second_on_small_and_largest_maps() {
 /// Runs `bw4t ARGS` with extra environment variables, bounded like [`bw4t`].
 fn bw4t_env(args: &[&str], env: &[(&str, &str)]) -> Output {
     let mut command = Command::new(env!("CARGO_BIN_EXE_bw4t"));
-    command.args(args).current_dir(env!("CARGO_MANIFEST_DIR")).envs(env.iter().copied());
+    command.args(args).current_dir(repo_root!()).envs(env.iter().copied());
     crate::util::output_within(command, RUN_LIMIT, &format!("bw4t {args:?}"))
 }
 

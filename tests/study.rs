@@ -103,7 +103,7 @@ pub(crate) fn temp_dir(what: &str) -> PathBuf {
 
 /// Shipped maps by name; anything else is not found.
 pub(crate) fn maps(spec: &str) -> Result<bw4t_map::Map, String> {
-    let known = Path::new(env!("CARGO_MANIFEST_DIR")).join("maps").join(format!("{spec}.toml")).is_file();
+    let known = Path::new(repo_root!()).join("maps").join(format!("{spec}.toml")).is_file();
     if known { Ok(shipped_map(spec)) } else { Err(format!("no shipped map named '{spec}'")) }
 }
 
@@ -949,7 +949,7 @@ fn a_study_sets_the_device_it_needs_and_a_too_small_screen_is_refused() {
 
 #[test]
 fn the_example_study_loads() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/study/study.toml");
+    let path = Path::new(repo_root!()).join("examples/study/study.toml");
     let study = study::load(&path, &maps).unwrap_or_else(|e| panic!("{e}"));
     let names: Vec<&str> = study.conditions.iter().map(|c| c.name.as_str()).collect();
     assert_eq!(names, ["talking", "silent"]);
@@ -957,7 +957,7 @@ fn the_example_study_loads() {
     assert!(matches!(study.pages.last(), Some(study::Page::Final { completion_code: Some(_), .. })));
 
     // Its between-subjects variant, with a practice round and a comprehension check.
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/study/between.toml");
+    let path = Path::new(repo_root!()).join("examples/study/between.toml");
     let between = study::load(&path, &maps).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(between.assignment, study::Assignment::Between);
     assert_eq!(between.balance, study::Balance::Completers);
@@ -976,7 +976,7 @@ fn the_example_study_loads() {
     assert_eq!(between.screen_out.completion_code.as_deref(), Some("SCREENED1"));
 
     // Its questionnaires variant: numbers, a conditional item, a grid, shuffled pages.
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/study/questionnaires.toml");
+    let path = Path::new(repo_root!()).join("examples/study/questionnaires.toml");
     let questions = study::load(&path, &maps).unwrap_or_else(|e| panic!("{e}"));
     let kinds: Vec<String> = questions
         .pages
@@ -1426,7 +1426,7 @@ fn same_but_appended(
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn an_older_versions_logs_are_imported_once_and_export_as_that_version_exported_them() {
-    let fixture = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/study-jsonl");
+    let fixture = Path::new(repo_root!()).join("tests/fixtures/study-jsonl");
     let dir = temp_dir("legacy");
     copy_tree(&fixture.join("participants"), &dir.join("participants"));
     let text = std::fs::read_to_string(fixture.join("study.toml")).expect("the study file");
@@ -1603,7 +1603,7 @@ fn player_fields(hello: &TrialHello) -> Value {
 fn a_dry_run_takes_scripted_participants_through_the_example_study_and_exports_them() {
     let dir = temp_dir("dry-run");
     let data = dir.join("data");
-    let example = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/study/study.toml");
+    let example = concat!(repo_root!(), "/examples/study/study.toml");
     let args = ["study", example, "--simulate", "10", "--data", data.to_str().expect("path"), "-q"];
     let out = crate::util::bw4t_within(&args, std::time::Duration::from_secs(120));
     let said = String::from_utf8_lossy(&out.stdout);
@@ -1731,7 +1731,7 @@ async fn one_who_declines_gets_the_platforms_code_for_it() {
 fn a_dry_run_of_the_between_subjects_example_gives_each_completer_one_condition() {
     let dir = temp_dir("dry-run-between");
     let data = dir.join("data");
-    let example = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/study/between.toml");
+    let example = concat!(repo_root!(), "/examples/study/between.toml");
     let args = ["study", example, "--simulate", "8", "--data", data.to_str().expect("path"), "-q"];
     let out = crate::util::bw4t_within(&args, std::time::Duration::from_secs(180));
     let said = String::from_utf8_lossy(&out.stdout);
@@ -1760,7 +1760,7 @@ fn a_dry_run_of_the_between_subjects_example_gives_each_completer_one_condition(
 fn a_dry_run_exported_as_trajectories_gives_every_trial_its_participant_and_condition() {
     let dir = temp_dir("dry-run-trajectories");
     let data = dir.join("data");
-    let example = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/study/study.toml");
+    let example = concat!(repo_root!(), "/examples/study/study.toml");
     let limit = std::time::Duration::from_secs(180);
     let args = ["study", example, "--simulate", "2", "--data", data.to_str().expect("path"), "-q"];
     let out = crate::util::bw4t_within(&args, limit);

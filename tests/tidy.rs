@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 /// Where the repository is.
 fn root() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
+    Path::new(repo_root!())
 }
 
 /// Folders that are made, not kept: never part of what the documents may name.

@@ -516,7 +516,7 @@ fn ctrl_c_keeps_the_rows_and_prints_the_command_that_resumes() {
     let mut child = Command::new(env!("CARGO_BIN_EXE_bw4t"))
         .args(["tournament", &config, "--out", out_dir.to_str().expect("utf-8")])
         .args(["--concurrency", "1", "--replays", "none", "--connect-timeout-s", "100"])
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .current_dir(repo_root!())
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
         .spawn()
@@ -554,7 +554,7 @@ fn ctrl_c_keeps_the_rows_and_prints_the_command_that_resumes() {
     std::fs::write(&gate, "").expect("open the gate");
     let resumed = Command::new("sh")
         .args(["-c", resume])
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .current_dir(repo_root!())
         .output()
         .expect("run the resume command");
     let out = String::from_utf8_lossy(&resumed.stdout);

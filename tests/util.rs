@@ -27,14 +27,14 @@ impl std::io::Write for SharedBuffer {
 
 /// A map shipped in `maps/`, by file name without extension.
 pub fn shipped_map(name: &str) -> Map {
-    let path = format!("{}/maps/{name}.toml", env!("CARGO_MANIFEST_DIR"));
+    let path = format!("{}/maps/{name}.toml", repo_root!());
     let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"));
     Map::from_native(&text).unwrap_or_else(|e| panic!("{path}: {e}"))
 }
 
 /// A file under `tests/fixtures/`, by its path there.
 pub fn fixture_path(file: &str) -> std::path::PathBuf {
-    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures").join(file)
+    std::path::Path::new(repo_root!()).join("tests/fixtures").join(file)
 }
 
 /// The text of a file under `tests/fixtures/`.
@@ -723,7 +723,7 @@ impl AutoPlayer {
 /// has not ended within `limit` (the process is then killed).
 pub fn bw4t_within(args: &[&str], limit: Duration) -> std::process::Output {
     let mut command = std::process::Command::new(env!("CARGO_BIN_EXE_bw4t"));
-    command.args(args).current_dir(env!("CARGO_MANIFEST_DIR"));
+    command.args(args).current_dir(repo_root!());
     output_within(command, limit, &format!("bw4t {args:?}"))
 }
 

@@ -294,7 +294,7 @@ pub(crate) async fn modules_of(
 
 /// Checks that every module in `folder` (from the repository's root) is among `served`.
 pub(crate) fn assert_every_module_in_use(folder: &str, served: &std::collections::BTreeMap<String, String>) {
-    let web = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(folder);
+    let web = std::path::Path::new(repo_root!()).join(folder);
     for entry in std::fs::read_dir(&web).expect("the page's folder") {
         let name = entry.expect("an entry").file_name().into_string().expect("a UTF-8 name");
         if name.ends_with(".js") {
@@ -740,7 +740,7 @@ async fn the_page_locates_points_as_the_map_does() {
             blocks: Vec::new(),
         });
     });
-    let mut maps: Vec<Map> = std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/maps"))
+    let mut maps: Vec<Map> = std::fs::read_dir(concat!(repo_root!(), "/maps"))
         .expect("maps/")
         .map(|entry| entry.expect("entry").path())
         .filter(|path| path.extension().is_some_and(|e| e == "toml"))

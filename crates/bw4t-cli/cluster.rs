@@ -189,6 +189,9 @@ pub(crate) fn slurm(args: &SlurmArgs) -> Result<()> {
     Ok(())
 }
 
+/// The user and group id the image runs as: the Containerfile's `USER`.
+const IMAGE_USER_ID: u32 = 10001;
+
 /// `tournament k8s`: `configmap.json`, `shards-job.json` (the Indexed Job) and
 /// `merge-job.json`, JSON being YAML that `kubectl apply -f` reads as it is.
 pub(crate) fn k8s(args: &K8sArgs) -> Result<()> {
@@ -231,12 +234,23 @@ pub(crate) fn k8s(args: &K8sArgs) -> Result<()> {
                 "metadata": {"labels": labels},
                 "spec": {
                     "restartPolicy": "Never",
+                    // The image's numeric user (the Containerfile's 10001) lets the kubelet
+                    // check it is not root; fsGroup makes the shared volume writable by it.
+                    "securityContext": {
+                        "runAsNonRoot": true,
+                        "fsGroup": IMAGE_USER_ID,
+                        "seccompProfile": {"type": "RuntimeDefault"},
+                    },
                     "containers": [{
                         "name": "bw4t",
                         "image": args.image,
                         "command": command,
                         "env": env,
                         "resources": {"requests": {"cpu": cpu}},
+                        "securityContext": {
+                            "allowPrivilegeEscalation": false,
+                            "capabilities": {"drop": ["ALL"]},
+                        },
                         "volumeMounts": mounts,
                     }],
                     "volumes": volumes,
