@@ -180,6 +180,18 @@ fn the_index_of_guides_names_every_guide() {
     assert_eq!(link_targets("[a](b.md#x) [c](https://e.org) [d](../f/)"), ["b.md", "../f/"]);
 }
 
+/// The README is a front door that fits on two screens; the rest belongs in the guides.
+#[test]
+fn the_readme_is_short() {
+    const MOST_LINES: usize = 160;
+    let readme = std::fs::read_to_string(root().join("README.md")).expect("README.md");
+    let lines = readme.lines().count();
+    assert!(
+        lines <= MOST_LINES,
+        "README.md has {lines} lines, more than {MOST_LINES}: move the details to docs/"
+    );
+}
+
 #[test]
 fn a_renamed_file_is_caught() {
     let tree = tree();

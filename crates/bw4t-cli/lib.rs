@@ -109,7 +109,7 @@ pub(crate) fn self_command() -> anyhow::Result<std::process::Command> {
 }
 
 /// Runs the command line `args` (the first is the program's name) and returns the exit
-/// status (the README's table: 0 success, 1 error, 2 unreadable command line, ...). `self_command` is how to start it again as a child
+/// status (docs/COMMANDS.md: 0 success, 1 error, 2 unreadable command line, ...). `self_command` is how to start it again as a child
 /// process; `None`: this executable.
 pub fn main(args: impl IntoIterator<Item = OsString>, self_command: Option<Vec<OsString>>) -> u8 {
     if let Some(argv) = self_command {

@@ -33,7 +33,7 @@ pub(crate) struct RunArgs {
     #[arg(long = "agent", value_name = "COMMAND")]
     agents: Vec<String>,
     /// End the match after this many ticks (default: derived from the map, at least 20000;
-    /// see the README).
+    /// see docs/PLAYING.md, "Tick limits").
     #[arg(long)]
     max_ticks: Option<u64>,
     /// Milliseconds an external agent has to answer each tick (0: forever).

@@ -57,7 +57,7 @@ pub(crate) struct ServeArgs {
     #[arg(long, default_value_t = 1, conflicts_with = "config")]
     robots: usize,
     /// End the match after this many ticks (default: derived from the map, at least 20000;
-    /// see the README); 0 for no limit.
+    /// see docs/PLAYING.md, "Tick limits"); 0 for no limit.
     #[arg(long, conflicts_with = "config")]
     max_ticks: Option<u64>,
     /// Lockstep: milliseconds to wait for a player's `ready` before counting it late (0: forever;

@@ -1,4 +1,4 @@
-//! The exit statuses of `bw4t`, in one place (the README's "Exit status" lists them), so a
+//! The exit statuses of `bw4t`, in one place (docs/COMMANDS.md lists them), so a
 //! script or grader can tell outcomes apart without reading JSON.
 
 /// The match completed the sequence (`run`); the command did what was asked (all others).

@@ -47,7 +47,7 @@ pub(crate) struct TournamentArgs {
     /// Times every (team, map, seed) is played.
     #[arg(long)]
     repetitions: Option<u32>,
-    /// The last tick of every match (default: each map's own, at least 20000; see README).
+    /// The last tick of every match (default: each map's own, at least 20000; docs/PLAYING.md).
     #[arg(long)]
     max_ticks: Option<u64>,
     /// External agents' lockstep deadline in milliseconds (0: forever).
