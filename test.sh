@@ -133,7 +133,7 @@ if wants python; then
     pip_log=$target/test-pip.log
     if [ -x "$python" ]; then
         pip=("$python" -m pip install --quiet --disable-pip-version-check --no-input)
-        # What the package needs (python/pyproject.toml), its test and training extras, maturin.
+        # What the package needs (pyproject.toml), its test and training extras, maturin.
         if ! "${pip[@]}" 'maturin>=1.9,<2' pytest numpy 'gymnasium>=1.1' 'pettingzoo>=1.24' 'supersuit>=3.9' jax optax 'mcp>=2.3; python_version >= "3.10"' 'minari[hdf5]>=0.5; python_version >= "3.11"' 'pillow; python_version >= "3.11"' 'kubernetes-validate>=1.30' 'auditwheel>=6' \
             >"$pip_log" 2>&1; then
             missing "maturin, pytest, numpy, gymnasium, pettingzoo, supersuit, jax, optax, mcp, minari, kubernetes-validate or auditwheel in $venv: pip could not install them from PyPI (see $pip_log)"
@@ -177,10 +177,10 @@ if wants python javascript browser slurm container install; then
 fi
 
 if wants python; then
-    heading "Build and install the Python package: maturin build (python/), pip install the wheel"
+    heading "Build and install the Python package: maturin build (pyproject.toml, python/), pip install the wheel"
     wheels=$target/wheels
     rm -f "$wheels"/bw4t-*.whl
-    (cd python && "$venv/bin/maturin" build --release --locked --quiet -o "$wheels")
+    "$venv/bin/maturin" build --release --locked --quiet -o "$wheels"
     "${pip[@]}" --force-reinstall --no-deps "$wheels"/bw4t-*.whl
     echo "    $(basename "$wheels"/bw4t-*.whl) installed in $venv"
     # The packaging tests check this very file (its manylinux tag).

@@ -36,7 +36,6 @@ const ELSEWHERE: &[(&str, &str)] = &[
         "./test.sh's python stage calls the virtualenv's programs by their path instead",
     ),
     ("pip install", "./test.sh's python stage installs maturin and the built wheel with pip the same way"),
-    ("cd python", "./test.sh's python stage builds the wheel in python/ with maturin"),
     ("maturin build", "./test.sh's python stage builds the wheel with `maturin build --release`"),
     (
         "python3 python/examples/llm_agent.py",

@@ -2,6 +2,7 @@
 command work with Gymnasium and PettingZoo absent, and `bw4t.env` says how to get them."""
 
 import os
+import re
 import subprocess
 import sys
 import tarfile
@@ -43,7 +44,7 @@ def test_the_client_and_the_simulation_need_no_learning_packages():
 
 def test_the_base_install_asks_only_for_numpy():
     tomllib = pytest.importorskip("tomllib", reason="tomllib is in Python 3.11 and newer")
-    pyproject = Path(__file__).resolve().parents[1] / "pyproject.toml"
+    pyproject = Path(__file__).resolve().parents[2] / "pyproject.toml"
     project = tomllib.loads(pyproject.read_text())["project"]
     assert [d.split(">")[0] for d in project["dependencies"]] == ["numpy"]
     rl = project["optional-dependencies"]["rl"]
@@ -71,13 +72,26 @@ def test_an_sdist_builds_with_the_rust_half_in_it(tmp_path):
     maturin = Path(sys.executable).parent / "maturin"
     if not maturin.exists():
         pytest.skip("maturin is not installed beside this Python")
-    package = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]
     built = subprocess.run(
-        [str(maturin), "sdist", "-o", str(tmp_path)], cwd=package, capture_output=True, text=True, timeout=300
+        [str(maturin), "sdist", "-o", str(tmp_path)], cwd=root, capture_output=True, text=True, timeout=300
     )
     assert built.returncode == 0, built.stderr
     (sdist,) = tmp_path.glob("bw4t-*.tar.gz")
     with tarfile.open(sdist) as archive:
         names = {name.split("/", 1)[-1] for name in archive.getnames()}
-    for needed in ("pyproject.toml", "Cargo.lock", "crates/bw4t-py/Cargo.toml", "bw4t/__init__.py", "maps/default.toml"):
+    for needed in ("pyproject.toml", "Cargo.lock", "crates/bw4t-py/Cargo.toml", "python/bw4t/__init__.py"):
         assert needed in names, f"{needed} is not in {sdist.name}"
+    # Every file a crate's code reads at compile time, wherever it lies, or the sdist would
+    # not build; but the test fixtures (tests/), which only the crates' own tests read.
+    compiled_in = set()
+    for source in (root / "crates").rglob("*.rs"):
+        if "tests" in source.relative_to(root).parts or source.name == "tests.rs":
+            continue
+        for relative in re.findall(r'include_(?:str|bytes)!\("([^"]+)"\)', source.read_text(encoding="utf-8")):
+            path = (source.parent / relative).resolve().relative_to(root).as_posix()
+            if not path.startswith("tests/"):
+                compiled_in.add(path)
+    assert "maps/default.toml" in compiled_in and len(compiled_in) > 20, sorted(compiled_in)
+    missing = sorted(compiled_in - names)
+    assert not missing, f"{sdist.name} lacks what the crates include: {missing}"
