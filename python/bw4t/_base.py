@@ -108,6 +108,16 @@ class ClientBase(Generic[A]):
             raise Bw4tError("no session to reconnect with")
         return self._options.resuming(session, self._core.resume_match())
 
+    def _send_action(self, msg: Dict[str, Any]) -> None:
+        """Send an ``act`` or ``say``. Once the match is over, a failed send is no error of
+        its own: waiting on the action's handle raises :class:`~bw4t.errors.ActionLost`,
+        as for any action the end of a match leaves unanswered."""
+        try:
+            self._send(msg)
+        except ConnectionClosed:
+            if self._core.match_end is None:
+                raise
+
     def _flush_ready(self) -> None:
         """Send the ``ready`` still owed in lockstep, if any (a failure is noticed by
         the next read)."""
@@ -209,7 +219,7 @@ class ClientBase(Generic[A]):
         ``ready`` are applied at that tick's boundary.
         """
         msg, record = self._core.act(action, args)
-        self._send(msg)
+        self._send_action(msg)
         return self._action_handle(record)
 
     def go_to(self, place: str) -> A:
@@ -236,7 +246,7 @@ class ClientBase(Generic[A]):
         allow only some kinds, or no free text (then the ack says ``not_allowed``).
         """
         msg, record = self._core.say(to, text, said)
-        self._send(msg)
+        self._send_action(msg)
         return self._action_handle(record)
 
     def send_message(self, to: str, text: str) -> A:

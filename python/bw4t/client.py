@@ -249,9 +249,39 @@ class Client(ClientBase[Action]):
         try:
             self._sock.sendall(encode(msg))
         except OSError as exc:
+            self._handle_what_is_left()
             self._close_socket()
             self._core.connection_lost()
-            raise ConnectionClosed(f"sending failed: {exc}") from exc
+            raise self._core.closed_error() if self._core.bye_reason else ConnectionClosed(
+                f"sending failed: {exc}"
+            ) from exc
+
+    def _handle_what_is_left(self) -> None:
+        """After a failed send, handle what the server sent before it closed, without
+        waiting for more. A server that ends the match sends ``match_end`` and ``bye``,
+        then closes; a line the client sent meanwhile makes that close a reset, and the
+        next send fails while those last words are still unread."""
+        sock = self._sock
+        if sock is None:
+            return
+        sock.setblocking(False)
+        while True:
+            try:
+                data = sock.recv(1 << 16)
+            except OSError:  # nothing more now (BlockingIOError), or the reset itself
+                break
+            if not data:
+                break
+            self._buffer += data
+        *lines, self._buffer = self._buffer.split(b"\n")
+        for line in lines:
+            msg = decode(line)
+            if msg is None:
+                continue
+            try:
+                self._core.handle(msg)
+            except FatalServerError:
+                pass  # kept in core.fatal, raised by the next wait
 
     def _close_socket(self) -> None:
         if self._sock is not None:

@@ -47,6 +47,7 @@ def test_the_readme_agent_completes_a_match_alone(bw4t_bin: str, tmp_path: Path)
     assert result["completed"] and result["wrong_drops"] == 0, result
     assert [a["status"] for a in result["agents"]] == ["ok"], result["agents"]
     assert "Traceback" not in log, log  # it ends quietly when the match does
+    assert "match over: completed" in log, log
 
 
 def test_the_readme_training_snippet_runs(tmp_path: Path) -> None:
