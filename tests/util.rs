@@ -65,7 +65,9 @@ pub fn original_map_path(file: &str) -> std::path::PathBuf {
     let dir = std::env::var_os(ORIGINAL_MAPS_VAR).unwrap_or_else(|| {
         panic!("{ORIGINAL_MAPS_VAR} is not set: set it to a folder of the original BW4T map files")
     });
-    let dir = std::path::PathBuf::from(dir);
+    // A relative folder is the repository's, as the command line that set it meant: the
+    // tests themselves run in the `bw4t` package's folder.
+    let dir = std::path::Path::new(repo_root!()).join(dir);
     assert!(dir.is_dir(), "{ORIGINAL_MAPS_VAR}={} is not a folder", dir.display());
     let path = dir.join(file);
     assert!(path.is_file(), "{ORIGINAL_MAPS_VAR}: no original map '{file}' in {}", dir.display());
