@@ -205,8 +205,10 @@ if wants rust; then
 
     if [ -n "$original_maps" ]; then
         heading "Rust tests on the original BW4T maps in $original_maps"
+        # --workspace: the same features as the run above, so the same test binary, not a
+        # second build of it.
         stage original-maps env BW4T_ORIGINAL_MAPS="$original_maps" \
-            cargo test --locked --test main -- --ignored original_maps::
+            cargo test --workspace --locked --test main -- --ignored original_maps::
     else
         heading "Rust tests on the original BW4T maps: skipped"
         echo "    BW4T_ORIGINAL_MAPS is not set; the original_maps:: tests above are listed as ignored."
