@@ -31,7 +31,7 @@ official=docker.io/library/debian:bookworm-slim
 if buildah pull --quiet "$official" >/dev/null 2>&1; then
     base=$official
 else
-    step "no registry reachable for $official: making the base from Debian's packages"
+    step "no registry reachable for $official: a base from Debian's packages (container/debian-base.sh)"
     base=$(container/debian-base.sh)
 fi
 

@@ -419,8 +419,8 @@ const MCP_OPENING: &str = concat!(
     "\n"
 );
 
-/// A fresh directory in which every top-level entry of the repository (but .git and the
-/// ignored outputs target/, runs/ and test-output/) is a link to the real one, so examples find maps/, examples/, tests/... and write
+/// A fresh directory in which every top-level entry of the repository (but the made
+/// folders, [`crate::util::MADE_FOLDERS`]) is a link to the real one, so examples find maps/, examples/, tests/... and write
 /// their own files beside them.
 fn sandbox(tag: usize) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("bw4t-doc-examples-{}-{tag}", std::process::id()));
@@ -428,7 +428,7 @@ fn sandbox(tag: usize) -> PathBuf {
     std::fs::create_dir_all(&dir).expect("a sandbox directory");
     for entry in std::fs::read_dir(root()).expect("the repository") {
         let name = entry.expect("an entry").file_name();
-        if !["target", ".git", "runs", "test-output"].contains(&name.to_str().unwrap_or_default()) {
+        if !crate::util::MADE_FOLDERS.contains(&name.to_str().unwrap_or_default()) {
             std::os::unix::fs::symlink(root().join(&name), dir.join(&name)).expect("a link in the sandbox");
         }
     }

@@ -9,9 +9,6 @@ fn root() -> &'static Path {
     Path::new(repo_root!())
 }
 
-/// Folders that are made, not kept: never part of what the documents may name.
-const MADE: [&str; 4] = ["target", ".git", "node_modules", "test-output"];
-
 /// Every file and folder of the repository, relative to its root, with `/` separators.
 fn tree() -> BTreeSet<String> {
     let mut found = BTreeSet::new();
@@ -22,7 +19,7 @@ fn tree() -> BTreeSet<String> {
         for entry in entries {
             let entry = entry.expect("a directory entry");
             let name = entry.file_name().to_string_lossy().into_owned();
-            if MADE.contains(&name.as_str()) {
+            if crate::util::MADE_FOLDERS.contains(&name.as_str()) {
                 continue;
             }
             let path = relative.join(&name);

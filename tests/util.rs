@@ -25,6 +25,11 @@ impl std::io::Write for SharedBuffer {
     }
 }
 
+/// Folders of the repository that are made, not kept (build output, installed packages,
+/// what runs write): never part of what the documents may name, never linked into a
+/// document example's sandbox.
+pub const MADE_FOLDERS: [&str; 6] = ["target", ".git", "node_modules", "test-output", "runs", "dist"];
+
 /// A map shipped in `maps/`, by file name without extension.
 pub fn shipped_map(name: &str) -> Map {
     let path = format!("{}/maps/{name}.toml", repo_root!());
